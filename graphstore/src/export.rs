@@ -1,0 +1,245 @@
+//! Export to networkx's node-link JSON and to GraphML, streamed to a writer.
+//!
+//! Node attributes: `labels` (list in node-link; `:A:B` in GraphML, as Neo4j writes it) and
+//! every property. Relationship attributes: `type`, `key` (the relationship id) and every
+//! property. A property whose name collides with one of these gets a leading underscore.
+//! Points become `{x, y[, z]}` maps (JSON strings in GraphML), vectors and lists JSON arrays.
+//! Payloads (point clouds) are not exported.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+
+use crate::error::{Error, Result};
+use crate::read::GraphRead;
+use crate::tokens::PropKey;
+use crate::value::Value;
+
+/// Supported formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExportFormat {
+    /// networkx `node_link_data` JSON (directed multigraph, edges under `links`).
+    NodeLink,
+    /// GraphML 1.0.
+    GraphMl,
+}
+
+impl std::str::FromStr for ExportFormat {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "node-link" | "nodelink" | "json" => Ok(ExportFormat::NodeLink),
+            "graphml" => Ok(ExportFormat::GraphMl),
+            other => Err(Error::InvalidValue(format!("unknown export format {other:?} (node-link or graphml)"))),
+        }
+    }
+}
+
+const NODE_RESERVED: &[&str] = &["id", "labels"];
+const EDGE_RESERVED: &[&str] = &["source", "target", "key", "type"];
+
+fn attr_name(name: String, reserved: &[&str]) -> String {
+    if reserved.contains(&name.as_str()) { format!("_{name}") } else { name }
+}
+
+fn io(e: std::io::Error) -> Error {
+    Error::Io {
+        path: "<export>".into(),
+        source: e,
+    }
+}
+
+/// Writes the whole graph in `format` to `out`. Returns (nodes, relationships) written.
+pub fn export<R: GraphRead + ?Sized>(r: &R, format: ExportFormat, out: &mut dyn Write) -> Result<(u64, u64)> {
+    match format {
+        ExportFormat::NodeLink => node_link(r, out),
+        ExportFormat::GraphMl => graphml(r, out),
+    }
+}
+
+fn props_json<R: GraphRead + ?Sized>(
+    r: &R,
+    props: &[(PropKey, Value)],
+    reserved: &[&str],
+    obj: &mut serde_json::Map<String, serde_json::Value>,
+) {
+    for (k, v) in props {
+        let name = r.name_of(k.0).unwrap_or_else(|| format!("#{}", k.0));
+        obj.insert(attr_name(name, reserved), v.to_json());
+    }
+}
+
+fn node_link<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u64)> {
+    out.write_all(br#"{"directed": true, "multigraph": true, "graph": {}, "nodes": ["#)
+        .map_err(io)?;
+    let mut n_nodes = 0;
+    for (i, id) in r.all_node_ids()?.into_iter().enumerate() {
+        let Some(node) = r.node(id)? else { continue };
+        let mut obj = serde_json::Map::new();
+        obj.insert("id".into(), id.into());
+        let mut labels: Vec<String> = node.labels.iter().filter_map(|l| r.name_of(l.0)).collect();
+        labels.sort();
+        obj.insert("labels".into(), labels.into());
+        props_json(r, &node.props, NODE_RESERVED, &mut obj);
+        if i > 0 {
+            out.write_all(b",").map_err(io)?;
+        }
+        out.write_all(b"\n").map_err(io)?;
+        serde_json::to_writer(&mut *out, &obj).map_err(|e| Error::Storage(e.to_string()))?;
+        n_nodes += 1;
+    }
+    out.write_all(b"\n], \"links\": [").map_err(io)?;
+    let mut n_rels = 0;
+    for (i, id) in r.all_rel_ids()?.into_iter().enumerate() {
+        let Some(rel) = r.rel(id)? else { continue };
+        let mut obj = serde_json::Map::new();
+        obj.insert("source".into(), rel.start.into());
+        obj.insert("target".into(), rel.end.into());
+        obj.insert("key".into(), id.into());
+        obj.insert("type".into(), r.name_of(rel.ty.0).unwrap_or_default().into());
+        props_json(r, &rel.props, EDGE_RESERVED, &mut obj);
+        if i > 0 {
+            out.write_all(b",").map_err(io)?;
+        }
+        out.write_all(b"\n").map_err(io)?;
+        serde_json::to_writer(&mut *out, &obj).map_err(|e| Error::Storage(e.to_string()))?;
+        n_rels += 1;
+    }
+    out.write_all(b"\n]}\n").map_err(io)?;
+    Ok((n_nodes, n_rels))
+}
+
+/// GraphML attribute type of a value.
+fn graphml_type(v: &Value) -> &'static str {
+    match v {
+        Value::Bool(_) => "boolean",
+        Value::Int(_) => "long",
+        Value::Float(_) => "double",
+        _ => "string",
+    }
+}
+
+fn unify(a: &'static str, b: &'static str) -> &'static str {
+    match (a, b) {
+        (x, y) if x == y => x,
+        ("long", "double") | ("double", "long") => "double",
+        _ => "string",
+    }
+}
+
+fn graphml_text(v: &Value) -> String {
+    match v {
+        Value::Bool(b) => b.to_string(),
+        Value::Int(i) => i.to_string(),
+        Value::Float(f) => format!("{f:?}"),
+        Value::String(s) => s.clone(),
+        other => other.to_json().to_string(),
+    }
+}
+
+/// Escapes text for XML 1.0, dropping characters XML cannot carry.
+pub(crate) fn xml_escape(s: &str) -> String {
+    let mut o = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => o.push_str("&amp;"),
+            '<' => o.push_str("&lt;"),
+            '>' => o.push_str("&gt;"),
+            '"' => o.push_str("&quot;"),
+            '\'' => o.push_str("&apos;"),
+            '\t' | '\n' | '\r' => o.push(c),
+            c if (c as u32) < 0x20 || c == '\u{FFFE}' || c == '\u{FFFF}' => {}
+            c => o.push(c),
+        }
+    }
+    o
+}
+
+fn graphml<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u64)> {
+    let node_ids = r.all_node_ids()?;
+    let rel_ids = r.all_rel_ids()?;
+    // pass 1: attribute names and types
+    let mut node_keys: BTreeMap<String, &'static str> = BTreeMap::new();
+    let mut edge_keys: BTreeMap<String, &'static str> = BTreeMap::new();
+    for &id in &node_ids {
+        if let Some(n) = r.node(id)? {
+            for (k, v) in &n.props {
+                let name = attr_name(r.name_of(k.0).unwrap_or_default(), NODE_RESERVED);
+                let t = graphml_type(v);
+                node_keys.entry(name).and_modify(|e| *e = unify(e, t)).or_insert(t);
+            }
+        }
+    }
+    for &id in &rel_ids {
+        if let Some(rel) = r.rel(id)? {
+            for (k, v) in &rel.props {
+                let name = attr_name(r.name_of(k.0).unwrap_or_default(), EDGE_RESERVED);
+                let t = graphml_type(v);
+                edge_keys.entry(name).and_modify(|e| *e = unify(e, t)).or_insert(t);
+            }
+        }
+    }
+    let w = |out: &mut dyn Write, s: &str| out.write_all(s.as_bytes()).map_err(io);
+    w(out, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n")?;
+    w(out, "<graphml xmlns=\"http://graphml.graphdrawing.org/xmlns\">\n")?;
+    w(out, "  <key id=\"labels\" for=\"node\" attr.name=\"labels\" attr.type=\"string\"/>\n")?;
+    w(out, "  <key id=\"type\" for=\"edge\" attr.name=\"type\" attr.type=\"string\"/>\n")?;
+    let node_ids_of: BTreeMap<&String, String> = node_keys.keys().enumerate().map(|(i, k)| (k, format!("n{i}"))).collect();
+    let edge_ids_of: BTreeMap<&String, String> = edge_keys.keys().enumerate().map(|(i, k)| (k, format!("e{i}"))).collect();
+    for (k, t) in &node_keys {
+        w(out, &format!("  <key id=\"{}\" for=\"node\" attr.name=\"{}\" attr.type=\"{t}\"/>\n", node_ids_of[k], xml_escape(k)))?;
+    }
+    for (k, t) in &edge_keys {
+        w(out, &format!("  <key id=\"{}\" for=\"edge\" attr.name=\"{}\" attr.type=\"{t}\"/>\n", edge_ids_of[k], xml_escape(k)))?;
+    }
+    w(out, "  <graph id=\"G\" edgedefault=\"directed\">\n")?;
+    let mut n_nodes = 0;
+    for &id in &node_ids {
+        let Some(n) = r.node(id)? else { continue };
+        let mut labels: Vec<String> = n.labels.iter().filter_map(|l| r.name_of(l.0)).collect();
+        labels.sort();
+        let mut s = format!("    <node id=\"n{id}\"><data key=\"labels\">{}</data>", xml_escape(&labels.iter().map(|l| format!(":{l}")).collect::<String>()));
+        for (k, v) in &n.props {
+            let name = attr_name(r.name_of(k.0).unwrap_or_default(), NODE_RESERVED);
+            s.push_str(&format!("<data key=\"{}\">{}</data>", node_ids_of[&name], xml_escape(&graphml_text(v))));
+        }
+        s.push_str("</node>\n");
+        w(out, &s)?;
+        n_nodes += 1;
+    }
+    let mut n_rels = 0;
+    for &id in &rel_ids {
+        let Some(rel) = r.rel(id)? else { continue };
+        let mut s = format!(
+            "    <edge id=\"e{id}\" source=\"n{}\" target=\"n{}\"><data key=\"type\">{}</data>",
+            rel.start,
+            rel.end,
+            xml_escape(&r.name_of(rel.ty.0).unwrap_or_default())
+        );
+        for (k, v) in &rel.props {
+            let name = attr_name(r.name_of(k.0).unwrap_or_default(), EDGE_RESERVED);
+            s.push_str(&format!("<data key=\"{}\">{}</data>", edge_ids_of[&name], xml_escape(&graphml_text(v))));
+        }
+        s.push_str("</edge>\n");
+        w(out, &s)?;
+        n_rels += 1;
+    }
+    w(out, "  </graph>\n</graphml>\n")?;
+    Ok((n_nodes, n_rels))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escapes_markup_and_drops_control_chars() {
+        assert_eq!(xml_escape("a<b & \"c\"\u{1}"), "a&lt;b &amp; &quot;c&quot;");
+    }
+
+    #[test]
+    fn parses_format_names() {
+        assert_eq!("node-link".parse::<ExportFormat>().unwrap(), ExportFormat::NodeLink);
+        assert_eq!("graphml".parse::<ExportFormat>().unwrap(), ExportFormat::GraphMl);
+        assert!("csv".parse::<ExportFormat>().is_err());
+    }
+}

@@ -1,0 +1,32 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+mod codec;
+mod compiled;
+mod error;
+pub mod export;
+mod index;
+mod integrity;
+mod model;
+mod payload;
+mod read;
+mod schema;
+mod simd;
+mod store;
+mod tokens;
+mod txn;
+mod value;
+
+pub use error::{Error, Result};
+pub use index::text::tokenize;
+pub use model::{Adjacent, Direction, Node, Relationship};
+pub use payload::{DEFAULT_RESOLUTION_M, PointCloud};
+pub use read::{GraphRead, Hit, ValueBound, View};
+pub use schema::{
+    FEATURE_DIM, LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec, TextIndexSpec,
+    VectorIndexSpec, opengraph_schema,
+};
+pub use store::{Committed, FORMAT_VERSION, GraphCounts, Store};
+pub use tokens::{LabelId, PropKey, RelType};
+pub use txn::{ReadTxn, WriteTxn};
+pub use value::{Value, ValueType};

@@ -1,0 +1,530 @@
+//! The store: one redb file, a single writer, snapshot readers.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition, TableHandle};
+
+use crate::compiled::Compiled;
+use crate::error::{Error, Result, storage};
+use crate::index::spatial::SpatialLayer;
+use crate::index::text::{Doc, TextLayer};
+use crate::index::vector::{VectorLayer, normalize};
+use crate::index::{Pending, Stack};
+use crate::read::{GraphRead, Raw};
+use crate::schema::Schema;
+use crate::tokens::{TokenKind, Tokens};
+use crate::txn::{NodeRec, ReadTxn, WriteTxn};
+use crate::value::Value;
+
+/// On-disk format version; bump on any incompatible change to tables or encodings.
+pub const FORMAT_VERSION: u32 = 1;
+const MAGIC: &[u8] = b"opengraph-graphstore";
+
+pub(crate) const META: TableDefinition<'static, &str, &[u8]> = TableDefinition::new("og_meta");
+pub(crate) const TOKENS: TableDefinition<'static, u32, &str> = TableDefinition::new("og_tokens");
+pub(crate) const NODES: TableDefinition<'static, u64, &[u8]> = TableDefinition::new("og_nodes");
+pub(crate) const RELS: TableDefinition<'static, u64, &[u8]> = TableDefinition::new("og_rels");
+/// (node, direction 0=out 1=in, type, rel) -> other node
+pub(crate) const ADJ: TableDefinition<'static, (u64, u8, u32, u64), u64> = TableDefinition::new("og_adj");
+/// (label, node)
+pub(crate) const LABELS: TableDefinition<'static, (u32, u64), ()> = TableDefinition::new("og_labels");
+/// index id (4 BE) | sortable value | node (8 BE)
+pub(crate) const PROPIDX: TableDefinition<'static, &[u8], ()> = TableDefinition::new("og_propidx");
+/// (kind, token) -> count; kind 0 = label, 1 = relationship type, 2 = totals (0 nodes, 1 rels)
+pub(crate) const COUNTS: TableDefinition<'static, (u8, u32), u64> = TableDefinition::new("og_counts");
+/// (node, key) -> bytes
+pub(crate) const PAYLOADS: TableDefinition<'static, (u64, &str), &[u8]> = TableDefinition::new("og_payloads");
+
+pub(crate) const K_NEXT_NODE: &str = "next_node_id";
+pub(crate) const K_NEXT_REL: &str = "next_rel_id";
+const K_MAGIC: &str = "magic";
+const K_VERSION: &str = "format_version";
+const K_SCHEMA: &str = "schema";
+
+/// In-memory index snapshots, parallel to the compiled schema's lists.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Mem {
+    pub(crate) spatial: Vec<Stack<SpatialLayer>>,
+    pub(crate) vector: Vec<Stack<VectorLayer>>,
+    pub(crate) text: Vec<Stack<TextLayer>>,
+}
+
+/// A transaction's private index changes.
+#[derive(Debug, Default)]
+pub(crate) struct PendingMem {
+    pub(crate) spatial: Vec<Pending<crate::index::spatial::Aabb>>,
+    pub(crate) vector: Vec<Pending<crate::index::vector::Unit>>,
+    pub(crate) text: Vec<Pending<Doc>>,
+}
+
+impl PendingMem {
+    pub(crate) fn for_schema(c: &Compiled) -> Self {
+        PendingMem {
+            spatial: c.spatial.iter().map(|_| Pending::default()).collect(),
+            vector: c.vector.iter().map(|_| Pending::default()).collect(),
+            text: c.text.iter().map(|_| Pending::default()).collect(),
+        }
+    }
+}
+
+impl Mem {
+    fn commit(&self, p: PendingMem) -> Mem {
+        Mem {
+            spatial: self.spatial.iter().zip(p.spatial).map(|(s, p)| s.commit(p)).collect(),
+            vector: self.vector.iter().zip(p.vector).map(|(s, p)| s.commit(p)).collect(),
+            text: self.text.iter().zip(p.text).map(|(s, p)| s.commit(p)).collect(),
+        }
+    }
+}
+
+/// Everything a transaction needs from the last commit.
+#[derive(Debug)]
+pub struct Committed {
+    pub(crate) tokens: Arc<Tokens>,
+    pub(crate) schema: Arc<Compiled>,
+    pub(crate) mem: Arc<Mem>,
+}
+
+#[derive(Debug)]
+struct Inner {
+    db: Database,
+    path: PathBuf,
+    writer: Mutex<()>,
+    state: Mutex<Arc<Committed>>,
+}
+
+/// An open store. Cheap to clone; all clones share one database.
+#[derive(Debug, Clone)]
+pub struct Store {
+    inner: Arc<Inner>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn open_error(path: &Path, e: redb::DatabaseError) -> Error {
+    match e {
+        redb::DatabaseError::Storage(redb::StorageError::Corrupted(d)) => Error::Corrupt {
+            what: path.display().to_string(),
+            detail: d,
+        },
+        redb::DatabaseError::Storage(redb::StorageError::Io(io))
+            if io.kind() == std::io::ErrorKind::InvalidData || io.kind() == std::io::ErrorKind::UnexpectedEof =>
+        {
+            Error::Corrupt {
+                what: path.display().to_string(),
+                detail: format!("not a valid store file ({io})"),
+            }
+        }
+        other => Error::Open {
+            path: path.to_path_buf(),
+            reason: other.to_string(),
+        },
+    }
+}
+
+impl Store {
+    /// Opens the store at `path`, creating an empty one if the file does not exist.
+    pub fn create(path: impl AsRef<Path>) -> Result<Store> {
+        Self::open_inner(path.as_ref(), true)
+    }
+
+    /// Opens an existing store; fails if the file does not exist.
+    pub fn open(path: impl AsRef<Path>) -> Result<Store> {
+        let path = path.as_ref();
+        if !path.exists() {
+            return Err(Error::Open {
+                path: path.to_path_buf(),
+                reason: "no such file".into(),
+            });
+        }
+        Self::open_inner(path, false)
+    }
+
+    fn open_inner(path: &Path, create: bool) -> Result<Store> {
+        let existed = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+        // redb panics deep inside on some malformed headers in older versions; guard the
+        // open so a hostile file can only ever produce an error.
+        let opened = std::panic::catch_unwind(|| {
+            if create {
+                Database::create(path)
+            } else {
+                Database::open(path)
+            }
+        });
+        let db = match opened {
+            Ok(r) => r.map_err(|e| open_error(path, e))?,
+            Err(_) => {
+                return Err(Error::Corrupt {
+                    what: path.display().to_string(),
+                    detail: "the storage engine could not read the file header".into(),
+                });
+            }
+        };
+        let wtx = db.begin_write().map_err(storage)?;
+        let fresh = {
+            let names: Vec<String> = wtx
+                .list_tables()
+                .map_err(storage)?
+                .map(|h| h.name().to_string())
+                .collect();
+            if !names.iter().any(|n| n == META.name()) {
+                if existed && !names.is_empty() {
+                    return Err(Error::NotAStore { path: path.to_path_buf() });
+                }
+                true
+            } else {
+                false
+            }
+        };
+        if fresh {
+            {
+                let mut meta = wtx.open_table(META).map_err(storage)?;
+                meta.insert(K_MAGIC, MAGIC).map_err(storage)?;
+                meta.insert(K_VERSION, FORMAT_VERSION.to_le_bytes().as_slice()).map_err(storage)?;
+                let schema = serde_json::to_vec(&Schema::default()).map_err(storage)?;
+                meta.insert(K_SCHEMA, schema.as_slice()).map_err(storage)?;
+                meta.insert(K_NEXT_NODE, 0u64.to_le_bytes().as_slice()).map_err(storage)?;
+                meta.insert(K_NEXT_REL, 0u64.to_le_bytes().as_slice()).map_err(storage)?;
+                wtx.open_table(TOKENS).map_err(storage)?;
+                wtx.open_table(NODES).map_err(storage)?;
+                wtx.open_table(RELS).map_err(storage)?;
+                wtx.open_table(ADJ).map_err(storage)?;
+                wtx.open_table(LABELS).map_err(storage)?;
+                wtx.open_table(PROPIDX).map_err(storage)?;
+                wtx.open_table(COUNTS).map_err(storage)?;
+                wtx.open_table(PAYLOADS).map_err(storage)?;
+            }
+            wtx.commit().map_err(storage)?;
+        } else {
+            drop(wtx);
+        }
+        let rtx = db.begin_read().map_err(storage)?;
+        let meta = rtx.open_table(META).map_err(storage)?;
+        let get = |k: &str| -> Result<Vec<u8>> {
+            meta.get(k)
+                .map_err(storage)?
+                .map(|g| g.value().to_vec())
+                .ok_or_else(|| Error::NotAStore { path: path.to_path_buf() })
+        };
+        if get(K_MAGIC)? != MAGIC {
+            return Err(Error::NotAStore { path: path.to_path_buf() });
+        }
+        let vb = get(K_VERSION)?;
+        let found = <[u8; 4]>::try_from(vb.as_slice())
+            .map(u32::from_le_bytes)
+            .map_err(|_| codec_err("format version", "not 4 bytes"))?;
+        if found != FORMAT_VERSION {
+            return Err(Error::FormatVersion {
+                path: path.to_path_buf(),
+                found,
+                expected: FORMAT_VERSION,
+            });
+        }
+        let schema: Schema = serde_json::from_slice(&get(K_SCHEMA)?)
+            .map_err(|e| codec_err("schema", &e.to_string()))?;
+        let mut tokens = Tokens::default();
+        {
+            let t = rtx.open_table(TOKENS).map_err(storage)?;
+            for (i, row) in t.iter().map_err(storage)?.enumerate() {
+                let (k, v) = row.map_err(storage)?;
+                if k.value() as usize != i {
+                    return Err(codec_err("token table", "ids are not dense"));
+                }
+                tokens.push(v.value().to_string());
+            }
+        }
+        drop(meta);
+        drop(rtx);
+        let compiled = compile_readonly(&schema, &tokens)?;
+        let store = Store {
+            inner: Arc::new(Inner {
+                db,
+                path: path.to_path_buf(),
+                writer: Mutex::new(()),
+                state: Mutex::new(Arc::new(Committed {
+                    tokens: Arc::new(tokens),
+                    schema: Arc::new(compiled),
+                    mem: Arc::new(Mem::default()),
+                })),
+            }),
+        };
+        let mem = build_mem(&store.read()?)?;
+        {
+            let mut st = lock(&store.inner.state);
+            let old = st.clone();
+            *st = Arc::new(Committed {
+                tokens: old.tokens.clone(),
+                schema: old.schema.clone(),
+                mem: Arc::new(mem),
+            });
+        }
+        tracing::debug!(path = %path.display(), "store opened");
+        Ok(store)
+    }
+
+    /// The file behind this store.
+    pub fn path(&self) -> &Path {
+        &self.inner.path
+    }
+
+    /// The declared schema.
+    pub fn schema(&self) -> Schema {
+        lock(&self.inner.state).schema.schema.clone()
+    }
+
+    fn committed(&self) -> Arc<Committed> {
+        lock(&self.inner.state).clone()
+    }
+
+    /// A consistent snapshot for reading. Writers may commit meanwhile; this reader keeps
+    /// seeing the state as of now.
+    pub fn read(&self) -> Result<ReadTxn> {
+        let st = lock(&self.inner.state);
+        let rtx = self.inner.db.begin_read().map_err(storage)?;
+        let base = st.clone();
+        drop(st);
+        ReadTxn::new(rtx, base)
+    }
+
+    /// Runs `f` in a write transaction. If `f` returns `Ok`, everything it did commits
+    /// atomically; if it returns `Err`, nothing it did is kept and the error is returned.
+    /// Only one writer runs at a time; others wait.
+    pub fn write<T>(&self, f: impl FnOnce(&mut WriteTxn<'_>) -> Result<T>) -> Result<T> {
+        let _writer = lock(&self.inner.writer);
+        let base = self.committed();
+        let wtx = self.inner.db.begin_write().map_err(storage)?;
+        let outcome = {
+            let mut tx = WriteTxn::new(&wtx, base.clone())?;
+            match f(&mut tx) {
+                Ok(v) => tx.finish().map(|parts| (v, parts)),
+                Err(e) => Err(e),
+            }
+        };
+        let (value, (pending, new_tokens)) = match outcome {
+            Ok(x) => x,
+            Err(e) => {
+                wtx.abort().map_err(storage)?;
+                return Err(e);
+            }
+        };
+        // Build the next index snapshot before taking the state lock so readers are not held
+        // up by layer merges.
+        let mem = Arc::new(base.mem.commit(pending));
+        let tokens = if new_tokens.is_empty() {
+            base.tokens.clone()
+        } else {
+            let mut t = (*base.tokens).clone();
+            for q in new_tokens {
+                t.push(q);
+            }
+            Arc::new(t)
+        };
+        let mut st = lock(&self.inner.state);
+        wtx.commit().map_err(storage)?;
+        *st = Arc::new(Committed {
+            tokens,
+            schema: base.schema.clone(),
+            mem,
+        });
+        Ok(value)
+    }
+
+    /// Replaces the schema with `schema`, checking every existing node and relationship
+    /// against it and rebuilding the indexes. Fails, changing nothing, if any data breaks a
+    /// rule.
+    pub fn set_schema(&self, schema: Schema) -> Result<()> {
+        schema.validate()?;
+        let _writer = lock(&self.inner.writer);
+        let base = self.committed();
+        let wtx = self.inner.db.begin_write().map_err(storage)?;
+        let outcome = (|| {
+            let mut tx = WriteTxn::new(&wtx, base.clone())?;
+            let compiled = tx.install_schema(&schema)?;
+            let (_, new_tokens) = tx.finish()?;
+            Ok::<_, Error>((compiled, new_tokens))
+        })();
+        let (compiled, new_tokens) = match outcome {
+            Ok(x) => x,
+            Err(e) => {
+                wtx.abort().map_err(storage)?;
+                return Err(e);
+            }
+        };
+        let mut t = (*base.tokens).clone();
+        for q in new_tokens {
+            t.push(q);
+        }
+        let mut st = lock(&self.inner.state);
+        wtx.commit().map_err(storage)?;
+        // Rebuild the in-memory indexes from the new data before anyone can see the new
+        // schema; readers wait on the state lock meanwhile (schema changes are rare).
+        let staged = Arc::new(Committed {
+            tokens: Arc::new(t),
+            schema: compiled,
+            mem: Arc::new(Mem::default()),
+        });
+        let rtx = self.inner.db.begin_read().map_err(storage)?;
+        let mem = build_mem(&ReadTxn::new(rtx, staged.clone())?)?;
+        *st = Arc::new(Committed {
+            tokens: staged.tokens.clone(),
+            schema: staged.schema.clone(),
+            mem: Arc::new(mem),
+        });
+        Ok(())
+    }
+
+    /// Adds the declarations of `extra` to the current schema (see [`Schema::merge`]).
+    pub fn extend_schema(&self, extra: &Schema) -> Result<()> {
+        let mut s = self.schema();
+        s.merge(extra);
+        self.set_schema(s)
+    }
+
+    /// Label and relationship-type counts by name, sorted.
+    pub fn counts(&self) -> Result<GraphCounts> {
+        self.read()?.counts()
+    }
+
+    /// Checks that every index and count agrees with the data and that no relationship
+    /// dangles. Returns the problems found (empty when consistent).
+    pub fn check_consistency(&self) -> Result<Vec<String>> {
+        crate::integrity::check(&self.read()?)
+    }
+
+    /// Compacts the file (reclaims free pages). Needs exclusive access to this handle.
+    pub fn compact(&mut self) -> Result<bool> {
+        let inner = Arc::get_mut(&mut self.inner)
+            .ok_or_else(|| Error::Storage("compact needs the only handle to the store".into()))?;
+        inner.db.compact().map_err(storage)
+    }
+}
+
+/// Builds the in-memory indexes from what `r` sees.
+fn build_mem(r: &ReadTxn) -> Result<Mem> {
+        let c = r.base().schema.clone();
+        let mut spatial: Vec<Vec<(u64, crate::index::spatial::Aabb)>> = vec![Vec::new(); c.spatial.len()];
+        let mut vector: Vec<Vec<(u64, crate::index::vector::Unit)>> = vec![Vec::new(); c.vector.len()];
+        let mut text: Vec<Vec<(u64, Doc)>> = vec![Vec::new(); c.text.len()];
+        let mut labels: Vec<u32> = c
+            .spatial
+            .iter()
+            .map(|s| s.label)
+            .chain(c.vector.iter().map(|v| v.label))
+            .chain(c.text.iter().map(|t| t.label))
+            .collect();
+        labels.sort_unstable();
+        labels.dedup();
+        let mut seen = std::collections::HashSet::new();
+        for l in labels {
+            for id in r.label_scan(crate::LabelId(l))? {
+                if !seen.insert(id) {
+                    continue;
+                }
+                let Some(rec) = r.load_rec(id)? else { continue };
+                for (i, s) in c.spatial.iter().enumerate() {
+                    if let Some(e) = spatial_entry(s, &rec) {
+                        spatial[i].push((id, e));
+                    }
+                }
+                for (i, v) in c.vector.iter().enumerate() {
+                    if let Some(e) = vector_entry(v, &rec) {
+                        vector[i].push((id, e));
+                    }
+                }
+                for (i, t) in c.text.iter().enumerate() {
+                    if let Some(e) = text_entry(t, &rec) {
+                        text[i].push((id, e));
+                    }
+                }
+            }
+        }
+        Ok(Mem {
+            spatial: spatial.into_iter().map(|e| Stack::new((), e)).collect(),
+            vector: vector
+                .into_iter()
+                .zip(&c.vector)
+                .map(|(e, v)| Stack::new(v.params, e))
+                .collect(),
+            text: text.into_iter().map(|e| Stack::new((), e)).collect(),
+        })
+}
+
+/// Node and relationship counts by label and type.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct GraphCounts {
+    /// Nodes per label.
+    pub nodes: BTreeMap<String, u64>,
+    /// Relationships per type.
+    pub relationships: BTreeMap<String, u64>,
+    /// All nodes (a node with several labels counts once).
+    pub total_nodes: u64,
+    /// All relationships.
+    pub total_relationships: u64,
+}
+
+fn codec_err(what: &str, detail: &str) -> Error {
+    Error::Corrupt {
+        what: what.into(),
+        detail: detail.into(),
+    }
+}
+
+fn compile_readonly(schema: &Schema, tokens: &Tokens) -> Result<Compiled> {
+    let missing = |kind: TokenKind, n: &str| Error::Corrupt {
+        what: "schema".into(),
+        detail: format!("{} {n:?} named by the schema has no token", kind.noun()),
+    };
+    Compiled::compile(
+        schema,
+        |n| tokens.get(TokenKind::Label, n).ok_or_else(|| missing(TokenKind::Label, n)),
+        |n| tokens.get(TokenKind::RelType, n).ok_or_else(|| missing(TokenKind::RelType, n)),
+        |n| tokens.get(TokenKind::PropKey, n).ok_or_else(|| missing(TokenKind::PropKey, n)),
+    )
+}
+
+// ---- index entries derived from a node record ----
+
+pub(crate) fn spatial_entry(s: &crate::compiled::CSpatial, rec: &NodeRec) -> Option<crate::index::spatial::Aabb> {
+    if !rec.has_label(s.label) {
+        return None;
+    }
+    if let Some(b) = s.bbox.and_then(|k| rec.get(k)).and_then(Value::as_box3d) {
+        return Some(b);
+    }
+    rec.get(s.position).and_then(Value::as_point3).map(|p| (p, p))
+}
+
+pub(crate) fn vector_entry(v: &crate::compiled::CVector, rec: &NodeRec) -> Option<crate::index::vector::Unit> {
+    if !rec.has_label(v.label) {
+        return None;
+    }
+    rec.get(v.key)
+        .and_then(Value::as_vector)
+        .filter(|x| x.len() == v.params.dim)
+        .and_then(normalize)
+}
+
+pub(crate) fn text_entry(t: &crate::compiled::CText, rec: &NodeRec) -> Option<Doc> {
+    if !rec.has_label(t.label) {
+        return None;
+    }
+    match rec.get(t.key)? {
+        Value::String(s) => Some(Doc::from_text(s)),
+        Value::List(items) => {
+            let joined: Vec<&str> = items.iter().filter_map(Value::as_str).collect();
+            Some(Doc::from_text(&joined.join(" ")))
+        }
+        _ => None,
+    }
+}
+
+pub(crate) fn u64_meta(bytes: Option<&[u8]>, what: &str) -> Result<u64> {
+    let b = bytes.ok_or_else(|| codec_err(what, "missing"))?;
+    <[u8; 8]>::try_from(b)
+        .map(u64::from_le_bytes)
+        .map_err(|_| codec_err(what, "not 8 bytes"))
+}

@@ -1,0 +1,910 @@
+//! Read and write transactions.
+
+use std::collections::HashMap;
+use std::ops::Bound;
+use std::sync::Arc;
+
+use redb::{ReadOnlyTable, ReadTransaction, ReadableTable, Table, WriteTransaction};
+
+use crate::codec::{self, sort_key};
+use crate::compiled::Compiled;
+use crate::error::{Error, Result, corrupt, storage};
+use crate::model::{Relationship, normalize_props, raw_props, typed_props};
+use crate::payload::PointCloud;
+use crate::read::{GraphRead, Raw, View};
+use crate::store::{
+    ADJ, COUNTS, Committed, K_NEXT_NODE, K_NEXT_REL, LABELS, META, NODES, PAYLOADS, PROPIDX, PendingMem, RELS,
+    TOKENS, spatial_entry, text_entry, u64_meta, vector_entry,
+};
+use crate::tokens::{LabelId, PropKey, RelType, TokenKind};
+use crate::value::Value;
+
+/// A decoded node record: sorted label ids and sorted `(key id, value)` pairs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(crate) struct NodeRec {
+    pub(crate) labels: Vec<u32>,
+    pub(crate) props: Vec<(u32, Value)>,
+}
+
+impl NodeRec {
+    pub(crate) fn has_label(&self, l: u32) -> bool {
+        self.labels.binary_search(&l).is_ok()
+    }
+    pub(crate) fn get(&self, k: u32) -> Option<&Value> {
+        self.props.binary_search_by_key(&k, |(x, _)| *x).ok().map(|i| &self.props[i].1)
+    }
+    fn decode(bytes: &[u8], id: u64) -> Result<NodeRec> {
+        let (labels, props) = codec::decode_node(bytes).map_err(|e| match e {
+            Error::Corrupt { detail, .. } => corrupt(format!("node {id}"), detail),
+            other => other,
+        })?;
+        Ok(NodeRec { labels, props })
+    }
+}
+
+fn decode_rel(bytes: &[u8], id: u64) -> Result<Relationship> {
+    let (ty, start, end, props) = codec::decode_rel(bytes).map_err(|e| match e {
+        Error::Corrupt { detail, .. } => corrupt(format!("relationship {id}"), detail),
+        other => other,
+    })?;
+    Ok(Relationship {
+        id,
+        ty: RelType(ty),
+        start,
+        end,
+        props: typed_props(props),
+    })
+}
+
+/// A read snapshot. Holds the redb read transaction and the matching index state.
+pub struct ReadTxn {
+    _txn: ReadTransaction,
+    base: Arc<Committed>,
+    meta: ReadOnlyTable<&'static str, &'static [u8]>,
+    nodes: ReadOnlyTable<u64, &'static [u8]>,
+    rels: ReadOnlyTable<u64, &'static [u8]>,
+    adj: ReadOnlyTable<(u64, u8, u32, u64), u64>,
+    labels: ReadOnlyTable<(u32, u64), ()>,
+    propidx: ReadOnlyTable<&'static [u8], ()>,
+    counts: ReadOnlyTable<(u8, u32), u64>,
+    payloads: ReadOnlyTable<(u64, &'static str), &'static [u8]>,
+}
+
+impl std::fmt::Debug for ReadTxn {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ReadTxn").finish_non_exhaustive()
+    }
+}
+
+impl ReadTxn {
+    pub(crate) fn new(txn: ReadTransaction, base: Arc<Committed>) -> Result<ReadTxn> {
+        Ok(ReadTxn {
+            meta: txn.open_table(META).map_err(storage)?,
+            nodes: txn.open_table(NODES).map_err(storage)?,
+            rels: txn.open_table(RELS).map_err(storage)?,
+            adj: txn.open_table(ADJ).map_err(storage)?,
+            labels: txn.open_table(LABELS).map_err(storage)?,
+            propidx: txn.open_table(PROPIDX).map_err(storage)?,
+            counts: txn.open_table(COUNTS).map_err(storage)?,
+            payloads: txn.open_table(PAYLOADS).map_err(storage)?,
+            _txn: txn,
+            base,
+        })
+    }
+
+    pub(crate) fn base(&self) -> &Arc<Committed> {
+        &self.base
+    }
+}
+
+/// A write transaction, alive inside [`crate::Store::write`]. It sees its own writes.
+pub struct WriteTxn<'a> {
+    base: Arc<Committed>,
+    schema: Arc<Compiled>,
+    pending: PendingMem,
+    new_tokens: Vec<String>,
+    new_token_ids: HashMap<String, u32>,
+    next_node: u64,
+    next_rel: u64,
+    meta: Table<'a, &'static str, &'static [u8]>,
+    tokens: Table<'a, u32, &'static str>,
+    nodes: Table<'a, u64, &'static [u8]>,
+    rels: Table<'a, u64, &'static [u8]>,
+    adj: Table<'a, (u64, u8, u32, u64), u64>,
+    labels: Table<'a, (u32, u64), ()>,
+    propidx: Table<'a, &'static [u8], ()>,
+    counts: Table<'a, (u8, u32), u64>,
+    payloads: Table<'a, (u64, &'static str), &'static [u8]>,
+}
+
+impl std::fmt::Debug for WriteTxn<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WriteTxn")
+            .field("next_node", &self.next_node)
+            .field("next_rel", &self.next_rel)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The low-level reads are the same code over read-only and writable redb tables.
+macro_rules! raw_reads {
+    () => {
+        fn load_rec(&self, id: u64) -> Result<Option<NodeRec>> {
+            match self.nodes.get(&id).map_err(storage)? {
+                Some(g) => Ok(Some(NodeRec::decode(g.value(), id)?)),
+                None => Ok(None),
+            }
+        }
+
+        fn load_rel(&self, id: u64) -> Result<Option<Relationship>> {
+            match self.rels.get(&id).map_err(storage)? {
+                Some(g) => Ok(Some(decode_rel(g.value(), id)?)),
+                None => Ok(None),
+            }
+        }
+
+        fn adj(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<(u64, u32, u64)>> {
+            let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
+            let mut out = Vec::new();
+            for row in self.adj.range((node, dir, t0, 0u64)..=(node, dir, t1, u64::MAX)).map_err(storage)? {
+                let (k, v) = row.map_err(storage)?;
+                let (_, _, t, rel) = k.value();
+                out.push((rel, t, v.value()));
+            }
+            Ok(out)
+        }
+
+        fn label_nodes(&self, label: u32) -> Result<Vec<u64>> {
+            let mut out = Vec::new();
+            for row in self.labels.range((label, 0u64)..=(label, u64::MAX)).map_err(storage)? {
+                let (k, _) = row.map_err(storage)?;
+                out.push(k.value().1);
+            }
+            Ok(out)
+        }
+
+        fn propidx(&self, lo: Bound<&[u8]>, hi: Bound<&[u8]>) -> Result<Vec<u64>> {
+            let mut out = Vec::new();
+            for row in self.propidx.range::<&[u8]>((lo, hi)).map_err(storage)? {
+                let (k, _) = row.map_err(storage)?;
+                let key = k.value();
+                let tail = key.len().checked_sub(8).map(|s| &key[s..]);
+                let id = tail
+                    .and_then(|t| <[u8; 8]>::try_from(t).ok())
+                    .map(u64::from_be_bytes)
+                    .ok_or_else(|| corrupt("property index", "short key"))?;
+                out.push(id);
+            }
+            Ok(out)
+        }
+
+        fn count_rows(&self) -> Result<Vec<((u8, u32), u64)>> {
+            let mut out = Vec::new();
+            for row in self.counts.iter().map_err(storage)? {
+                let (k, v) = row.map_err(storage)?;
+                out.push((k.value(), v.value()));
+            }
+            Ok(out)
+        }
+
+        fn payload(&self, node: u64, key: &str) -> Result<Option<Vec<u8>>> {
+            Ok(self.payloads.get(&(node, key)).map_err(storage)?.map(|g| g.value().to_vec()))
+        }
+
+        fn payload_keys(&self, node: u64) -> Result<Vec<String>> {
+            let mut out = Vec::new();
+            for row in self.payloads.range((node, "")..(node.saturating_add(1), "")).map_err(storage)? {
+                let (k, _) = row.map_err(storage)?;
+                let (n, key) = k.value();
+                if n == node {
+                    out.push(key.to_string());
+                }
+            }
+            Ok(out)
+        }
+
+        fn all_nodes(&self) -> Result<Vec<u64>> {
+            let mut out = Vec::new();
+            for row in self.nodes.iter().map_err(storage)? {
+                out.push(row.map_err(storage)?.0.value());
+            }
+            Ok(out)
+        }
+
+        fn all_rels(&self) -> Result<Vec<u64>> {
+            let mut out = Vec::new();
+            for row in self.rels.iter().map_err(storage)? {
+                out.push(row.map_err(storage)?.0.value());
+            }
+            Ok(out)
+        }
+
+        fn raw_adjacency_rows(&self) -> Result<Vec<((u64, u8, u32, u64), u64)>> {
+            let mut out = Vec::new();
+            for row in self.adj.iter().map_err(storage)? {
+                let (k, v) = row.map_err(storage)?;
+                out.push((k.value(), v.value()));
+            }
+            Ok(out)
+        }
+
+        fn raw_label_rows(&self) -> Result<Vec<(u32, u64)>> {
+            let mut out = Vec::new();
+            for row in self.labels.iter().map_err(storage)? {
+                out.push(row.map_err(storage)?.0.value());
+            }
+            Ok(out)
+        }
+
+        fn raw_propidx_rows(&self) -> Result<Vec<Vec<u8>>> {
+            let mut out = Vec::new();
+            for row in self.propidx.iter().map_err(storage)? {
+                out.push(row.map_err(storage)?.0.value().to_vec());
+            }
+            Ok(out)
+        }
+
+        fn next_ids(&self) -> Result<(u64, u64)> {
+            let n = self.meta.get(K_NEXT_NODE).map_err(storage)?;
+            let r = self.meta.get(K_NEXT_REL).map_err(storage)?;
+            Ok((
+                u64_meta(n.as_ref().map(|g| g.value()), K_NEXT_NODE)?,
+                u64_meta(r.as_ref().map(|g| g.value()), K_NEXT_REL)?,
+            ))
+        }
+    };
+}
+
+impl Raw for ReadTxn {
+    fn base(&self) -> &Arc<Committed> {
+        &self.base
+    }
+    fn pending_mem(&self) -> Option<&PendingMem> {
+        None
+    }
+    fn token(&self, kind: TokenKind, name: &str) -> Option<u32> {
+        self.base.tokens.get(kind, name)
+    }
+    fn token_name(&self, id: u32) -> Option<String> {
+        self.base.tokens.name(id).map(str::to_string)
+    }
+    raw_reads!();
+}
+
+impl Raw for WriteTxn<'_> {
+    fn base(&self) -> &Arc<Committed> {
+        &self.base
+    }
+    fn pending_mem(&self) -> Option<&PendingMem> {
+        Some(&self.pending)
+    }
+    fn token(&self, kind: TokenKind, name: &str) -> Option<u32> {
+        self.base
+            .tokens
+            .get(kind, name)
+            .or_else(|| self.new_token_ids.get(&kind.qualify(name)).copied())
+    }
+    fn token_name(&self, id: u32) -> Option<String> {
+        let committed = self.base.tokens.len();
+        if id < committed {
+            self.base.tokens.name(id).map(str::to_string)
+        } else {
+            self.new_tokens.get((id - committed) as usize).map(|q| q[2..].to_string())
+        }
+    }
+    raw_reads!();
+}
+
+impl GraphRead for ReadTxn {
+    fn view(&self) -> View<'_> {
+        View { raw: self }
+    }
+}
+
+impl GraphRead for WriteTxn<'_> {
+    fn view(&self) -> View<'_> {
+        View { raw: self }
+    }
+}
+
+fn pidx_key(index: u32, v: &Value, node: u64) -> Option<Vec<u8>> {
+    let sk = sort_key(v)?;
+    let mut k = Vec::with_capacity(4 + sk.len() + 8);
+    k.extend_from_slice(&index.to_be_bytes());
+    k.extend_from_slice(&sk);
+    k.extend_from_slice(&node.to_be_bytes());
+    Some(k)
+}
+
+impl<'a> WriteTxn<'a> {
+    pub(crate) fn new(txn: &'a WriteTransaction, base: Arc<Committed>) -> Result<WriteTxn<'a>> {
+        let meta = txn.open_table(META).map_err(storage)?;
+        let next_node = u64_meta(meta.get(K_NEXT_NODE).map_err(storage)?.as_ref().map(|g| g.value()), K_NEXT_NODE)?;
+        let next_rel = u64_meta(meta.get(K_NEXT_REL).map_err(storage)?.as_ref().map(|g| g.value()), K_NEXT_REL)?;
+        Ok(WriteTxn {
+            schema: base.schema.clone(),
+            pending: PendingMem::for_schema(&base.schema),
+            base,
+            new_tokens: Vec::new(),
+            new_token_ids: HashMap::new(),
+            next_node,
+            next_rel,
+            meta,
+            tokens: txn.open_table(TOKENS).map_err(storage)?,
+            nodes: txn.open_table(NODES).map_err(storage)?,
+            rels: txn.open_table(RELS).map_err(storage)?,
+            adj: txn.open_table(ADJ).map_err(storage)?,
+            labels: txn.open_table(LABELS).map_err(storage)?,
+            propidx: txn.open_table(PROPIDX).map_err(storage)?,
+            counts: txn.open_table(COUNTS).map_err(storage)?,
+            payloads: txn.open_table(PAYLOADS).map_err(storage)?,
+        })
+    }
+
+    /// Writes the id counters; returns the index changes and new tokens for the commit.
+    pub(crate) fn finish(mut self) -> Result<(PendingMem, Vec<String>)> {
+        self.meta
+            .insert(K_NEXT_NODE, self.next_node.to_le_bytes().as_slice())
+            .map_err(storage)?;
+        self.meta
+            .insert(K_NEXT_REL, self.next_rel.to_le_bytes().as_slice())
+            .map_err(storage)?;
+        Ok((std::mem::take(&mut self.pending), std::mem::take(&mut self.new_tokens)))
+    }
+
+    fn intern(&mut self, kind: TokenKind, name: &str) -> Result<u32> {
+        if let Some(id) = Raw::token(self, kind, name) {
+            return Ok(id);
+        }
+        if name.is_empty() {
+            return Err(Error::InvalidValue(format!("an empty {} is not allowed", kind.noun())));
+        }
+        let q = kind.qualify(name);
+        let id = self.base.tokens.len() + self.new_tokens.len() as u32;
+        self.tokens.insert(id, q.as_str()).map_err(storage)?;
+        self.new_token_ids.insert(q.clone(), id);
+        self.new_tokens.push(q);
+        Ok(id)
+    }
+
+    /// The id of a label, created if new.
+    pub fn label_id(&mut self, name: &str) -> Result<LabelId> {
+        self.intern(TokenKind::Label, name).map(LabelId)
+    }
+
+    /// The id of a relationship type, created if new.
+    pub fn rel_type_id(&mut self, name: &str) -> Result<RelType> {
+        self.intern(TokenKind::RelType, name).map(RelType)
+    }
+
+    /// The id of a property key, created if new.
+    pub fn prop_key_id(&mut self, name: &str) -> Result<PropKey> {
+        self.intern(TokenKind::PropKey, name).map(PropKey)
+    }
+
+    fn name(&self, id: u32) -> String {
+        Raw::token_name(self, id).unwrap_or_else(|| format!("#{id}"))
+    }
+
+    // ---- counts ----
+
+    fn bump(&mut self, kind: u8, tok: u32, delta: i64) -> Result<()> {
+        let cur = self.counts.get(&(kind, tok)).map_err(storage)?.map(|g| g.value()).unwrap_or(0);
+        let next = cur
+            .checked_add_signed(delta)
+            .ok_or_else(|| corrupt("counts", format!("count for ({kind}, {tok}) would go negative")))?;
+        if next == 0 {
+            self.counts.remove(&(kind, tok)).map_err(storage)?;
+        } else {
+            self.counts.insert(&(kind, tok), &next).map_err(storage)?;
+        }
+        Ok(())
+    }
+
+    // ---- validation ----
+
+    fn check_props(&self, target: &str, rules: &[crate::compiled::CRule], props: &[(u32, Value)]) -> Result<()> {
+        for r in rules {
+            match props.binary_search_by_key(&r.key, |(k, _)| *k) {
+                Ok(i) => {
+                    let v = &props[i].1;
+                    if !r.ty.accepts(v) {
+                        return Err(Error::Constraint {
+                            target: target.into(),
+                            detail: format!(
+                                "property `{}` must be {}, got {}",
+                                self.name(r.key),
+                                r.ty,
+                                v.value_type()
+                            ),
+                        });
+                    }
+                }
+                Err(_) if r.required => {
+                    return Err(Error::Constraint {
+                        target: target.into(),
+                        detail: format!("missing required property `{}` ({})", self.name(r.key), r.ty),
+                    });
+                }
+                Err(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn check_node(&self, id: u64, rec: &NodeRec) -> Result<()> {
+        let schema = self.schema.clone();
+        for l in &rec.labels {
+            let Some(rule) = schema.labels.get(l) else { continue };
+            let lname = self.name(*l);
+            self.check_props(&lname, &rule.props, &rec.props)?;
+            for (k, idx) in &rule.unique {
+                let Some(v) = rec.get(*k) else { continue };
+                let Some(sk) = sort_key(v) else {
+                    return Err(Error::Constraint {
+                        target: lname,
+                        detail: format!("unique property `{}` must be a boolean, number or string", self.name(*k)),
+                    });
+                };
+                let mut lo = idx.to_be_bytes().to_vec();
+                lo.extend_from_slice(&sk);
+                let mut hi = lo.clone();
+                hi.extend_from_slice(&[0xff; 8]);
+                let others = Raw::propidx(self, Bound::Included(&lo), Bound::Included(&hi))?;
+                for other in others.into_iter().filter(|o| *o != id) {
+                    // index keys are f64-based: confirm the clash on the exact values
+                    let same = Raw::load_rec(self, other)?
+                        .and_then(|r| r.get(*k).cloned())
+                        .is_some_and(|ov| crate::read::compare(&ov, v) == Some(std::cmp::Ordering::Equal));
+                    if same {
+                        return Err(Error::Constraint {
+                            target: lname,
+                            detail: format!(
+                                "unique property `{}` = {} is already used by node {other}",
+                                self.name(*k),
+                                v.to_json()
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        let bad = |target: String, detail: String| Err(Error::Constraint { target, detail });
+        for s in &schema.spatial {
+            if !rec.has_label(s.label) {
+                continue;
+            }
+            if let Some(v) = rec.get(s.position)
+                && (v.as_point3().is_none() || !v.is_finite())
+            {
+                return bad(self.name(s.label), format!("spatial position `{}` must be a finite point", self.name(s.position)));
+            }
+            if let Some(k) = s.bbox
+                && let Some(v) = rec.get(k)
+                && (v.as_box3d().is_none() || !v.is_finite())
+            {
+                return bad(self.name(s.label), format!("spatial box `{}` must be [min point, max point] with min <= max", self.name(k)));
+            }
+        }
+        for v in &schema.vector {
+            if !rec.has_label(v.label) {
+                continue;
+            }
+            if let Some(val) = rec.get(v.key) {
+                let ok = val
+                    .as_vector()
+                    .is_some_and(|x| x.len() == v.params.dim && val.is_finite() && x.iter().any(|c| *c != 0.0));
+                if !ok {
+                    return bad(
+                        self.name(v.label),
+                        format!("vector `{}` must be a finite, non-zero f32 vector of dimension {}", self.name(v.key), v.params.dim),
+                    );
+                }
+            }
+        }
+        for t in &schema.text {
+            if !rec.has_label(t.label) {
+                continue;
+            }
+            if let Some(val) = rec.get(t.key) {
+                let ok = matches!(val, Value::String(_))
+                    || matches!(val, Value::List(items) if items.iter().all(|i| i.as_str().is_some()));
+                if !ok {
+                    return bad(self.name(t.label), format!("text `{}` must be a string or a list of strings", self.name(t.key)));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn check_rel(&self, ty: u32, start: &NodeRec, end: &NodeRec, props: &[(u32, Value)]) -> Result<()> {
+        let Some(rule) = self.schema.rels.get(&ty) else { return Ok(()) };
+        let tname = self.name(ty);
+        self.check_props(&tname, &rule.props, props)?;
+        let names = |ls: &[u32]| ls.iter().map(|l| self.name(*l)).collect::<Vec<_>>().join("|");
+        if !rule.from.is_empty() && !rule.from.iter().any(|l| start.has_label(*l)) {
+            return Err(Error::Constraint {
+                target: tname,
+                detail: format!("start node must be labelled {}", names(&rule.from)),
+            });
+        }
+        if !rule.to.is_empty() && !rule.to.iter().any(|l| end.has_label(*l)) {
+            return Err(Error::Constraint {
+                target: tname,
+                detail: format!("end node must be labelled {}", names(&rule.to)),
+            });
+        }
+        Ok(())
+    }
+
+    // ---- the single node write path ----
+
+    /// Moves node `id` from `before` to `after`, keeping every index and count in step.
+    /// Validation happens first, so an error leaves everything untouched.
+    fn apply_node(&mut self, id: u64, before: Option<&NodeRec>, after: Option<&NodeRec>) -> Result<()> {
+        if let Some(a) = after {
+            self.check_node(id, a)?;
+        }
+        match after {
+            Some(a) => {
+                let bytes = codec::encode_node(&a.labels, &a.props);
+                self.nodes.insert(&id, bytes.as_slice()).map_err(storage)?;
+            }
+            None => {
+                self.nodes.remove(&id).map_err(storage)?;
+            }
+        }
+        let empty = NodeRec::default();
+        let b = before.unwrap_or(&empty);
+        let a = after.unwrap_or(&empty);
+        for l in b.labels.iter().filter(|l| !a.has_label(**l)) {
+            self.labels.remove(&(*l, id)).map_err(storage)?;
+            self.bump(0, *l, -1)?;
+        }
+        for l in a.labels.iter().filter(|l| !b.has_label(**l)) {
+            self.labels.insert(&(*l, id), &()).map_err(storage)?;
+            self.bump(0, *l, 1)?;
+        }
+        match (before.is_some(), after.is_some()) {
+            (false, true) => self.bump(2, 0, 1)?,
+            (true, false) => self.bump(2, 0, -1)?,
+            _ => {}
+        }
+        let schema = self.schema.clone();
+        for (i, pi) in schema.prop_indexes.iter().enumerate() {
+            let key_of = |r: &NodeRec| {
+                if r.has_label(pi.label) {
+                    r.get(pi.key).and_then(|v| pidx_key(i as u32, v, id))
+                } else {
+                    None
+                }
+            };
+            let (old, new) = (key_of(b), key_of(a));
+            if old != new {
+                if let Some(k) = old {
+                    self.propidx.remove(k.as_slice()).map_err(storage)?;
+                }
+                if let Some(k) = new {
+                    self.propidx.insert(k.as_slice(), &()).map_err(storage)?;
+                }
+            }
+        }
+        for (i, s) in schema.spatial.iter().enumerate() {
+            let (old, new) = (spatial_entry(s, b), spatial_entry(s, a));
+            if old != new {
+                self.pending.spatial[i].set(id, new);
+            }
+        }
+        for (i, v) in schema.vector.iter().enumerate() {
+            let (old, new) = (vector_entry(v, b), vector_entry(v, a));
+            if old != new {
+                self.pending.vector[i].set(id, new);
+            }
+        }
+        for (i, t) in schema.text.iter().enumerate() {
+            let (old, new) = (text_entry(t, b), text_entry(t, a));
+            if old != new {
+                self.pending.text[i].set(id, new);
+            }
+        }
+        Ok(())
+    }
+
+    fn rec(&self, id: u64) -> Result<NodeRec> {
+        Raw::load_rec(self, id)?.ok_or(Error::NodeNotFound(id))
+    }
+
+    // ---- public writes ----
+
+    /// Creates a node. Null property values are dropped; of duplicate keys the last wins.
+    pub fn create_node(&mut self, labels: &[LabelId], props: Vec<(PropKey, Value)>) -> Result<u64> {
+        let mut ls: Vec<u32> = labels.iter().map(|l| l.0).collect();
+        ls.sort_unstable();
+        ls.dedup();
+        let rec = NodeRec {
+            labels: ls,
+            props: raw_props(&normalize_props(props)),
+        };
+        let id = self.next_node;
+        self.apply_node(id, None, Some(&rec))?;
+        self.next_node += 1;
+        Ok(id)
+    }
+
+    /// Creates a node from names: `create("Instance", &[("caption", "a bench".into())])`.
+    pub fn create_node_named(&mut self, labels: &[&str], props: &[(&str, Value)]) -> Result<u64> {
+        let ls = labels.iter().map(|l| self.label_id(l)).collect::<Result<Vec<_>>>()?;
+        let ps = props
+            .iter()
+            .map(|(k, v)| Ok((self.prop_key_id(k)?, v.clone())))
+            .collect::<Result<Vec<_>>>()?;
+        self.create_node(&ls, ps)
+    }
+
+    /// Sets a node property; `Value::Null` removes it.
+    pub fn set_node_prop(&mut self, id: u64, key: PropKey, value: Value) -> Result<()> {
+        let before = self.rec(id)?;
+        let mut after = before.clone();
+        match after.props.binary_search_by_key(&key.0, |(k, _)| *k) {
+            Ok(i) if value.is_null() => {
+                after.props.remove(i);
+            }
+            Ok(i) => after.props[i].1 = value,
+            Err(_) if value.is_null() => return Ok(()),
+            Err(i) => after.props.insert(i, (key.0, value)),
+        }
+        self.apply_node(id, Some(&before), Some(&after))
+    }
+
+    /// Replaces all properties of a node.
+    pub fn replace_node_props(&mut self, id: u64, props: Vec<(PropKey, Value)>) -> Result<()> {
+        let before = self.rec(id)?;
+        let after = NodeRec {
+            labels: before.labels.clone(),
+            props: raw_props(&normalize_props(props)),
+        };
+        self.apply_node(id, Some(&before), Some(&after))
+    }
+
+    /// Removes a node property, returning its old value.
+    pub fn remove_node_prop(&mut self, id: u64, key: PropKey) -> Result<Option<Value>> {
+        let old = self.rec(id)?.get(key.0).cloned();
+        self.set_node_prop(id, key, Value::Null)?;
+        Ok(old)
+    }
+
+    /// Adds a label (no-op if present).
+    pub fn add_label(&mut self, id: u64, label: LabelId) -> Result<()> {
+        let before = self.rec(id)?;
+        let Err(i) = before.labels.binary_search(&label.0) else { return Ok(()) };
+        let mut after = before.clone();
+        after.labels.insert(i, label.0);
+        self.apply_node(id, Some(&before), Some(&after))
+    }
+
+    /// Removes a label (no-op if absent).
+    pub fn remove_label(&mut self, id: u64, label: LabelId) -> Result<()> {
+        let before = self.rec(id)?;
+        let Ok(i) = before.labels.binary_search(&label.0) else { return Ok(()) };
+        let mut after = before.clone();
+        after.labels.remove(i);
+        self.apply_node(id, Some(&before), Some(&after))
+    }
+
+    /// Deletes a node that has no relationships, and its payloads.
+    pub fn delete_node(&mut self, id: u64) -> Result<()> {
+        let before = self.rec(id)?;
+        let out = Raw::adj(self, id, 0, None)?.len();
+        let inc = Raw::adj(self, id, 1, None)?.len();
+        if out + inc > 0 {
+            let self_loops = Raw::adj(self, id, 0, None)?.iter().filter(|(_, _, o)| *o == id).count();
+            return Err(Error::NodeHasRelationships {
+                node: id,
+                count: out + inc - self_loops,
+            });
+        }
+        for k in Raw::payload_keys(self, id)? {
+            self.payloads.remove(&(id, k.as_str())).map_err(storage)?;
+        }
+        self.apply_node(id, Some(&before), None)
+    }
+
+    /// Deletes a node together with all its relationships.
+    pub fn detach_delete_node(&mut self, id: u64) -> Result<()> {
+        self.rec(id)?;
+        let mut rels: Vec<u64> = Raw::adj(self, id, 0, None)?
+            .into_iter()
+            .chain(Raw::adj(self, id, 1, None)?)
+            .map(|(r, _, _)| r)
+            .collect();
+        rels.sort_unstable();
+        rels.dedup();
+        for r in rels {
+            self.delete_rel(r)?;
+        }
+        self.delete_node(id)
+    }
+
+    /// Creates a relationship `start -[ty]-> end`.
+    pub fn create_rel(&mut self, start: u64, ty: RelType, end: u64, props: Vec<(PropKey, Value)>) -> Result<u64> {
+        let s = self.rec(start)?;
+        let e = if end == start { s.clone() } else { self.rec(end)? };
+        let props = raw_props(&normalize_props(props));
+        self.check_rel(ty.0, &s, &e, &props)?;
+        let id = self.next_rel;
+        let bytes = codec::encode_rel(ty.0, start, end, &props);
+        self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
+        self.adj.insert(&(start, 0u8, ty.0, id), &end).map_err(storage)?;
+        self.adj.insert(&(end, 1u8, ty.0, id), &start).map_err(storage)?;
+        self.bump(1, ty.0, 1)?;
+        self.bump(2, 1, 1)?;
+        self.next_rel += 1;
+        Ok(id)
+    }
+
+    /// Creates a relationship from names.
+    pub fn create_rel_named(&mut self, start: u64, ty: &str, end: u64, props: &[(&str, Value)]) -> Result<u64> {
+        let t = self.rel_type_id(ty)?;
+        let ps = props
+            .iter()
+            .map(|(k, v)| Ok((self.prop_key_id(k)?, v.clone())))
+            .collect::<Result<Vec<_>>>()?;
+        self.create_rel(start, t, end, ps)
+    }
+
+    fn write_rel_props(&mut self, rel: &Relationship, props: Vec<(u32, Value)>) -> Result<()> {
+        let s = self.rec(rel.start)?;
+        let e = self.rec(rel.end)?;
+        self.check_rel(rel.ty.0, &s, &e, &props)?;
+        let bytes = codec::encode_rel(rel.ty.0, rel.start, rel.end, &props);
+        self.rels.insert(&rel.id, bytes.as_slice()).map_err(storage)?;
+        Ok(())
+    }
+
+    /// Sets a relationship property; `Value::Null` removes it.
+    pub fn set_rel_prop(&mut self, id: u64, key: PropKey, value: Value) -> Result<()> {
+        let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
+        let mut props = raw_props(&rel.props);
+        match props.binary_search_by_key(&key.0, |(k, _)| *k) {
+            Ok(i) if value.is_null() => {
+                props.remove(i);
+            }
+            Ok(i) => props[i].1 = value,
+            Err(_) if value.is_null() => return Ok(()),
+            Err(i) => props.insert(i, (key.0, value)),
+        }
+        self.write_rel_props(&rel, props)
+    }
+
+    /// Replaces all properties of a relationship.
+    pub fn replace_rel_props(&mut self, id: u64, props: Vec<(PropKey, Value)>) -> Result<()> {
+        let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
+        self.write_rel_props(&rel, raw_props(&normalize_props(props)))
+    }
+
+    /// Deletes a relationship.
+    pub fn delete_rel(&mut self, id: u64) -> Result<()> {
+        let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
+        self.rels.remove(&id).map_err(storage)?;
+        self.adj.remove(&(rel.start, 0u8, rel.ty.0, id)).map_err(storage)?;
+        self.adj.remove(&(rel.end, 1u8, rel.ty.0, id)).map_err(storage)?;
+        self.bump(1, rel.ty.0, -1)?;
+        self.bump(2, 1, -1)?;
+        Ok(())
+    }
+
+    /// Stores a payload beside a node (large data such as point clouds stays out of the
+    /// node record so scans stay cheap).
+    pub fn put_payload(&mut self, node: u64, key: &str, bytes: &[u8]) -> Result<()> {
+        self.rec(node)?;
+        self.payloads.insert(&(node, key), bytes).map_err(storage)?;
+        Ok(())
+    }
+
+    /// Removes a payload; returns whether it existed.
+    pub fn delete_payload(&mut self, node: u64, key: &str) -> Result<bool> {
+        Ok(self.payloads.remove(&(node, key)).map_err(storage)?.is_some())
+    }
+
+    /// Stores a point cloud, compressed (see [`PointCloud::encode`]).
+    pub fn put_point_cloud(&mut self, node: u64, key: &str, cloud: &PointCloud) -> Result<()> {
+        let bytes = cloud.encode()?;
+        self.put_payload(node, key, &bytes)
+    }
+
+    // ---- schema installation (Store::set_schema) ----
+
+    pub(crate) fn install_schema(&mut self, schema: &crate::schema::Schema) -> Result<Arc<Compiled>> {
+        // intern every name the schema uses
+        let mut labels = Vec::new();
+        let mut types = Vec::new();
+        let mut keys = Vec::new();
+        for (l, r) in &schema.labels {
+            labels.push(l.clone());
+            keys.extend(r.properties.iter().map(|p| p.key.clone()));
+            keys.extend(r.unique.iter().cloned());
+        }
+        for (t, r) in &schema.relationships {
+            types.push(t.clone());
+            keys.extend(r.properties.iter().map(|p| p.key.clone()));
+            labels.extend(r.from_labels.iter().chain(&r.to_labels).cloned());
+        }
+        for p in &schema.property_indexes {
+            labels.push(p.label.clone());
+            keys.push(p.key.clone());
+        }
+        for s in &schema.spatial_indexes {
+            labels.push(s.label.clone());
+            keys.push(s.position_key.clone());
+            keys.extend(s.box_key.clone());
+        }
+        for v in &schema.vector_indexes {
+            labels.push(v.label.clone());
+            keys.push(v.key.clone());
+        }
+        for t in &schema.text_indexes {
+            labels.push(t.label.clone());
+            keys.push(t.key.clone());
+        }
+        for l in labels {
+            self.label_id(&l)?;
+        }
+        for t in types {
+            self.rel_type_id(&t)?;
+        }
+        for k in keys {
+            self.prop_key_id(&k)?;
+        }
+        let compiled = {
+            let tok = |kind: TokenKind, n: &str| {
+                Raw::token(self, kind, n).ok_or_else(|| Error::Schema(format!("{} {n:?} was not interned", kind.noun())))
+            };
+            Compiled::compile(
+                schema,
+                |n| tok(TokenKind::Label, n),
+                |n| tok(TokenKind::RelType, n),
+                |n| tok(TokenKind::PropKey, n),
+            )?
+        };
+        let compiled = Arc::new(compiled);
+        self.schema = compiled.clone();
+        self.pending = PendingMem::for_schema(&compiled);
+        // rebuild the property index from scratch, checking every node on the way
+        let old: Vec<Vec<u8>> = Raw::raw_propidx_rows(self)?;
+        for k in old {
+            self.propidx.remove(k.as_slice()).map_err(storage)?;
+        }
+        for id in Raw::all_nodes(self)? {
+            let rec = self.rec(id)?;
+            for (i, pi) in compiled.prop_indexes.iter().enumerate() {
+                if rec.has_label(pi.label)
+                    && let Some(k) = rec.get(pi.key).and_then(|v| pidx_key(i as u32, v, id))
+                {
+                    self.propidx.insert(k.as_slice(), &()).map_err(storage)?;
+                }
+            }
+        }
+        for id in Raw::all_nodes(self)? {
+            let rec = self.rec(id)?;
+            self.check_node(id, &rec).map_err(|e| match e {
+                Error::Constraint { target, detail } => {
+                    Error::Schema(format!("existing node {id} breaks the new schema: {target}: {detail}"))
+                }
+                other => other,
+            })?;
+        }
+        for id in Raw::all_rels(self)? {
+            let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
+            let (s, e) = (self.rec(rel.start)?, self.rec(rel.end)?);
+            self.check_rel(rel.ty.0, &s, &e, &raw_props(&rel.props)).map_err(|err| match err {
+                Error::Constraint { target, detail } => {
+                    Error::Schema(format!("existing relationship {id} breaks the new schema: {target}: {detail}"))
+                }
+                other => other,
+            })?;
+        }
+        let bytes = serde_json::to_vec(schema).map_err(storage)?;
+        self.meta.insert("schema", bytes.as_slice()).map_err(storage)?;
+        Ok(compiled)
+    }
+}
