@@ -1,1 +1,148 @@
-pub fn main() {}
+//! The `opengraph` command-line tool.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+use api::{demo, info};
+
+/// OpenGraph: an open-vocabulary hierarchical 3D scene graph for outdoor environments.
+#[derive(Debug, Parser)]
+#[command(name = "opengraph", version, about, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Print node counts per label and relationship counts per type.
+    Info {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Print `{"nodes": {LABEL: n}, "relationships": {TYPE: n}}` instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Export the whole graph (payloads such as point clouds are left out).
+    Export {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// node-link (networkx JSON) or graphml.
+        #[arg(long, value_parser = ["node-link", "graphml"])]
+        format: String,
+        /// Output file.
+        #[arg(long)]
+        out: PathBuf,
+        /// node-link only: key of the edge list; `links` for networkx older than 3.6.
+        #[arg(long, default_value = "edges", value_parser = ["edges", "links"])]
+        edges_key: String,
+    },
+    /// Build a small hand-made demo graph with the OpenGraph schema (a stand-in until
+    /// `sim` exists), then print its summary.
+    Demo {
+        /// The store file to create (must not exist yet).
+        #[arg(long)]
+        db: PathBuf,
+    },
+}
+
+/// Errors caused by what the user gave us (exit code 2), as opposed to internal failures (1).
+fn is_input_error(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        if let Some(g) = c.downcast_ref::<graphstore::Error>() {
+            return !matches!(
+                g,
+                graphstore::Error::Storage(_) | graphstore::Error::Io { .. }
+            );
+        }
+        c.downcast_ref::<UsageError>().is_some()
+    })
+}
+
+/// A problem with the arguments that clap cannot see.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct UsageError(String);
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Info { db, json } => {
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let text = if json {
+                info::json(&store)?
+            } else {
+                info::table(&store)?
+            };
+            print!("{text}");
+        }
+        Command::Export {
+            db,
+            format,
+            out,
+            edges_key,
+        } => {
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let fmt: graphstore::export::ExportFormat = format.parse()?;
+            let file = std::fs::File::create(&out)
+                .with_context(|| format!("creating {}", out.display()))?;
+            let mut w = std::io::BufWriter::new(file);
+            let r = store.read()?;
+            let (n, m) = match fmt {
+                graphstore::export::ExportFormat::NodeLink => {
+                    graphstore::export::export_node_link(&r, &edges_key, &mut w)?
+                }
+                other => graphstore::export::export(&r, other, &mut w)?,
+            };
+            use std::io::Write;
+            w.flush()
+                .with_context(|| format!("writing {}", out.display()))?;
+            eprintln!(
+                "exported {n} nodes and {m} relationships to {}",
+                out.display()
+            );
+        }
+        Command::Demo { db } => {
+            if db.exists() {
+                return Err(UsageError(format!(
+                    "{} already exists; demo writes a new store",
+                    db.display()
+                ))
+                .into());
+            }
+            let store = graphstore::Store::create(&db)
+                .with_context(|| format!("creating {}", db.display()))?;
+            demo::build(&store)?;
+            print!("{}", info::table(&store)?);
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if is_input_error(&e) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
+        }
+    }
+}

@@ -113,7 +113,10 @@ impl<'a> Reader<'a> {
     }
 
     pub(crate) fn u8(&mut self) -> Result<u8> {
-        let b = *self.buf.get(self.pos).ok_or_else(|| self.err("unexpected end"))?;
+        let b = *self
+            .buf
+            .get(self.pos)
+            .ok_or_else(|| self.err("unexpected end"))?;
         self.pos += 1;
         Ok(b)
     }
@@ -227,6 +230,9 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// Properties as stored: `(key token, value)`, sorted by key.
+pub(crate) type RawProps = Vec<(u32, Value)>;
+
 /// Encodes a property list `(key, value)`; keys must be sorted and unique.
 pub(crate) fn encode_props(out: &mut Vec<u8>, props: &[(u32, Value)]) {
     put_varint(out, props.len() as u64);
@@ -236,7 +242,7 @@ pub(crate) fn encode_props(out: &mut Vec<u8>, props: &[(u32, Value)]) {
     }
 }
 
-pub(crate) fn decode_props(r: &mut Reader<'_>) -> Result<Vec<(u32, Value)>> {
+pub(crate) fn decode_props(r: &mut Reader<'_>) -> Result<RawProps> {
     let n = r.len(2)?;
     let mut props = Vec::with_capacity(n);
     for _ in 0..n {
@@ -257,7 +263,7 @@ pub(crate) fn encode_node(labels: &[u32], props: &[(u32, Value)]) -> Vec<u8> {
     out
 }
 
-pub(crate) fn decode_node(buf: &[u8]) -> Result<(Vec<u32>, Vec<(u32, Value)>)> {
+pub(crate) fn decode_node(buf: &[u8]) -> Result<(Vec<u32>, RawProps)> {
     let mut r = Reader::new(buf, "node record");
     let n = r.len(1)?;
     let mut labels = Vec::with_capacity(n);
@@ -281,7 +287,7 @@ pub(crate) fn encode_rel(ty: u32, start: u64, end: u64, props: &[(u32, Value)]) 
     out
 }
 
-pub(crate) fn decode_rel(buf: &[u8]) -> Result<(u32, u64, u64, Vec<(u32, Value)>)> {
+pub(crate) fn decode_rel(buf: &[u8]) -> Result<(u32, u64, u64, RawProps)> {
     let mut r = Reader::new(buf, "relationship record");
     let ty = r.u32_varint()?;
     let start = r.varint()?;
@@ -304,7 +310,11 @@ pub(crate) const K_STRING: u8 = 0x30;
 pub(crate) fn f64_key(f: f64) -> [u8; 8] {
     let f = if f == 0.0 { 0.0 } else { f };
     let bits = f.to_bits();
-    let flipped = if bits >> 63 == 1 { !bits } else { bits | (1 << 63) };
+    let flipped = if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | (1 << 63)
+    };
     flipped.to_be_bytes()
 }
 
@@ -355,7 +365,9 @@ mod tests {
             Just(Value::Null),
             any::<bool>().prop_map(Value::Bool),
             any::<i64>().prop_map(Value::Int),
-            any::<f64>().prop_filter("finite", |f| f.is_finite()).prop_map(Value::Float),
+            any::<f64>()
+                .prop_filter("finite", |f| f.is_finite())
+                .prop_map(Value::Float),
             ".{0,12}".prop_map(Value::String),
             prop::array::uniform2(-1e6f64..1e6).prop_map(Value::Point2D),
             prop::array::uniform3(-1e6f64..1e6).prop_map(Value::Point3D),
@@ -403,7 +415,10 @@ mod tests {
     fn truncated_record_is_corrupt_not_panic() {
         let rec = encode_node(&[1, 2], &[(3, Value::from("hello"))]);
         for cut in 0..rec.len() {
-            assert!(matches!(decode_node(&rec[..cut]), Err(Error::Corrupt { .. })), "cut {cut}");
+            assert!(
+                matches!(decode_node(&rec[..cut]), Err(Error::Corrupt { .. })),
+                "cut {cut}"
+            );
         }
         assert!(decode_node(&rec).is_ok());
     }

@@ -108,18 +108,25 @@ impl Compiled {
             let mut unique = Vec::new();
             for u in &rule.unique {
                 let k = key(u)?;
-                let idx = *c
-                    .prop_index_of
-                    .get(&(l, k))
-                    .ok_or_else(|| crate::Error::Schema(format!("unique key {name}.{u} has no index")))?;
+                let idx = *c.prop_index_of.get(&(l, k)).ok_or_else(|| {
+                    crate::Error::Schema(format!("unique key {name}.{u} has no index"))
+                })?;
                 unique.push((k, idx));
             }
             c.labels.insert(l, CLabelRule { props, unique });
         }
         for (name, props, rule) in rel_rules {
             let t = rel_type(name)?;
-            let from = rule.from_labels.iter().map(|s| label(s)).collect::<crate::Result<_>>()?;
-            let to = rule.to_labels.iter().map(|s| label(s)).collect::<crate::Result<_>>()?;
+            let from = rule
+                .from_labels
+                .iter()
+                .map(|s| label(s))
+                .collect::<crate::Result<_>>()?;
+            let to = rule
+                .to_labels
+                .iter()
+                .map(|s| label(s))
+                .collect::<crate::Result<_>>()?;
             c.rels.insert(t, CRelRule { props, from, to });
         }
         for s in &schema.spatial_indexes {
@@ -133,7 +140,10 @@ impl Compiled {
             c.vector.push(CVector {
                 label: label(&v.label)?,
                 key: key(&v.key)?,
-                params: VectorParams { dim: v.dim, int8: v.int8 },
+                params: VectorParams {
+                    dim: v.dim,
+                    int8: v.int8,
+                },
             });
         }
         for t in &schema.text_indexes {
@@ -150,7 +160,10 @@ impl Compiled {
             .spatial_indexes
             .iter()
             .position(|s| s.name == name)
-            .ok_or_else(|| crate::Error::NoSuchIndex { kind: "spatial", name: name.into() })
+            .ok_or_else(|| crate::Error::NoSuchIndex {
+                kind: "spatial",
+                name: name.into(),
+            })
     }
 
     pub(crate) fn vector_by_name(&self, name: &str) -> crate::Result<usize> {
@@ -158,7 +171,10 @@ impl Compiled {
             .vector_indexes
             .iter()
             .position(|s| s.name == name)
-            .ok_or_else(|| crate::Error::NoSuchIndex { kind: "vector", name: name.into() })
+            .ok_or_else(|| crate::Error::NoSuchIndex {
+                kind: "vector",
+                name: name.into(),
+            })
     }
 
     pub(crate) fn text_by_name(&self, name: &str) -> crate::Result<usize> {
@@ -166,6 +182,9 @@ impl Compiled {
             .text_indexes
             .iter()
             .position(|s| s.name == name)
-            .ok_or_else(|| crate::Error::NoSuchIndex { kind: "text", name: name.into() })
+            .ok_or_else(|| crate::Error::NoSuchIndex {
+                kind: "text",
+                name: name.into(),
+            })
     }
 }

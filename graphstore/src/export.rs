@@ -17,7 +17,9 @@ use crate::value::Value;
 /// Supported formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ExportFormat {
-    /// networkx `node_link_data` JSON (directed multigraph, edges under `links`).
+    /// networkx `node_link_data` JSON (directed multigraph). Edges go under `edges`, the
+    /// default of networkx >= 3.6; older networkx reads them with `node_link_graph(d,
+    /// link="edges")`, or export with [`export_node_link`] and `"links"`.
     NodeLink,
     /// GraphML 1.0.
     GraphMl,
@@ -29,7 +31,9 @@ impl std::str::FromStr for ExportFormat {
         match s {
             "node-link" | "nodelink" | "json" => Ok(ExportFormat::NodeLink),
             "graphml" => Ok(ExportFormat::GraphMl),
-            other => Err(Error::InvalidValue(format!("unknown export format {other:?} (node-link or graphml)"))),
+            other => Err(Error::InvalidValue(format!(
+                "unknown export format {other:?} (node-link or graphml)"
+            ))),
         }
     }
 }
@@ -38,7 +42,11 @@ const NODE_RESERVED: &[&str] = &["id", "labels"];
 const EDGE_RESERVED: &[&str] = &["source", "target", "key", "type"];
 
 fn attr_name(name: String, reserved: &[&str]) -> String {
-    if reserved.contains(&name.as_str()) { format!("_{name}") } else { name }
+    if reserved.contains(&name.as_str()) {
+        format!("_{name}")
+    } else {
+        name
+    }
 }
 
 fn io(e: std::io::Error) -> Error {
@@ -49,9 +57,13 @@ fn io(e: std::io::Error) -> Error {
 }
 
 /// Writes the whole graph in `format` to `out`. Returns (nodes, relationships) written.
-pub fn export<R: GraphRead + ?Sized>(r: &R, format: ExportFormat, out: &mut dyn Write) -> Result<(u64, u64)> {
+pub fn export<R: GraphRead + ?Sized>(
+    r: &R,
+    format: ExportFormat,
+    out: &mut dyn Write,
+) -> Result<(u64, u64)> {
     match format {
-        ExportFormat::NodeLink => node_link(r, out),
+        ExportFormat::NodeLink => node_link(r, "edges", out),
         ExportFormat::GraphMl => graphml(r, out),
     }
 }
@@ -68,7 +80,25 @@ fn props_json<R: GraphRead + ?Sized>(
     }
 }
 
-fn node_link<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u64)> {
+/// Node-link JSON with a chosen key for the edge list (`"edges"` or `"links"`).
+pub fn export_node_link<R: GraphRead + ?Sized>(
+    r: &R,
+    edges_key: &str,
+    out: &mut dyn Write,
+) -> Result<(u64, u64)> {
+    if edges_key != "edges" && edges_key != "links" {
+        return Err(Error::InvalidValue(format!(
+            "edge list key must be edges or links, not {edges_key:?}"
+        )));
+    }
+    node_link(r, edges_key, out)
+}
+
+fn node_link<R: GraphRead + ?Sized>(
+    r: &R,
+    edges_key: &str,
+    out: &mut dyn Write,
+) -> Result<(u64, u64)> {
     out.write_all(br#"{"directed": true, "multigraph": true, "graph": {}, "nodes": ["#)
         .map_err(io)?;
     let mut n_nodes = 0;
@@ -87,7 +117,8 @@ fn node_link<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, 
         serde_json::to_writer(&mut *out, &obj).map_err(|e| Error::Storage(e.to_string()))?;
         n_nodes += 1;
     }
-    out.write_all(b"\n], \"links\": [").map_err(io)?;
+    out.write_all(format!("\n], \"{edges_key}\": [").as_bytes())
+        .map_err(io)?;
     let mut n_rels = 0;
     for (i, id) in r.all_rel_ids()?.into_iter().enumerate() {
         let Some(rel) = r.rel(id)? else { continue };
@@ -95,7 +126,10 @@ fn node_link<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, 
         obj.insert("source".into(), rel.start.into());
         obj.insert("target".into(), rel.end.into());
         obj.insert("key".into(), id.into());
-        obj.insert("type".into(), r.name_of(rel.ty.0).unwrap_or_default().into());
+        obj.insert(
+            "type".into(),
+            r.name_of(rel.ty.0).unwrap_or_default().into(),
+        );
         props_json(r, &rel.props, EDGE_RESERVED, &mut obj);
         if i > 0 {
             out.write_all(b",").map_err(io)?;
@@ -165,7 +199,10 @@ fn graphml<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u6
             for (k, v) in &n.props {
                 let name = attr_name(r.name_of(k.0).unwrap_or_default(), NODE_RESERVED);
                 let t = graphml_type(v);
-                node_keys.entry(name).and_modify(|e| *e = unify(e, t)).or_insert(t);
+                node_keys
+                    .entry(name)
+                    .and_modify(|e| *e = unify(e, t))
+                    .or_insert(t);
             }
         }
     }
@@ -174,22 +211,56 @@ fn graphml<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u6
             for (k, v) in &rel.props {
                 let name = attr_name(r.name_of(k.0).unwrap_or_default(), EDGE_RESERVED);
                 let t = graphml_type(v);
-                edge_keys.entry(name).and_modify(|e| *e = unify(e, t)).or_insert(t);
+                edge_keys
+                    .entry(name)
+                    .and_modify(|e| *e = unify(e, t))
+                    .or_insert(t);
             }
         }
     }
     let w = |out: &mut dyn Write, s: &str| out.write_all(s.as_bytes()).map_err(io);
     w(out, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n")?;
-    w(out, "<graphml xmlns=\"http://graphml.graphdrawing.org/xmlns\">\n")?;
-    w(out, "  <key id=\"labels\" for=\"node\" attr.name=\"labels\" attr.type=\"string\"/>\n")?;
-    w(out, "  <key id=\"type\" for=\"edge\" attr.name=\"type\" attr.type=\"string\"/>\n")?;
-    let node_ids_of: BTreeMap<&String, String> = node_keys.keys().enumerate().map(|(i, k)| (k, format!("n{i}"))).collect();
-    let edge_ids_of: BTreeMap<&String, String> = edge_keys.keys().enumerate().map(|(i, k)| (k, format!("e{i}"))).collect();
+    w(
+        out,
+        "<graphml xmlns=\"http://graphml.graphdrawing.org/xmlns\">\n",
+    )?;
+    w(
+        out,
+        "  <key id=\"labels\" for=\"node\" attr.name=\"labels\" attr.type=\"string\"/>\n",
+    )?;
+    w(
+        out,
+        "  <key id=\"type\" for=\"edge\" attr.name=\"type\" attr.type=\"string\"/>\n",
+    )?;
+    let node_ids_of: BTreeMap<&String, String> = node_keys
+        .keys()
+        .enumerate()
+        .map(|(i, k)| (k, format!("n{i}")))
+        .collect();
+    let edge_ids_of: BTreeMap<&String, String> = edge_keys
+        .keys()
+        .enumerate()
+        .map(|(i, k)| (k, format!("e{i}")))
+        .collect();
     for (k, t) in &node_keys {
-        w(out, &format!("  <key id=\"{}\" for=\"node\" attr.name=\"{}\" attr.type=\"{t}\"/>\n", node_ids_of[k], xml_escape(k)))?;
+        w(
+            out,
+            &format!(
+                "  <key id=\"{}\" for=\"node\" attr.name=\"{}\" attr.type=\"{t}\"/>\n",
+                node_ids_of[k],
+                xml_escape(k)
+            ),
+        )?;
     }
     for (k, t) in &edge_keys {
-        w(out, &format!("  <key id=\"{}\" for=\"edge\" attr.name=\"{}\" attr.type=\"{t}\"/>\n", edge_ids_of[k], xml_escape(k)))?;
+        w(
+            out,
+            &format!(
+                "  <key id=\"{}\" for=\"edge\" attr.name=\"{}\" attr.type=\"{t}\"/>\n",
+                edge_ids_of[k],
+                xml_escape(k)
+            ),
+        )?;
     }
     w(out, "  <graph id=\"G\" edgedefault=\"directed\">\n")?;
     let mut n_nodes = 0;
@@ -197,10 +268,17 @@ fn graphml<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u6
         let Some(n) = r.node(id)? else { continue };
         let mut labels: Vec<String> = n.labels.iter().filter_map(|l| r.name_of(l.0)).collect();
         labels.sort();
-        let mut s = format!("    <node id=\"n{id}\"><data key=\"labels\">{}</data>", xml_escape(&labels.iter().map(|l| format!(":{l}")).collect::<String>()));
+        let mut s = format!(
+            "    <node id=\"n{id}\"><data key=\"labels\">{}</data>",
+            xml_escape(&labels.iter().map(|l| format!(":{l}")).collect::<String>())
+        );
         for (k, v) in &n.props {
             let name = attr_name(r.name_of(k.0).unwrap_or_default(), NODE_RESERVED);
-            s.push_str(&format!("<data key=\"{}\">{}</data>", node_ids_of[&name], xml_escape(&graphml_text(v))));
+            s.push_str(&format!(
+                "<data key=\"{}\">{}</data>",
+                node_ids_of[&name],
+                xml_escape(&graphml_text(v))
+            ));
         }
         s.push_str("</node>\n");
         w(out, &s)?;
@@ -217,7 +295,11 @@ fn graphml<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u6
         );
         for (k, v) in &rel.props {
             let name = attr_name(r.name_of(k.0).unwrap_or_default(), EDGE_RESERVED);
-            s.push_str(&format!("<data key=\"{}\">{}</data>", edge_ids_of[&name], xml_escape(&graphml_text(v))));
+            s.push_str(&format!(
+                "<data key=\"{}\">{}</data>",
+                edge_ids_of[&name],
+                xml_escape(&graphml_text(v))
+            ));
         }
         s.push_str("</edge>\n");
         w(out, &s)?;
@@ -238,8 +320,14 @@ mod tests {
 
     #[test]
     fn parses_format_names() {
-        assert_eq!("node-link".parse::<ExportFormat>().unwrap(), ExportFormat::NodeLink);
-        assert_eq!("graphml".parse::<ExportFormat>().unwrap(), ExportFormat::GraphMl);
+        assert_eq!(
+            "node-link".parse::<ExportFormat>().unwrap(),
+            ExportFormat::NodeLink
+        );
+        assert_eq!(
+            "graphml".parse::<ExportFormat>().unwrap(),
+            ExportFormat::GraphMl
+        );
         assert!("csv".parse::<ExportFormat>().is_err());
     }
 }

@@ -23,7 +23,9 @@ pub(crate) fn check(r: &ReadTxn) -> Result<Vec<String>> {
     let mut text: Vec<Vec<_>> = vec![Vec::new(); schema.text.len()];
     for &id in &nodes {
         if id >= next_node {
-            problems.push(format!("node {id} is not below the next node id {next_node}"));
+            problems.push(format!(
+                "node {id} is not below the next node id {next_node}"
+            ));
         }
         let Some(rec) = r.load_rec(id)? else { continue };
         for l in &rec.labels {
@@ -78,12 +80,16 @@ pub(crate) fn check(r: &ReadTxn) -> Result<Vec<String>> {
     let rels = r.all_rels()?;
     for &id in &rels {
         if id >= next_rel {
-            problems.push(format!("relationship {id} is not below the next id {next_rel}"));
+            problems.push(format!(
+                "relationship {id} is not below the next id {next_rel}"
+            ));
         }
         let Some(rel) = r.rel(id)? else { continue };
         for end in [rel.start, rel.end] {
             if !node_set.contains(&end) {
-                problems.push(format!("relationship {id} dangles: node {end} does not exist"));
+                problems.push(format!(
+                    "relationship {id} dangles: node {end} does not exist"
+                ));
             }
         }
         adj_rows.insert(((rel.start, 0u8, rel.ty.0, id), rel.end));
@@ -114,7 +120,9 @@ pub(crate) fn check(r: &ReadTxn) -> Result<Vec<String>> {
     }
     let stored_counts: BTreeMap<(u8, u32), u64> = r.count_rows()?.into_iter().collect();
     if stored_counts != want_counts {
-        problems.push(format!("counts disagree: stored {stored_counts:?}, data says {want_counts:?}"));
+        problems.push(format!(
+            "counts disagree: stored {stored_counts:?}, data says {want_counts:?}"
+        ));
     }
     // in-memory indexes
     let mem: &Mem = &base.mem;

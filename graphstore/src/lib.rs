@@ -23,8 +23,8 @@ pub use model::{Adjacent, Direction, Node, Relationship};
 pub use payload::{DEFAULT_RESOLUTION_M, PointCloud};
 pub use read::{GraphRead, Hit, ValueBound, View};
 pub use schema::{
-    FEATURE_DIM, LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec, TextIndexSpec,
-    VectorIndexSpec, opengraph_schema,
+    FEATURE_DIM, LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec,
+    TextIndexSpec, VectorIndexSpec, opengraph_schema,
 };
 pub use store::{Committed, FORMAT_VERSION, GraphCounts, Store};
 pub use tokens::{LabelId, PropKey, RelType};

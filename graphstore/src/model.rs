@@ -56,7 +56,11 @@ impl Relationship {
 
     /// The node at the other end from `node`.
     pub fn other(&self, node: u64) -> u64 {
-        if self.start == node { self.end } else { self.start }
+        if self.start == node {
+            self.end
+        } else {
+            self.start
+        }
     }
 }
 
@@ -122,6 +126,9 @@ mod tests {
             (PropKey(2), Value::Int(9)),
             (PropKey(3), Value::Null),
         ]);
-        assert_eq!(p, vec![(PropKey(1), Value::Int(5)), (PropKey(2), Value::Int(9))]);
+        assert_eq!(
+            p,
+            vec![(PropKey(1), Value::Int(5)), (PropKey(2), Value::Int(9))]
+        );
     }
 }

@@ -38,16 +38,21 @@ impl PointCloud {
             )));
         }
         if !(resolution_m.is_finite() && resolution_m > 0.0) {
-            return Err(Error::InvalidValue(format!("resolution {resolution_m} m must be positive")));
+            return Err(Error::InvalidValue(format!(
+                "resolution {resolution_m} m must be positive"
+            )));
         }
-        let n = u32::try_from(self.xyz.len()).map_err(|_| Error::InvalidValue("point cloud too large".into()))?;
+        let n = u32::try_from(self.xyz.len())
+            .map_err(|_| Error::InvalidValue("point cloud too large".into()))?;
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for p in &self.xyz {
             for i in 0..3 {
                 let c = f64::from(p[i]);
                 if !c.is_finite() {
-                    return Err(Error::InvalidValue("point cloud contains NaN or inf".into()));
+                    return Err(Error::InvalidValue(
+                        "point cloud contains NaN or inf".into(),
+                    ));
                 }
                 lo[i] = lo[i].min(c);
                 hi[i] = hi[i].max(c);
@@ -115,9 +120,13 @@ impl PointCloud {
         if want > 64 * bytes.len() + 1024 {
             return Err(bad("declared size does not match the data"));
         }
-        let planes = lz4_flex::block::decompress_size_prepended(&bytes[HEADER..]).map_err(|e| bad(&e.to_string()))?;
+        let planes = lz4_flex::block::decompress_size_prepended(&bytes[HEADER..])
+            .map_err(|e| bad(&e.to_string()))?;
         if planes.len() != want {
-            return Err(bad(&format!("expected {want} bytes, found {}", planes.len())));
+            return Err(bad(&format!(
+                "expected {want} bytes, found {}",
+                planes.len()
+            )));
         }
         let mut xyz = Vec::with_capacity(n);
         for j in 0..n {
@@ -132,7 +141,10 @@ impl PointCloud {
             xyz.push(p);
         }
         let rgb = if has_rgb {
-            planes[n * 12..].chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+            planes[n * 12..]
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect()
         } else {
             Vec::new()
         };
@@ -183,6 +195,13 @@ mod tests {
         let cloud = PointCloud { xyz, rgb: vec![] };
         let bytes = cloud.encode().unwrap();
         assert!(bytes.len() < 20_000 * 12, "{} bytes", bytes.len());
-        assert!(PointCloud { xyz: vec![[f32::NAN, 0.0, 0.0]], rgb: vec![] }.encode().is_err());
+        assert!(
+            PointCloud {
+                xyz: vec![[f32::NAN, 0.0, 0.0]],
+                rgb: vec![]
+            }
+            .encode()
+            .is_err()
+        );
     }
 }

@@ -13,6 +13,9 @@ use crate::tokens::{LabelId, PropKey, RelType, TokenKind};
 use crate::txn::NodeRec;
 use crate::value::Value;
 
+/// An adjacency row: `(node, direction, type, rel)` and the node at the other end.
+pub(crate) type AdjRow = ((u64, u8, u32, u64), u64);
+
 /// Low-level access implemented by both transaction kinds.
 pub(crate) trait Raw {
     fn base(&self) -> &Arc<Committed>;
@@ -30,7 +33,7 @@ pub(crate) trait Raw {
     fn payload_keys(&self, node: u64) -> Result<Vec<String>>;
     fn all_nodes(&self) -> Result<Vec<u64>>;
     fn all_rels(&self) -> Result<Vec<u64>>;
-    fn raw_adjacency_rows(&self) -> Result<Vec<((u64, u8, u32, u64), u64)>>;
+    fn raw_adjacency_rows(&self) -> Result<Vec<AdjRow>>;
     fn raw_label_rows(&self) -> Result<Vec<(u32, u64)>>;
     fn raw_propidx_rows(&self) -> Result<Vec<Vec<u8>>>;
     fn next_ids(&self) -> Result<(u64, u64)>;
@@ -114,8 +117,14 @@ pub trait GraphRead {
 
     /// One property of a node, by name (None if the node or property is missing).
     fn node_prop(&self, id: u64, key: &str) -> Result<Option<Value>> {
-        let Some(k) = self.prop_key(key) else { return Ok(None) };
-        Ok(self.view().raw.load_rec(id)?.and_then(|r| r.get(k.0).cloned()))
+        let Some(k) = self.prop_key(key) else {
+            return Ok(None);
+        };
+        Ok(self
+            .view()
+            .raw
+            .load_rec(id)?
+            .and_then(|r| r.get(k.0).cloned()))
     }
 
     /// The relationships at `node`, optionally of one type, sorted by (direction, type, rel).
@@ -124,12 +133,16 @@ pub trait GraphRead {
         let t = ty.map(|t| t.0);
         let mut out = Vec::new();
         if matches!(dir, Direction::Outgoing | Direction::Both) {
-            out.extend(raw.adj(node, 0, t)?.into_iter().map(|(rel, ty, other)| Adjacent {
-                rel,
-                ty: RelType(ty),
-                other,
-                outgoing: true,
-            }));
+            out.extend(
+                raw.adj(node, 0, t)?
+                    .into_iter()
+                    .map(|(rel, ty, other)| Adjacent {
+                        rel,
+                        ty: RelType(ty),
+                        other,
+                        outgoing: true,
+                    }),
+            );
         }
         if matches!(dir, Direction::Incoming | Direction::Both) {
             out.extend(
@@ -175,39 +188,65 @@ pub trait GraphRead {
         let (Some(l), Some(k)) = (self.label(label), self.prop_key(key)) else {
             return false;
         };
-        self.view().raw.base().schema.prop_index_of.contains_key(&(l.0, k.0))
+        self.view()
+            .raw
+            .base()
+            .schema
+            .prop_index_of
+            .contains_key(&(l.0, k.0))
     }
 
     /// Nodes with `label` whose `key` equals `value`, through the property index.
     /// Numbers compare by value (2 = 2.0), as in Cypher.
     fn find_nodes(&self, label: &str, key: &str, value: &Value) -> Result<Vec<u64>> {
         let idx = property_index(self.view(), label, key)?;
-        let Some(idx) = idx else { return Ok(Vec::new()) };
-        let Some(sk) = sort_key(value) else { return Ok(Vec::new()) };
+        let Some(idx) = idx else {
+            return Ok(Vec::new());
+        };
+        let Some(sk) = sort_key(value) else {
+            return Ok(Vec::new());
+        };
         let mut lo = index_prefix(idx);
         lo.extend_from_slice(&sk);
         let mut hi = lo.clone();
         hi.extend_from_slice(&[0xff; 8]);
-        let ids = self.view().raw.propidx(Bound::Included(&lo), Bound::Included(&hi))?;
+        let ids = self
+            .view()
+            .raw
+            .propidx(Bound::Included(&lo), Bound::Included(&hi))?;
         verify_exact(self.view(), label, key, ids, value, value)
     }
 
     /// Nodes with `label` whose `key` lies in the range, ascending by value then id. Only
     /// values of the bounds' type family (numbers, strings or booleans) match.
-    fn find_range(&self, label: &str, key: &str, lower: ValueBound, upper: ValueBound) -> Result<Vec<u64>> {
+    fn find_range(
+        &self,
+        label: &str,
+        key: &str,
+        lower: ValueBound,
+        upper: ValueBound,
+    ) -> Result<Vec<u64>> {
         let Some(idx) = property_index(self.view(), label, key)? else {
             return Ok(Vec::new());
         };
         let class_of = |b: &ValueBound| match b {
             ValueBound::Unbounded => Ok(None),
-            ValueBound::Inclusive(v) | ValueBound::Exclusive(v) => sort_key(v)
-                .map(|k| Some(k[0]))
-                .ok_or_else(|| Error::InvalidValue(format!("range bound {v:?} is not a number, string or boolean"))),
+            ValueBound::Inclusive(v) | ValueBound::Exclusive(v) => {
+                sort_key(v).map(|k| Some(k[0])).ok_or_else(|| {
+                    Error::InvalidValue(format!(
+                        "range bound {v:?} is not a number, string or boolean"
+                    ))
+                })
+            }
         };
         let class = match (class_of(&lower)?, class_of(&upper)?) {
             (Some(a), Some(b)) if a != b => return Ok(Vec::new()),
             (Some(a), _) | (None, Some(a)) => a,
-            (None, None) => return Err(Error::InvalidValue("a range needs at least one bound".into())),
+            (None, None) => {
+                return Err(Error::InvalidValue(
+                    "a range needs at least one bound".into(),
+                ));
+            }
         };
         debug_assert!([K_BOOL, K_NUMBER, K_STRING].contains(&class));
         let p = index_prefix(idx);
@@ -254,7 +293,12 @@ pub trait GraphRead {
             let raw = self.view().raw;
             let mut kept = Vec::with_capacity(ids.len());
             for id in ids {
-                let v = k.and_then(|k| raw.load_rec(id).ok().flatten().and_then(|r| r.get(k.0).cloned()));
+                let v = k.and_then(|k| {
+                    raw.load_rec(id)
+                        .ok()
+                        .flatten()
+                        .and_then(|r| r.get(k.0).cloned())
+                });
                 if v.is_some_and(|v| in_range(&v, &lower, &upper)) {
                     kept.push(id);
                 }
@@ -268,7 +312,11 @@ pub trait GraphRead {
     fn spatial_in_box(&self, index: &str, min: [f64; 3], max: [f64; 3]) -> Result<Vec<u64>> {
         let raw = self.view().raw;
         let i = raw.base().schema.spatial_by_name(index)?;
-        Ok(spatial::in_box(&raw.base().mem.spatial[i], raw.pending_mem().map(|p| &p.spatial[i]), (min, max)))
+        Ok(spatial::in_box(
+            &raw.base().mem.spatial[i],
+            raw.pending_mem().map(|p| &p.spatial[i]),
+            (min, max),
+        ))
     }
 
     /// Nodes of a spatial index within `radius_m` of `center` (distance to the box), nearest
@@ -277,12 +325,19 @@ pub trait GraphRead {
         let raw = self.view().raw;
         let i = raw.base().schema.spatial_by_name(index)?;
         if !(radius_m >= 0.0 && radius_m.is_finite()) || center.iter().any(|c| !c.is_finite()) {
-            return Err(Error::InvalidValue(format!("radius {radius_m} m or centre {center:?} is not finite and non-negative")));
+            return Err(Error::InvalidValue(format!(
+                "radius {radius_m} m or centre {center:?} is not finite and non-negative"
+            )));
         }
-        Ok(spatial::within(&raw.base().mem.spatial[i], raw.pending_mem().map(|p| &p.spatial[i]), center, radius_m)
-            .into_iter()
-            .map(|(node, d)| Hit { node, score: d })
-            .collect())
+        Ok(spatial::within(
+            &raw.base().mem.spatial[i],
+            raw.pending_mem().map(|p| &p.spatial[i]),
+            center,
+            radius_m,
+        )
+        .into_iter()
+        .map(|(node, d)| Hit { node, score: d })
+        .collect())
     }
 
     /// The `k` nodes of a spatial index nearest to `center`, nearest first.
@@ -290,12 +345,19 @@ pub trait GraphRead {
         let raw = self.view().raw;
         let i = raw.base().schema.spatial_by_name(index)?;
         if center.iter().any(|c| !c.is_finite()) {
-            return Err(Error::InvalidValue(format!("centre {center:?} is not finite")));
+            return Err(Error::InvalidValue(format!(
+                "centre {center:?} is not finite"
+            )));
         }
-        Ok(spatial::nearest(&raw.base().mem.spatial[i], raw.pending_mem().map(|p| &p.spatial[i]), center, k)
-            .into_iter()
-            .map(|(node, d)| Hit { node, score: d })
-            .collect())
+        Ok(spatial::nearest(
+            &raw.base().mem.spatial[i],
+            raw.pending_mem().map(|p| &p.spatial[i]),
+            center,
+            k,
+        )
+        .into_iter()
+        .map(|(node, d)| Hit { node, score: d })
+        .collect())
     }
 
     /// Exact top-k by cosine similarity in a vector index, best first (ties by id).
@@ -304,25 +366,41 @@ pub trait GraphRead {
         let i = raw.base().schema.vector_by_name(index)?;
         let dim = raw.base().schema.vector[i].params.dim;
         if query.len() != dim {
-            return Err(Error::InvalidValue(format!("query has {} dimensions, index {index:?} has {dim}", query.len())));
+            return Err(Error::InvalidValue(format!(
+                "query has {} dimensions, index {index:?} has {dim}",
+                query.len()
+            )));
         }
         if query.iter().any(|x| !x.is_finite()) {
             return Err(Error::InvalidValue("query vector has NaN or inf".into()));
         }
-        Ok(vector::top_k(&raw.base().mem.vector[i], raw.pending_mem().map(|p| &p.vector[i]), query, k)
-            .into_iter()
-            .map(|(node, s)| Hit { node, score: f64::from(s) })
-            .collect())
+        Ok(vector::top_k(
+            &raw.base().mem.vector[i],
+            raw.pending_mem().map(|p| &p.vector[i]),
+            query,
+            k,
+        )
+        .into_iter()
+        .map(|(node, s)| Hit {
+            node,
+            score: f64::from(s),
+        })
+        .collect())
     }
 
     /// BM25 search in a text index, best first (ties by id).
     fn text_search(&self, index: &str, query: &str, k: usize) -> Result<Vec<Hit>> {
         let raw = self.view().raw;
         let i = raw.base().schema.text_by_name(index)?;
-        Ok(text::search(&raw.base().mem.text[i], raw.pending_mem().map(|p| &p.text[i]), query, k)
-            .into_iter()
-            .map(|(node, score)| Hit { node, score })
-            .collect())
+        Ok(text::search(
+            &raw.base().mem.text[i],
+            raw.pending_mem().map(|p| &p.text[i]),
+            query,
+            k,
+        )
+        .into_iter()
+        .map(|(node, score)| Hit { node, score })
+        .collect())
     }
 
     /// A payload stored beside a node.
@@ -337,7 +415,9 @@ pub trait GraphRead {
 
     /// A point cloud stored with [`crate::WriteTxn::put_point_cloud`].
     fn point_cloud(&self, node: u64, key: &str) -> Result<Option<PointCloud>> {
-        self.payload(node, key)?.map(|b| PointCloud::decode(&b)).transpose()
+        self.payload(node, key)?
+            .map(|b| PointCloud::decode(&b))
+            .transpose()
     }
 
     /// Node and relationship counts by label and type name.
@@ -363,12 +443,22 @@ pub trait GraphRead {
 
     /// Names of all labels the store knows (committed ones), sorted.
     fn label_names(&self) -> Vec<String> {
-        self.view().raw.base().tokens.all(TokenKind::Label).into_iter().map(|(_, n)| n).collect()
+        self.view()
+            .raw
+            .base()
+            .tokens
+            .all(TokenKind::Label)
+            .into_iter()
+            .map(|(_, n)| n)
+            .collect()
     }
 }
 
 fn property_index(v: View<'_>, label: &str, key: &str) -> Result<Option<u32>> {
-    let (Some(l), Some(k)) = (v.raw.token(TokenKind::Label, label), v.raw.token(TokenKind::PropKey, key)) else {
+    let (Some(l), Some(k)) = (
+        v.raw.token(TokenKind::Label, label),
+        v.raw.token(TokenKind::PropKey, key),
+    ) else {
         // an unknown label or key has no nodes, but an undeclared index is an error
         let declared = v
             .raw
@@ -401,16 +491,29 @@ fn property_index(v: View<'_>, label: &str, key: &str) -> Result<Option<u32>> {
 }
 
 /// Index keys compare integers as f64; for integers f64 cannot hold exactly, re-check.
-fn verify_exact(v: View<'_>, _label: &str, key: &str, ids: Vec<u64>, lo: &Value, hi: &Value) -> Result<Vec<u64>> {
+fn verify_exact(
+    v: View<'_>,
+    _label: &str,
+    key: &str,
+    ids: Vec<u64>,
+    lo: &Value,
+    hi: &Value,
+) -> Result<Vec<u64>> {
     let big = |x: &Value| matches!(x, Value::Int(i) if !int_exact_in_f64(*i));
     if !big(lo) && !big(hi) {
         return Ok(ids);
     }
-    let Some(k) = v.raw.token(TokenKind::PropKey, key) else { return Ok(Vec::new()) };
+    let Some(k) = v.raw.token(TokenKind::PropKey, key) else {
+        return Ok(Vec::new());
+    };
     let mut out = Vec::new();
     for id in ids {
         if let Some(val) = v.raw.load_rec(id)?.and_then(|r| r.get(k).cloned())
-            && in_range(&val, &ValueBound::Inclusive(lo.clone()), &ValueBound::Inclusive(hi.clone()))
+            && in_range(
+                &val,
+                &ValueBound::Inclusive(lo.clone()),
+                &ValueBound::Inclusive(hi.clone()),
+            )
         {
             out.push(id);
         }

@@ -175,7 +175,10 @@ impl Schema {
         }
         for v in &self.vector_indexes {
             if v.dim == 0 || v.dim > 65_536 {
-                return err(format!("vector index {:?}: dim {} is out of range 1..=65536", v.name, v.dim));
+                return err(format!(
+                    "vector index {:?}: dim {} is out of range 1..=65536",
+                    v.name, v.dim
+                ));
             }
         }
         for (label, rule) in &self.labels {
@@ -185,7 +188,10 @@ impl Schema {
                     return err(format!("label {label}: property {:?} has two rules", p.key));
                 }
                 if p.required && p.ty == ValueType::Null {
-                    return err(format!("label {label}: required property {:?} cannot be of type null", p.key));
+                    return err(format!(
+                        "label {label}: required property {:?} cannot be of type null",
+                        p.key
+                    ));
                 }
             }
         }
@@ -209,10 +215,20 @@ impl Schema {
                 }
             }
         }
-        add(&mut self.property_indexes, &other.property_indexes, |a, b| a == b);
-        add(&mut self.spatial_indexes, &other.spatial_indexes, |a, b| a.name == b.name);
-        add(&mut self.vector_indexes, &other.vector_indexes, |a, b| a.name == b.name);
-        add(&mut self.text_indexes, &other.text_indexes, |a, b| a.name == b.name);
+        add(
+            &mut self.property_indexes,
+            &other.property_indexes,
+            |a, b| a == b,
+        );
+        add(&mut self.spatial_indexes, &other.spatial_indexes, |a, b| {
+            a.name == b.name
+        });
+        add(&mut self.vector_indexes, &other.vector_indexes, |a, b| {
+            a.name == b.name
+        });
+        add(&mut self.text_indexes, &other.text_indexes, |a, b| {
+            a.name == b.name
+        });
     }
 }
 
@@ -267,15 +283,23 @@ pub fn opengraph_schema() -> Schema {
                 opt("bbox", T::Box3D),
             ],
             unique: vec!["segment_id".into()],
-            description: "Road segment: intersection, t_intersection, l_intersection or straight_roadway.".into(),
+            description:
+                "Road segment: intersection, t_intersection, l_intersection or straight_roadway."
+                    .into(),
         },
     );
     s.labels.insert(
         "LaneNode".into(),
         LabelRule {
-            properties: vec![req("lane_id", T::Int), req("kind", T::String), req("position", T::Point3D)],
+            properties: vec![
+                req("lane_id", T::Int),
+                req("kind", T::String),
+                req("position", T::Point3D),
+            ],
             unique: vec!["lane_id".into()],
-            description: "Lane-graph vertex: intersection, t_intersection, l_intersection or breakpoint.".into(),
+            description:
+                "Lane-graph vertex: intersection, t_intersection, l_intersection or breakpoint."
+                    .into(),
         },
     );
     s.labels.insert(
@@ -313,24 +337,44 @@ pub fn opengraph_schema() -> Schema {
     );
     s.relationships.insert(
         "CONTAINS".into(),
-        rel(&["Environment"], &["Segment"], vec![], "Environment to each of its segments."),
+        rel(
+            &["Environment"],
+            &["Segment"],
+            vec![],
+            "Environment to each of its segments.",
+        ),
     );
     s.relationships.insert(
         "CONNECTS".into(),
-        rel(&["Segment"], &["Segment"], vec![], "Traversable adjacency between segments."),
+        rel(
+            &["Segment"],
+            &["Segment"],
+            vec![],
+            "Traversable adjacency between segments.",
+        ),
     );
     s.relationships.insert(
         "LANE".into(),
         rel(
             &["LaneNode"],
             &["LaneNode"],
-            vec![req("length_m", T::Float), opt("polyline", T::List), opt("frames", T::List), opt("directed", T::Bool)],
+            vec![
+                req("length_m", T::Float),
+                opt("polyline", T::List),
+                opt("frames", T::List),
+                opt("directed", T::Bool),
+            ],
             "Lane-graph edge with its metric polyline.",
         ),
     );
     s.relationships.insert(
         "IN_SEGMENT".into(),
-        rel(&["Instance", "LaneNode"], &["Segment"], vec![opt("distance_m", T::Float)], "Membership in the closest segment."),
+        rel(
+            &["Instance", "LaneNode"],
+            &["Segment"],
+            vec![opt("distance_m", T::Float)],
+            "Membership in the closest segment.",
+        ),
     );
     s.relationships.insert(
         "RELATED".into(),
@@ -348,12 +392,26 @@ pub fn opengraph_schema() -> Schema {
     );
     s.relationships.insert(
         "OBSERVED_IN".into(),
-        rel(&["Instance"], &["Frame"], vec![opt("detections", T::Int)], "Instance seen in a key frame."),
+        rel(
+            &["Instance"],
+            &["Frame"],
+            vec![opt("detections", T::Int)],
+            "Instance seen in a key frame.",
+        ),
     );
     s.property_indexes = vec![
-        PropertyIndexSpec { label: "Instance".into(), key: "class".into() },
-        PropertyIndexSpec { label: "LaneNode".into(), key: "kind".into() },
-        PropertyIndexSpec { label: "Segment".into(), key: "kind".into() },
+        PropertyIndexSpec {
+            label: "Instance".into(),
+            key: "class".into(),
+        },
+        PropertyIndexSpec {
+            label: "LaneNode".into(),
+            key: "kind".into(),
+        },
+        PropertyIndexSpec {
+            label: "Segment".into(),
+            key: "kind".into(),
+        },
     ];
     s.spatial_indexes = vec![
         SpatialIndexSpec {
@@ -403,7 +461,10 @@ mod tests {
         assert_eq!(back, s);
         let idx = s.effective_property_indexes();
         assert!(idx.iter().any(|i| i.label == "Frame" && i.key == "index"));
-        assert!(idx.iter().any(|i| i.label == "Instance" && i.key == "class"));
+        assert!(
+            idx.iter()
+                .any(|i| i.label == "Instance" && i.key == "class")
+        );
     }
 
     #[test]

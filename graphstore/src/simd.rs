@@ -82,7 +82,10 @@ unsafe fn dot_f32_avx2(a: &[f32], b: &[f32]) -> f32 {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn dot_i8_rows_avx2(query: &[i8], rows: &[i8], out: &mut Vec<i32>) {
-    out.extend(rows.chunks_exact(query.len()).map(|r| dot_i8_portable(query, r)));
+    out.extend(
+        rows.chunks_exact(query.len())
+            .map(|r| dot_i8_portable(query, r)),
+    );
 }
 
 #[cfg(test)]
@@ -91,15 +94,23 @@ mod tests {
 
     #[test]
     fn kernels_match_naive() {
-        let a: Vec<f32> = (0..389).map(|i| ((i * 7) % 13) as f32 * 0.1 - 0.6).collect();
-        let b: Vec<f32> = (0..389).map(|i| ((i * 5) % 11) as f32 * 0.1 - 0.5).collect();
+        let a: Vec<f32> = (0..389)
+            .map(|i| ((i * 7) % 13) as f32 * 0.1 - 0.6)
+            .collect();
+        let b: Vec<f32> = (0..389)
+            .map(|i| ((i * 5) % 11) as f32 * 0.1 - 0.5)
+            .collect();
         let naive: f32 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
         assert!((dot_f32(&a, &b) - naive).abs() < 1e-4);
         assert!((dot_f32_portable(&a, &b) - naive).abs() < 1e-4);
 
         let qa: Vec<i8> = (0..389).map(|i| ((i * 37) % 255) as i16 as i8).collect();
         let qb: Vec<i8> = (0..389).map(|i| ((i * 91) % 253) as i16 as i8).collect();
-        let naive_i: i32 = qa.iter().zip(&qb).map(|(x, y)| i32::from(*x) * i32::from(*y)).sum();
+        let naive_i: i32 = qa
+            .iter()
+            .zip(&qb)
+            .map(|(x, y)| i32::from(*x) * i32::from(*y))
+            .sum();
         assert_eq!(dot_i8_portable(&qa, &qb), naive_i);
         let mut out = Vec::new();
         let rows: Vec<i8> = qb.iter().chain(qa.iter()).copied().collect();

@@ -27,15 +27,19 @@ pub(crate) const TOKENS: TableDefinition<'static, u32, &str> = TableDefinition::
 pub(crate) const NODES: TableDefinition<'static, u64, &[u8]> = TableDefinition::new("og_nodes");
 pub(crate) const RELS: TableDefinition<'static, u64, &[u8]> = TableDefinition::new("og_rels");
 /// (node, direction 0=out 1=in, type, rel) -> other node
-pub(crate) const ADJ: TableDefinition<'static, (u64, u8, u32, u64), u64> = TableDefinition::new("og_adj");
+pub(crate) const ADJ: TableDefinition<'static, (u64, u8, u32, u64), u64> =
+    TableDefinition::new("og_adj");
 /// (label, node)
-pub(crate) const LABELS: TableDefinition<'static, (u32, u64), ()> = TableDefinition::new("og_labels");
+pub(crate) const LABELS: TableDefinition<'static, (u32, u64), ()> =
+    TableDefinition::new("og_labels");
 /// index id (4 BE) | sortable value | node (8 BE)
 pub(crate) const PROPIDX: TableDefinition<'static, &[u8], ()> = TableDefinition::new("og_propidx");
 /// (kind, token) -> count; kind 0 = label, 1 = relationship type, 2 = totals (0 nodes, 1 rels)
-pub(crate) const COUNTS: TableDefinition<'static, (u8, u32), u64> = TableDefinition::new("og_counts");
+pub(crate) const COUNTS: TableDefinition<'static, (u8, u32), u64> =
+    TableDefinition::new("og_counts");
 /// (node, key) -> bytes
-pub(crate) const PAYLOADS: TableDefinition<'static, (u64, &str), &[u8]> = TableDefinition::new("og_payloads");
+pub(crate) const PAYLOADS: TableDefinition<'static, (u64, &str), &[u8]> =
+    TableDefinition::new("og_payloads");
 
 pub(crate) const K_NEXT_NODE: &str = "next_node_id";
 pub(crate) const K_NEXT_REL: &str = "next_rel_id";
@@ -72,9 +76,24 @@ impl PendingMem {
 impl Mem {
     fn commit(&self, p: PendingMem) -> Mem {
         Mem {
-            spatial: self.spatial.iter().zip(p.spatial).map(|(s, p)| s.commit(p)).collect(),
-            vector: self.vector.iter().zip(p.vector).map(|(s, p)| s.commit(p)).collect(),
-            text: self.text.iter().zip(p.text).map(|(s, p)| s.commit(p)).collect(),
+            spatial: self
+                .spatial
+                .iter()
+                .zip(p.spatial)
+                .map(|(s, p)| s.commit(p))
+                .collect(),
+            vector: self
+                .vector
+                .iter()
+                .zip(p.vector)
+                .map(|(s, p)| s.commit(p))
+                .collect(),
+            text: self
+                .text
+                .iter()
+                .zip(p.text)
+                .map(|(s, p)| s.commit(p))
+                .collect(),
         }
     }
 }
@@ -112,7 +131,8 @@ fn open_error(path: &Path, e: redb::DatabaseError) -> Error {
             detail: d,
         },
         redb::DatabaseError::Storage(redb::StorageError::Io(io))
-            if io.kind() == std::io::ErrorKind::InvalidData || io.kind() == std::io::ErrorKind::UnexpectedEof =>
+            if io.kind() == std::io::ErrorKind::InvalidData
+                || io.kind() == std::io::ErrorKind::UnexpectedEof =>
         {
             Error::Corrupt {
                 what: path.display().to_string(),
@@ -145,7 +165,10 @@ impl Store {
     }
 
     fn open_inner(path: &Path, create: bool) -> Result<Store> {
-        let existed = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+        let existed = path.exists()
+            && std::fs::metadata(path)
+                .map(|m| m.len() > 0)
+                .unwrap_or(false);
         // redb panics deep inside on some malformed headers in older versions; guard the
         // open so a hostile file can only ever produce an error.
         let opened = std::panic::catch_unwind(|| {
@@ -173,7 +196,9 @@ impl Store {
                 .collect();
             if !names.iter().any(|n| n == META.name()) {
                 if existed && !names.is_empty() {
-                    return Err(Error::NotAStore { path: path.to_path_buf() });
+                    return Err(Error::NotAStore {
+                        path: path.to_path_buf(),
+                    });
                 }
                 true
             } else {
@@ -184,11 +209,14 @@ impl Store {
             {
                 let mut meta = wtx.open_table(META).map_err(storage)?;
                 meta.insert(K_MAGIC, MAGIC).map_err(storage)?;
-                meta.insert(K_VERSION, FORMAT_VERSION.to_le_bytes().as_slice()).map_err(storage)?;
+                meta.insert(K_VERSION, FORMAT_VERSION.to_le_bytes().as_slice())
+                    .map_err(storage)?;
                 let schema = serde_json::to_vec(&Schema::default()).map_err(storage)?;
                 meta.insert(K_SCHEMA, schema.as_slice()).map_err(storage)?;
-                meta.insert(K_NEXT_NODE, 0u64.to_le_bytes().as_slice()).map_err(storage)?;
-                meta.insert(K_NEXT_REL, 0u64.to_le_bytes().as_slice()).map_err(storage)?;
+                meta.insert(K_NEXT_NODE, 0u64.to_le_bytes().as_slice())
+                    .map_err(storage)?;
+                meta.insert(K_NEXT_REL, 0u64.to_le_bytes().as_slice())
+                    .map_err(storage)?;
                 wtx.open_table(TOKENS).map_err(storage)?;
                 wtx.open_table(NODES).map_err(storage)?;
                 wtx.open_table(RELS).map_err(storage)?;
@@ -208,10 +236,14 @@ impl Store {
             meta.get(k)
                 .map_err(storage)?
                 .map(|g| g.value().to_vec())
-                .ok_or_else(|| Error::NotAStore { path: path.to_path_buf() })
+                .ok_or_else(|| Error::NotAStore {
+                    path: path.to_path_buf(),
+                })
         };
         if get(K_MAGIC)? != MAGIC {
-            return Err(Error::NotAStore { path: path.to_path_buf() });
+            return Err(Error::NotAStore {
+                path: path.to_path_buf(),
+            });
         }
         let vb = get(K_VERSION)?;
         let found = <[u8; 4]>::try_from(vb.as_slice())
@@ -405,52 +437,53 @@ impl Store {
 
 /// Builds the in-memory indexes from what `r` sees.
 fn build_mem(r: &ReadTxn) -> Result<Mem> {
-        let c = r.base().schema.clone();
-        let mut spatial: Vec<Vec<(u64, crate::index::spatial::Aabb)>> = vec![Vec::new(); c.spatial.len()];
-        let mut vector: Vec<Vec<(u64, crate::index::vector::Unit)>> = vec![Vec::new(); c.vector.len()];
-        let mut text: Vec<Vec<(u64, Doc)>> = vec![Vec::new(); c.text.len()];
-        let mut labels: Vec<u32> = c
-            .spatial
-            .iter()
-            .map(|s| s.label)
-            .chain(c.vector.iter().map(|v| v.label))
-            .chain(c.text.iter().map(|t| t.label))
-            .collect();
-        labels.sort_unstable();
-        labels.dedup();
-        let mut seen = std::collections::HashSet::new();
-        for l in labels {
-            for id in r.label_scan(crate::LabelId(l))? {
-                if !seen.insert(id) {
-                    continue;
+    let c = r.base().schema.clone();
+    let mut spatial: Vec<Vec<(u64, crate::index::spatial::Aabb)>> =
+        vec![Vec::new(); c.spatial.len()];
+    let mut vector: Vec<Vec<(u64, crate::index::vector::Unit)>> = vec![Vec::new(); c.vector.len()];
+    let mut text: Vec<Vec<(u64, Doc)>> = vec![Vec::new(); c.text.len()];
+    let mut labels: Vec<u32> = c
+        .spatial
+        .iter()
+        .map(|s| s.label)
+        .chain(c.vector.iter().map(|v| v.label))
+        .chain(c.text.iter().map(|t| t.label))
+        .collect();
+    labels.sort_unstable();
+    labels.dedup();
+    let mut seen = std::collections::HashSet::new();
+    for l in labels {
+        for id in r.label_scan(crate::LabelId(l))? {
+            if !seen.insert(id) {
+                continue;
+            }
+            let Some(rec) = r.load_rec(id)? else { continue };
+            for (i, s) in c.spatial.iter().enumerate() {
+                if let Some(e) = spatial_entry(s, &rec) {
+                    spatial[i].push((id, e));
                 }
-                let Some(rec) = r.load_rec(id)? else { continue };
-                for (i, s) in c.spatial.iter().enumerate() {
-                    if let Some(e) = spatial_entry(s, &rec) {
-                        spatial[i].push((id, e));
-                    }
+            }
+            for (i, v) in c.vector.iter().enumerate() {
+                if let Some(e) = vector_entry(v, &rec) {
+                    vector[i].push((id, e));
                 }
-                for (i, v) in c.vector.iter().enumerate() {
-                    if let Some(e) = vector_entry(v, &rec) {
-                        vector[i].push((id, e));
-                    }
-                }
-                for (i, t) in c.text.iter().enumerate() {
-                    if let Some(e) = text_entry(t, &rec) {
-                        text[i].push((id, e));
-                    }
+            }
+            for (i, t) in c.text.iter().enumerate() {
+                if let Some(e) = text_entry(t, &rec) {
+                    text[i].push((id, e));
                 }
             }
         }
-        Ok(Mem {
-            spatial: spatial.into_iter().map(|e| Stack::new((), e)).collect(),
-            vector: vector
-                .into_iter()
-                .zip(&c.vector)
-                .map(|(e, v)| Stack::new(v.params, e))
-                .collect(),
-            text: text.into_iter().map(|e| Stack::new((), e)).collect(),
-        })
+    }
+    Ok(Mem {
+        spatial: spatial.into_iter().map(|e| Stack::new((), e)).collect(),
+        vector: vector
+            .into_iter()
+            .zip(&c.vector)
+            .map(|(e, v)| Stack::new(v.params, e))
+            .collect(),
+        text: text.into_iter().map(|e| Stack::new((), e)).collect(),
+    })
 }
 
 /// Node and relationship counts by label and type.
@@ -480,25 +513,45 @@ fn compile_readonly(schema: &Schema, tokens: &Tokens) -> Result<Compiled> {
     };
     Compiled::compile(
         schema,
-        |n| tokens.get(TokenKind::Label, n).ok_or_else(|| missing(TokenKind::Label, n)),
-        |n| tokens.get(TokenKind::RelType, n).ok_or_else(|| missing(TokenKind::RelType, n)),
-        |n| tokens.get(TokenKind::PropKey, n).ok_or_else(|| missing(TokenKind::PropKey, n)),
+        |n| {
+            tokens
+                .get(TokenKind::Label, n)
+                .ok_or_else(|| missing(TokenKind::Label, n))
+        },
+        |n| {
+            tokens
+                .get(TokenKind::RelType, n)
+                .ok_or_else(|| missing(TokenKind::RelType, n))
+        },
+        |n| {
+            tokens
+                .get(TokenKind::PropKey, n)
+                .ok_or_else(|| missing(TokenKind::PropKey, n))
+        },
     )
 }
 
 // ---- index entries derived from a node record ----
 
-pub(crate) fn spatial_entry(s: &crate::compiled::CSpatial, rec: &NodeRec) -> Option<crate::index::spatial::Aabb> {
+pub(crate) fn spatial_entry(
+    s: &crate::compiled::CSpatial,
+    rec: &NodeRec,
+) -> Option<crate::index::spatial::Aabb> {
     if !rec.has_label(s.label) {
         return None;
     }
     if let Some(b) = s.bbox.and_then(|k| rec.get(k)).and_then(Value::as_box3d) {
         return Some(b);
     }
-    rec.get(s.position).and_then(Value::as_point3).map(|p| (p, p))
+    rec.get(s.position)
+        .and_then(Value::as_point3)
+        .map(|p| (p, p))
 }
 
-pub(crate) fn vector_entry(v: &crate::compiled::CVector, rec: &NodeRec) -> Option<crate::index::vector::Unit> {
+pub(crate) fn vector_entry(
+    v: &crate::compiled::CVector,
+    rec: &NodeRec,
+) -> Option<crate::index::vector::Unit> {
     if !rec.has_label(v.label) {
         return None;
     }

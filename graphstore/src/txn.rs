@@ -13,8 +13,8 @@ use crate::model::{Relationship, normalize_props, raw_props, typed_props};
 use crate::payload::PointCloud;
 use crate::read::{GraphRead, Raw, View};
 use crate::store::{
-    ADJ, COUNTS, Committed, K_NEXT_NODE, K_NEXT_REL, LABELS, META, NODES, PAYLOADS, PROPIDX, PendingMem, RELS,
-    TOKENS, spatial_entry, text_entry, u64_meta, vector_entry,
+    ADJ, COUNTS, Committed, K_NEXT_NODE, K_NEXT_REL, LABELS, META, NODES, PAYLOADS, PROPIDX,
+    PendingMem, RELS, TOKENS, spatial_entry, text_entry, u64_meta, vector_entry,
 };
 use crate::tokens::{LabelId, PropKey, RelType, TokenKind};
 use crate::value::Value;
@@ -31,7 +31,10 @@ impl NodeRec {
         self.labels.binary_search(&l).is_ok()
     }
     pub(crate) fn get(&self, k: u32) -> Option<&Value> {
-        self.props.binary_search_by_key(&k, |(x, _)| *x).ok().map(|i| &self.props[i].1)
+        self.props
+            .binary_search_by_key(&k, |(x, _)| *x)
+            .ok()
+            .map(|i| &self.props[i].1)
     }
     fn decode(bytes: &[u8], id: u64) -> Result<NodeRec> {
         let (labels, props) = codec::decode_node(bytes).map_err(|e| match e {
@@ -146,7 +149,11 @@ macro_rules! raw_reads {
         fn adj(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<(u64, u32, u64)>> {
             let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
             let mut out = Vec::new();
-            for row in self.adj.range((node, dir, t0, 0u64)..=(node, dir, t1, u64::MAX)).map_err(storage)? {
+            for row in self
+                .adj
+                .range((node, dir, t0, 0u64)..=(node, dir, t1, u64::MAX))
+                .map_err(storage)?
+            {
                 let (k, v) = row.map_err(storage)?;
                 let (_, _, t, rel) = k.value();
                 out.push((rel, t, v.value()));
@@ -156,7 +163,11 @@ macro_rules! raw_reads {
 
         fn label_nodes(&self, label: u32) -> Result<Vec<u64>> {
             let mut out = Vec::new();
-            for row in self.labels.range((label, 0u64)..=(label, u64::MAX)).map_err(storage)? {
+            for row in self
+                .labels
+                .range((label, 0u64)..=(label, u64::MAX))
+                .map_err(storage)?
+            {
                 let (k, _) = row.map_err(storage)?;
                 out.push(k.value().1);
             }
@@ -188,12 +199,20 @@ macro_rules! raw_reads {
         }
 
         fn payload(&self, node: u64, key: &str) -> Result<Option<Vec<u8>>> {
-            Ok(self.payloads.get(&(node, key)).map_err(storage)?.map(|g| g.value().to_vec()))
+            Ok(self
+                .payloads
+                .get(&(node, key))
+                .map_err(storage)?
+                .map(|g| g.value().to_vec()))
         }
 
         fn payload_keys(&self, node: u64) -> Result<Vec<String>> {
             let mut out = Vec::new();
-            for row in self.payloads.range((node, "")..(node.saturating_add(1), "")).map_err(storage)? {
+            for row in self
+                .payloads
+                .range((node, "")..(node.saturating_add(1), ""))
+                .map_err(storage)?
+            {
                 let (k, _) = row.map_err(storage)?;
                 let (n, key) = k.value();
                 if n == node {
@@ -219,7 +238,7 @@ macro_rules! raw_reads {
             Ok(out)
         }
 
-        fn raw_adjacency_rows(&self) -> Result<Vec<((u64, u8, u32, u64), u64)>> {
+        fn raw_adjacency_rows(&self) -> Result<Vec<crate::read::AdjRow>> {
             let mut out = Vec::new();
             for row in self.adj.iter().map_err(storage)? {
                 let (k, v) = row.map_err(storage)?;
@@ -289,7 +308,9 @@ impl Raw for WriteTxn<'_> {
         if id < committed {
             self.base.tokens.name(id).map(str::to_string)
         } else {
-            self.new_tokens.get((id - committed) as usize).map(|q| q[2..].to_string())
+            self.new_tokens
+                .get((id - committed) as usize)
+                .map(|q| q[2..].to_string())
         }
     }
     raw_reads!();
@@ -319,8 +340,20 @@ fn pidx_key(index: u32, v: &Value, node: u64) -> Option<Vec<u8>> {
 impl<'a> WriteTxn<'a> {
     pub(crate) fn new(txn: &'a WriteTransaction, base: Arc<Committed>) -> Result<WriteTxn<'a>> {
         let meta = txn.open_table(META).map_err(storage)?;
-        let next_node = u64_meta(meta.get(K_NEXT_NODE).map_err(storage)?.as_ref().map(|g| g.value()), K_NEXT_NODE)?;
-        let next_rel = u64_meta(meta.get(K_NEXT_REL).map_err(storage)?.as_ref().map(|g| g.value()), K_NEXT_REL)?;
+        let next_node = u64_meta(
+            meta.get(K_NEXT_NODE)
+                .map_err(storage)?
+                .as_ref()
+                .map(|g| g.value()),
+            K_NEXT_NODE,
+        )?;
+        let next_rel = u64_meta(
+            meta.get(K_NEXT_REL)
+                .map_err(storage)?
+                .as_ref()
+                .map(|g| g.value()),
+            K_NEXT_REL,
+        )?;
         Ok(WriteTxn {
             schema: base.schema.clone(),
             pending: PendingMem::for_schema(&base.schema),
@@ -349,7 +382,10 @@ impl<'a> WriteTxn<'a> {
         self.meta
             .insert(K_NEXT_REL, self.next_rel.to_le_bytes().as_slice())
             .map_err(storage)?;
-        Ok((std::mem::take(&mut self.pending), std::mem::take(&mut self.new_tokens)))
+        Ok((
+            std::mem::take(&mut self.pending),
+            std::mem::take(&mut self.new_tokens),
+        ))
     }
 
     fn intern(&mut self, kind: TokenKind, name: &str) -> Result<u32> {
@@ -357,7 +393,10 @@ impl<'a> WriteTxn<'a> {
             return Ok(id);
         }
         if name.is_empty() {
-            return Err(Error::InvalidValue(format!("an empty {} is not allowed", kind.noun())));
+            return Err(Error::InvalidValue(format!(
+                "an empty {} is not allowed",
+                kind.noun()
+            )));
         }
         let q = kind.qualify(name);
         let id = self.base.tokens.len() + self.new_tokens.len() as u32;
@@ -389,10 +428,18 @@ impl<'a> WriteTxn<'a> {
     // ---- counts ----
 
     fn bump(&mut self, kind: u8, tok: u32, delta: i64) -> Result<()> {
-        let cur = self.counts.get(&(kind, tok)).map_err(storage)?.map(|g| g.value()).unwrap_or(0);
-        let next = cur
-            .checked_add_signed(delta)
-            .ok_or_else(|| corrupt("counts", format!("count for ({kind}, {tok}) would go negative")))?;
+        let cur = self
+            .counts
+            .get(&(kind, tok))
+            .map_err(storage)?
+            .map(|g| g.value())
+            .unwrap_or(0);
+        let next = cur.checked_add_signed(delta).ok_or_else(|| {
+            corrupt(
+                "counts",
+                format!("count for ({kind}, {tok}) would go negative"),
+            )
+        })?;
         if next == 0 {
             self.counts.remove(&(kind, tok)).map_err(storage)?;
         } else {
@@ -403,7 +450,12 @@ impl<'a> WriteTxn<'a> {
 
     // ---- validation ----
 
-    fn check_props(&self, target: &str, rules: &[crate::compiled::CRule], props: &[(u32, Value)]) -> Result<()> {
+    fn check_props(
+        &self,
+        target: &str,
+        rules: &[crate::compiled::CRule],
+        props: &[(u32, Value)],
+    ) -> Result<()> {
         for r in rules {
             match props.binary_search_by_key(&r.key, |(k, _)| *k) {
                 Ok(i) => {
@@ -423,7 +475,11 @@ impl<'a> WriteTxn<'a> {
                 Err(_) if r.required => {
                     return Err(Error::Constraint {
                         target: target.into(),
-                        detail: format!("missing required property `{}` ({})", self.name(r.key), r.ty),
+                        detail: format!(
+                            "missing required property `{}` ({})",
+                            self.name(r.key),
+                            r.ty
+                        ),
                     });
                 }
                 Err(_) => {}
@@ -435,7 +491,9 @@ impl<'a> WriteTxn<'a> {
     fn check_node(&self, id: u64, rec: &NodeRec) -> Result<()> {
         let schema = self.schema.clone();
         for l in &rec.labels {
-            let Some(rule) = schema.labels.get(l) else { continue };
+            let Some(rule) = schema.labels.get(l) else {
+                continue;
+            };
             let lname = self.name(*l);
             self.check_props(&lname, &rule.props, &rec.props)?;
             for (k, idx) in &rule.unique {
@@ -443,7 +501,10 @@ impl<'a> WriteTxn<'a> {
                 let Some(sk) = sort_key(v) else {
                     return Err(Error::Constraint {
                         target: lname,
-                        detail: format!("unique property `{}` must be a boolean, number or string", self.name(*k)),
+                        detail: format!(
+                            "unique property `{}` must be a boolean, number or string",
+                            self.name(*k)
+                        ),
                     });
                 };
                 let mut lo = idx.to_be_bytes().to_vec();
@@ -455,7 +516,9 @@ impl<'a> WriteTxn<'a> {
                     // index keys are f64-based: confirm the clash on the exact values
                     let same = Raw::load_rec(self, other)?
                         .and_then(|r| r.get(*k).cloned())
-                        .is_some_and(|ov| crate::read::compare(&ov, v) == Some(std::cmp::Ordering::Equal));
+                        .is_some_and(|ov| {
+                            crate::read::compare(&ov, v) == Some(std::cmp::Ordering::Equal)
+                        });
                     if same {
                         return Err(Error::Constraint {
                             target: lname,
@@ -477,13 +540,25 @@ impl<'a> WriteTxn<'a> {
             if let Some(v) = rec.get(s.position)
                 && (v.as_point3().is_none() || !v.is_finite())
             {
-                return bad(self.name(s.label), format!("spatial position `{}` must be a finite point", self.name(s.position)));
+                return bad(
+                    self.name(s.label),
+                    format!(
+                        "spatial position `{}` must be a finite point",
+                        self.name(s.position)
+                    ),
+                );
             }
             if let Some(k) = s.bbox
                 && let Some(v) = rec.get(k)
                 && (v.as_box3d().is_none() || !v.is_finite())
             {
-                return bad(self.name(s.label), format!("spatial box `{}` must be [min point, max point] with min <= max", self.name(k)));
+                return bad(
+                    self.name(s.label),
+                    format!(
+                        "spatial box `{}` must be [min point, max point] with min <= max",
+                        self.name(k)
+                    ),
+                );
             }
         }
         for v in &schema.vector {
@@ -491,13 +566,17 @@ impl<'a> WriteTxn<'a> {
                 continue;
             }
             if let Some(val) = rec.get(v.key) {
-                let ok = val
-                    .as_vector()
-                    .is_some_and(|x| x.len() == v.params.dim && val.is_finite() && x.iter().any(|c| *c != 0.0));
+                let ok = val.as_vector().is_some_and(|x| {
+                    x.len() == v.params.dim && val.is_finite() && x.iter().any(|c| *c != 0.0)
+                });
                 if !ok {
                     return bad(
                         self.name(v.label),
-                        format!("vector `{}` must be a finite, non-zero f32 vector of dimension {}", self.name(v.key), v.params.dim),
+                        format!(
+                            "vector `{}` must be a finite, non-zero f32 vector of dimension {}",
+                            self.name(v.key),
+                            v.params.dim
+                        ),
                     );
                 }
             }
@@ -510,18 +589,37 @@ impl<'a> WriteTxn<'a> {
                 let ok = matches!(val, Value::String(_))
                     || matches!(val, Value::List(items) if items.iter().all(|i| i.as_str().is_some()));
                 if !ok {
-                    return bad(self.name(t.label), format!("text `{}` must be a string or a list of strings", self.name(t.key)));
+                    return bad(
+                        self.name(t.label),
+                        format!(
+                            "text `{}` must be a string or a list of strings",
+                            self.name(t.key)
+                        ),
+                    );
                 }
             }
         }
         Ok(())
     }
 
-    fn check_rel(&self, ty: u32, start: &NodeRec, end: &NodeRec, props: &[(u32, Value)]) -> Result<()> {
-        let Some(rule) = self.schema.rels.get(&ty) else { return Ok(()) };
+    fn check_rel(
+        &self,
+        ty: u32,
+        start: &NodeRec,
+        end: &NodeRec,
+        props: &[(u32, Value)],
+    ) -> Result<()> {
+        let Some(rule) = self.schema.rels.get(&ty) else {
+            return Ok(());
+        };
         let tname = self.name(ty);
         self.check_props(&tname, &rule.props, props)?;
-        let names = |ls: &[u32]| ls.iter().map(|l| self.name(*l)).collect::<Vec<_>>().join("|");
+        let names = |ls: &[u32]| {
+            ls.iter()
+                .map(|l| self.name(*l))
+                .collect::<Vec<_>>()
+                .join("|")
+        };
         if !rule.from.is_empty() && !rule.from.iter().any(|l| start.has_label(*l)) {
             return Err(Error::Constraint {
                 target: tname,
@@ -541,7 +639,12 @@ impl<'a> WriteTxn<'a> {
 
     /// Moves node `id` from `before` to `after`, keeping every index and count in step.
     /// Validation happens first, so an error leaves everything untouched.
-    fn apply_node(&mut self, id: u64, before: Option<&NodeRec>, after: Option<&NodeRec>) -> Result<()> {
+    fn apply_node(
+        &mut self,
+        id: u64,
+        before: Option<&NodeRec>,
+        after: Option<&NodeRec>,
+    ) -> Result<()> {
         if let Some(a) = after {
             self.check_node(id, a)?;
         }
@@ -633,7 +736,10 @@ impl<'a> WriteTxn<'a> {
 
     /// Creates a node from names: `create("Instance", &[("caption", "a bench".into())])`.
     pub fn create_node_named(&mut self, labels: &[&str], props: &[(&str, Value)]) -> Result<u64> {
-        let ls = labels.iter().map(|l| self.label_id(l)).collect::<Result<Vec<_>>>()?;
+        let ls = labels
+            .iter()
+            .map(|l| self.label_id(l))
+            .collect::<Result<Vec<_>>>()?;
         let ps = props
             .iter()
             .map(|(k, v)| Ok((self.prop_key_id(k)?, v.clone())))
@@ -676,7 +782,9 @@ impl<'a> WriteTxn<'a> {
     /// Adds a label (no-op if present).
     pub fn add_label(&mut self, id: u64, label: LabelId) -> Result<()> {
         let before = self.rec(id)?;
-        let Err(i) = before.labels.binary_search(&label.0) else { return Ok(()) };
+        let Err(i) = before.labels.binary_search(&label.0) else {
+            return Ok(());
+        };
         let mut after = before.clone();
         after.labels.insert(i, label.0);
         self.apply_node(id, Some(&before), Some(&after))
@@ -685,7 +793,9 @@ impl<'a> WriteTxn<'a> {
     /// Removes a label (no-op if absent).
     pub fn remove_label(&mut self, id: u64, label: LabelId) -> Result<()> {
         let before = self.rec(id)?;
-        let Ok(i) = before.labels.binary_search(&label.0) else { return Ok(()) };
+        let Ok(i) = before.labels.binary_search(&label.0) else {
+            return Ok(());
+        };
         let mut after = before.clone();
         after.labels.remove(i);
         self.apply_node(id, Some(&before), Some(&after))
@@ -697,7 +807,10 @@ impl<'a> WriteTxn<'a> {
         let out = Raw::adj(self, id, 0, None)?.len();
         let inc = Raw::adj(self, id, 1, None)?.len();
         if out + inc > 0 {
-            let self_loops = Raw::adj(self, id, 0, None)?.iter().filter(|(_, _, o)| *o == id).count();
+            let self_loops = Raw::adj(self, id, 0, None)?
+                .iter()
+                .filter(|(_, _, o)| *o == id)
+                .count();
             return Err(Error::NodeHasRelationships {
                 node: id,
                 count: out + inc - self_loops,
@@ -726,16 +839,30 @@ impl<'a> WriteTxn<'a> {
     }
 
     /// Creates a relationship `start -[ty]-> end`.
-    pub fn create_rel(&mut self, start: u64, ty: RelType, end: u64, props: Vec<(PropKey, Value)>) -> Result<u64> {
+    pub fn create_rel(
+        &mut self,
+        start: u64,
+        ty: RelType,
+        end: u64,
+        props: Vec<(PropKey, Value)>,
+    ) -> Result<u64> {
         let s = self.rec(start)?;
-        let e = if end == start { s.clone() } else { self.rec(end)? };
+        let e = if end == start {
+            s.clone()
+        } else {
+            self.rec(end)?
+        };
         let props = raw_props(&normalize_props(props));
         self.check_rel(ty.0, &s, &e, &props)?;
         let id = self.next_rel;
         let bytes = codec::encode_rel(ty.0, start, end, &props);
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
-        self.adj.insert(&(start, 0u8, ty.0, id), &end).map_err(storage)?;
-        self.adj.insert(&(end, 1u8, ty.0, id), &start).map_err(storage)?;
+        self.adj
+            .insert(&(start, 0u8, ty.0, id), &end)
+            .map_err(storage)?;
+        self.adj
+            .insert(&(end, 1u8, ty.0, id), &start)
+            .map_err(storage)?;
         self.bump(1, ty.0, 1)?;
         self.bump(2, 1, 1)?;
         self.next_rel += 1;
@@ -743,7 +870,13 @@ impl<'a> WriteTxn<'a> {
     }
 
     /// Creates a relationship from names.
-    pub fn create_rel_named(&mut self, start: u64, ty: &str, end: u64, props: &[(&str, Value)]) -> Result<u64> {
+    pub fn create_rel_named(
+        &mut self,
+        start: u64,
+        ty: &str,
+        end: u64,
+        props: &[(&str, Value)],
+    ) -> Result<u64> {
         let t = self.rel_type_id(ty)?;
         let ps = props
             .iter()
@@ -757,7 +890,9 @@ impl<'a> WriteTxn<'a> {
         let e = self.rec(rel.end)?;
         self.check_rel(rel.ty.0, &s, &e, &props)?;
         let bytes = codec::encode_rel(rel.ty.0, rel.start, rel.end, &props);
-        self.rels.insert(&rel.id, bytes.as_slice()).map_err(storage)?;
+        self.rels
+            .insert(&rel.id, bytes.as_slice())
+            .map_err(storage)?;
         Ok(())
     }
 
@@ -786,8 +921,12 @@ impl<'a> WriteTxn<'a> {
     pub fn delete_rel(&mut self, id: u64) -> Result<()> {
         let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
         self.rels.remove(&id).map_err(storage)?;
-        self.adj.remove(&(rel.start, 0u8, rel.ty.0, id)).map_err(storage)?;
-        self.adj.remove(&(rel.end, 1u8, rel.ty.0, id)).map_err(storage)?;
+        self.adj
+            .remove(&(rel.start, 0u8, rel.ty.0, id))
+            .map_err(storage)?;
+        self.adj
+            .remove(&(rel.end, 1u8, rel.ty.0, id))
+            .map_err(storage)?;
         self.bump(1, rel.ty.0, -1)?;
         self.bump(2, 1, -1)?;
         Ok(())
@@ -803,7 +942,11 @@ impl<'a> WriteTxn<'a> {
 
     /// Removes a payload; returns whether it existed.
     pub fn delete_payload(&mut self, node: u64, key: &str) -> Result<bool> {
-        Ok(self.payloads.remove(&(node, key)).map_err(storage)?.is_some())
+        Ok(self
+            .payloads
+            .remove(&(node, key))
+            .map_err(storage)?
+            .is_some())
     }
 
     /// Stores a point cloud, compressed (see [`PointCloud::encode`]).
@@ -814,7 +957,10 @@ impl<'a> WriteTxn<'a> {
 
     // ---- schema installation (Store::set_schema) ----
 
-    pub(crate) fn install_schema(&mut self, schema: &crate::schema::Schema) -> Result<Arc<Compiled>> {
+    pub(crate) fn install_schema(
+        &mut self,
+        schema: &crate::schema::Schema,
+    ) -> Result<Arc<Compiled>> {
         // intern every name the schema uses
         let mut labels = Vec::new();
         let mut types = Vec::new();
@@ -857,7 +1003,8 @@ impl<'a> WriteTxn<'a> {
         }
         let compiled = {
             let tok = |kind: TokenKind, n: &str| {
-                Raw::token(self, kind, n).ok_or_else(|| Error::Schema(format!("{} {n:?} was not interned", kind.noun())))
+                Raw::token(self, kind, n)
+                    .ok_or_else(|| Error::Schema(format!("{} {n:?} was not interned", kind.noun())))
             };
             Compiled::compile(
                 schema,
@@ -887,24 +1034,27 @@ impl<'a> WriteTxn<'a> {
         for id in Raw::all_nodes(self)? {
             let rec = self.rec(id)?;
             self.check_node(id, &rec).map_err(|e| match e {
-                Error::Constraint { target, detail } => {
-                    Error::Schema(format!("existing node {id} breaks the new schema: {target}: {detail}"))
-                }
+                Error::Constraint { target, detail } => Error::Schema(format!(
+                    "existing node {id} breaks the new schema: {target}: {detail}"
+                )),
                 other => other,
             })?;
         }
         for id in Raw::all_rels(self)? {
             let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
             let (s, e) = (self.rec(rel.start)?, self.rec(rel.end)?);
-            self.check_rel(rel.ty.0, &s, &e, &raw_props(&rel.props)).map_err(|err| match err {
-                Error::Constraint { target, detail } => {
-                    Error::Schema(format!("existing relationship {id} breaks the new schema: {target}: {detail}"))
-                }
-                other => other,
-            })?;
+            self.check_rel(rel.ty.0, &s, &e, &raw_props(&rel.props))
+                .map_err(|err| match err {
+                    Error::Constraint { target, detail } => Error::Schema(format!(
+                        "existing relationship {id} breaks the new schema: {target}: {detail}"
+                    )),
+                    other => other,
+                })?;
         }
         let bytes = serde_json::to_vec(schema).map_err(storage)?;
-        self.meta.insert("schema", bytes.as_slice()).map_err(storage)?;
+        self.meta
+            .insert("schema", bytes.as_slice())
+            .map_err(storage)?;
         Ok(compiled)
     }
 }

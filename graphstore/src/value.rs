@@ -32,7 +32,9 @@ pub enum Value {
 }
 
 /// The type of a [`Value`], used by schema rules.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum ValueType {
     /// [`Value::Null`]
@@ -194,9 +196,9 @@ impl Value {
             Value::Float(f) => json!(f),
             Value::String(s) => json!(s),
             Value::List(l) => serde_json::Value::Array(l.iter().map(Value::to_json).collect()),
-            Value::Map(m) => serde_json::Value::Object(
-                m.iter().map(|(k, v)| (k.clone(), v.to_json())).collect(),
-            ),
+            Value::Map(m) => {
+                serde_json::Value::Object(m.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
+            }
             Value::Point2D([x, y]) => json!({"x": x, "y": y}),
             Value::Point3D([x, y, z]) => json!({"x": x, "y": y, "z": z}),
             Value::Vector(v) => json!(v),

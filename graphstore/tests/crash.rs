@@ -9,7 +9,10 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use graphstore::{Error, GraphRead, LabelRule, PropertyIndexSpec, PropertyRule, Schema, SpatialIndexSpec, Store, Value, ValueType, VectorIndexSpec};
+use graphstore::{
+    Error, GraphRead, LabelRule, PropertyIndexSpec, PropertyRule, Schema, SpatialIndexSpec, Store,
+    Value, ValueType, VectorIndexSpec,
+};
 use rand::{RngExt, SeedableRng};
 
 const NODES_PER_TXN: i64 = 3;
@@ -20,22 +23,48 @@ fn schema() -> Schema {
         "T".into(),
         LabelRule {
             properties: vec![
-                PropertyRule { key: "txn".into(), ty: ValueType::Int, required: true },
-                PropertyRule { key: "j".into(), ty: ValueType::Int, required: true },
+                PropertyRule {
+                    key: "txn".into(),
+                    ty: ValueType::Int,
+                    required: true,
+                },
+                PropertyRule {
+                    key: "j".into(),
+                    ty: ValueType::Int,
+                    required: true,
+                },
             ],
             unique: vec!["uid".into()],
             description: String::new(),
         },
     );
-    s.property_indexes.push(PropertyIndexSpec { label: "T".into(), key: "txn".into() });
-    s.spatial_indexes.push(SpatialIndexSpec { name: "pos".into(), label: "T".into(), position_key: "pos".into(), box_key: None });
-    s.vector_indexes.push(VectorIndexSpec { name: "v".into(), label: "T".into(), key: "v".into(), dim: 8, int8: true });
+    s.property_indexes.push(PropertyIndexSpec {
+        label: "T".into(),
+        key: "txn".into(),
+    });
+    s.spatial_indexes.push(SpatialIndexSpec {
+        name: "pos".into(),
+        label: "T".into(),
+        position_key: "pos".into(),
+        box_key: None,
+    });
+    s.vector_indexes.push(VectorIndexSpec {
+        name: "v".into(),
+        label: "T".into(),
+        key: "v".into(),
+        dim: 8,
+        int8: true,
+    });
     s
 }
 
 fn counter(r: &impl GraphRead) -> Option<(u64, i64)> {
     let id = *r.nodes_with_label("Counter").unwrap().first()?;
-    let last = r.node_prop(id, "last").unwrap().and_then(|v| v.as_int()).unwrap_or(-1);
+    let last = r
+        .node_prop(id, "last")
+        .unwrap()
+        .and_then(|v| v.as_int())
+        .unwrap_or(-1);
     Some((id, last))
 }
 
@@ -51,7 +80,9 @@ fn expected(t: i64, j: i64, last: i64) -> bool {
 #[test]
 #[ignore = "child process of crash_consistency_under_sigkill"]
 fn crash_child() {
-    let Ok(path) = std::env::var("OG_CRASH_DB") else { return };
+    let Ok(path) = std::env::var("OG_CRASH_DB") else {
+        return;
+    };
     let store = Store::create(&path).unwrap();
     if store.schema() != schema() {
         store.set_schema(schema()).unwrap();
@@ -81,7 +112,12 @@ fn crash_child() {
                             ("j", Value::Int(j)),
                             ("uid", Value::Int(i * 10 + j)),
                             ("pos", Value::Point3D([f % 97.0, (f * 3.0) % 89.0, 0.0])),
-                            ("v", Value::Vector((0..8).map(|d| ((i + j + d) % 5) as f32 - 1.9).collect())),
+                            (
+                                "v",
+                                Value::Vector(
+                                    (0..8).map(|d| ((i + j + d) % 5) as f32 - 1.9).collect(),
+                                ),
+                            ),
                         ],
                     )?);
                 }
@@ -110,7 +146,10 @@ fn crash_child() {
 
 #[test]
 fn crash_consistency_under_sigkill() {
-    let kills: usize = std::env::var("OG_CRASH_KILLS").ok().and_then(|s| s.parse().ok()).unwrap_or(24);
+    let kills: usize = std::env::var("OG_CRASH_KILLS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(24);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("crash.og");
     let exe = std::env::current_exe().unwrap();
@@ -119,7 +158,13 @@ fn crash_consistency_under_sigkill() {
     let mut in_flight_commits = 0;
     for round in 0..kills {
         let mut child = Command::new(&exe)
-            .args(["--ignored", "--exact", "crash_child", "--nocapture", "--test-threads=1"])
+            .args([
+                "--ignored",
+                "--exact",
+                "crash_child",
+                "--nocapture",
+                "--test-threads=1",
+            ])
             .env("OG_CRASH_DB", &path)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -129,7 +174,10 @@ fn crash_consistency_under_sigkill() {
         let (tx, rx) = std::sync::mpsc::channel();
         let reader = std::thread::spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if let Some(n) = line.strip_prefix("committed ").and_then(|n| n.parse::<i64>().ok()) {
+                if let Some(n) = line
+                    .strip_prefix("committed ")
+                    .and_then(|n| n.parse::<i64>().ok())
+                {
                     let _ = tx.send(n);
                 }
             }
@@ -150,13 +198,22 @@ fn crash_consistency_under_sigkill() {
         while let Ok(n) = rx.try_recv() {
             acked = n;
         }
-        assert!(acked > acked_total, "round {round}: the child made no progress");
+        assert!(
+            acked > acked_total,
+            "round {round}: the child made no progress"
+        );
 
         let store = Store::open(&path).unwrap();
         let r = store.read().unwrap();
         let (_, last) = counter(&r).unwrap();
-        assert!(last >= acked, "round {round}: acknowledged txn {acked} lost (store has {last})");
-        assert!(last <= acked + 1, "round {round}: store has txn {last}, only {acked} acknowledged");
+        assert!(
+            last >= acked,
+            "round {round}: acknowledged txn {acked} lost (store has {last})"
+        );
+        assert!(
+            last <= acked + 1,
+            "round {round}: store has txn {last}, only {acked} acknowledged"
+        );
         in_flight_commits += usize::from(last == acked + 1);
         for t in 0..=last + 2 {
             let present: Vec<i64> = r
@@ -165,16 +222,25 @@ fn crash_consistency_under_sigkill() {
                 .into_iter()
                 .map(|id| r.node_prop(id, "j").unwrap().unwrap().as_int().unwrap())
                 .collect();
-            let want: Vec<i64> = (0..NODES_PER_TXN).filter(|j| expected(t, *j, last)).collect();
+            let want: Vec<i64> = (0..NODES_PER_TXN)
+                .filter(|j| expected(t, *j, last))
+                .collect();
             assert_eq!(present, want, "round {round}: txn {t} (last {last})");
         }
-        assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new(), "round {round}");
+        assert_eq!(
+            store.check_consistency().unwrap(),
+            Vec::<String>::new(),
+            "round {round}"
+        );
         assert!(!r.vector_top_k("v", &[1.0; 8], 3).unwrap().is_empty());
         acked_total = last;
         drop(r);
         drop(store);
     }
-    eprintln!("crash test: {kills} SIGKILLs, {} txns committed, {in_flight_commits} kills landed after a commit but before its acknowledgement", acked_total + 1);
+    eprintln!(
+        "crash test: {kills} SIGKILLs, {} txns committed, {in_flight_commits} kills landed after a commit but before its acknowledgement",
+        acked_total + 1
+    );
     assert!(acked_total >= kills as i64);
 }
 
@@ -183,11 +249,21 @@ fn bad_files_give_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     // not a store at all
     let junk = dir.path().join("junk.og");
-    std::fs::write(&junk, b"this is not a database, just some text that is long enough").unwrap();
+    std::fs::write(
+        &junk,
+        b"this is not a database, just some text that is long enough",
+    )
+    .unwrap();
     let e = Store::open(&junk).unwrap_err();
-    assert!(matches!(e, Error::Corrupt { .. } | Error::Open { .. }), "{e}");
+    assert!(
+        matches!(e, Error::Corrupt { .. } | Error::Open { .. }),
+        "{e}"
+    );
     // a missing file
-    assert!(matches!(Store::open(dir.path().join("missing.og")), Err(Error::Open { .. })));
+    assert!(matches!(
+        Store::open(dir.path().join("missing.og")),
+        Err(Error::Open { .. })
+    ));
     // a truncated store
     let good = dir.path().join("good.og");
     {
@@ -233,20 +309,34 @@ fn wrong_format_version_is_refused() {
         let db = redb::Database::create(&path).unwrap();
         let w = db.begin_write().unwrap();
         {
-            let mut t = w.open_table(redb::TableDefinition::<&str, &[u8]>::new("og_meta")).unwrap();
-            t.insert("format_version", 99u32.to_le_bytes().as_slice()).unwrap();
+            let mut t = w
+                .open_table(redb::TableDefinition::<&str, &[u8]>::new("og_meta"))
+                .unwrap();
+            t.insert("format_version", 99u32.to_le_bytes().as_slice())
+                .unwrap();
         }
         w.commit().unwrap();
     }
     let e = Store::open(&path).unwrap_err();
-    assert!(matches!(e, Error::FormatVersion { found: 99, expected: 1, .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            Error::FormatVersion {
+                found: 99,
+                expected: 1,
+                ..
+            }
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("format version 99"), "{e}");
     // a redb file that is not ours
     let other = dir.path().join("other.redb");
     {
         let db = redb::Database::create(&other).unwrap();
         let w = db.begin_write().unwrap();
-        w.open_table(redb::TableDefinition::<u64, u64>::new("something")).unwrap();
+        w.open_table(redb::TableDefinition::<u64, u64>::new("something"))
+            .unwrap();
         w.commit().unwrap();
     }
     assert!(matches!(Store::open(&other), Err(Error::NotAStore { .. })));

@@ -6,8 +6,9 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use graphstore::{
-    Direction, Error, GraphRead, LabelRule, PropertyIndexSpec, PropertyRule, Schema, SpatialIndexSpec, Store,
-    TextIndexSpec, Value, ValueBound, ValueType, VectorIndexSpec, tokenize,
+    Direction, Error, GraphRead, LabelRule, PropertyIndexSpec, PropertyRule, Schema,
+    SpatialIndexSpec, Store, TextIndexSpec, Value, ValueBound, ValueType, VectorIndexSpec,
+    tokenize,
 };
 use proptest::prelude::*;
 
@@ -20,49 +21,104 @@ fn schema() -> Schema {
     s.labels.insert(
         "A".into(),
         LabelRule {
-            properties: vec![PropertyRule { key: "k".into(), ty: ValueType::Int, required: true }],
+            properties: vec![PropertyRule {
+                key: "k".into(),
+                ty: ValueType::Int,
+                required: true,
+            }],
             unique: vec!["u".into()],
             description: String::new(),
         },
     );
-    s.property_indexes.push(PropertyIndexSpec { label: "A".into(), key: "k".into() });
+    s.property_indexes.push(PropertyIndexSpec {
+        label: "A".into(),
+        key: "k".into(),
+    });
     s.spatial_indexes.push(SpatialIndexSpec {
         name: "space".into(),
         label: "A".into(),
         position_key: "pos".into(),
         box_key: None,
     });
-    s.vector_indexes.push(VectorIndexSpec { name: "vec".into(), label: "A".into(), key: "vec".into(), dim: 4, int8: false });
-    s.text_indexes.push(TextIndexSpec { name: "txt".into(), label: "A".into(), key: "txt".into() });
+    s.vector_indexes.push(VectorIndexSpec {
+        name: "vec".into(),
+        label: "A".into(),
+        key: "vec".into(),
+        dim: 4,
+        int8: false,
+    });
+    s.text_indexes.push(TextIndexSpec {
+        name: "txt".into(),
+        label: "A".into(),
+        key: "txt".into(),
+    });
     s
 }
 
 #[derive(Debug, Clone)]
 enum Op {
-    CreateNode { labels: Vec<usize>, props: Vec<(usize, Value)> },
-    SetProp { node: usize, key: usize, value: Value },
-    AddLabel { node: usize, label: usize },
-    RemoveLabel { node: usize, label: usize },
-    CreateRel { a: usize, b: usize, ty: usize },
-    DeleteRel { rel: usize },
-    DeleteNode { node: usize, detach: bool },
+    CreateNode {
+        labels: Vec<usize>,
+        props: Vec<(usize, Value)>,
+    },
+    SetProp {
+        node: usize,
+        key: usize,
+        value: Value,
+    },
+    AddLabel {
+        node: usize,
+        label: usize,
+    },
+    RemoveLabel {
+        node: usize,
+        label: usize,
+    },
+    CreateRel {
+        a: usize,
+        b: usize,
+        ty: usize,
+    },
+    DeleteRel {
+        rel: usize,
+    },
+    DeleteNode {
+        node: usize,
+        detach: bool,
+    },
 }
 
 fn value_for(key: usize) -> BoxedStrategy<Value> {
     match key {
-        0 => prop_oneof![(-5i64..5).prop_map(Value::Int), Just(Value::Float(1.5)), Just(Value::Null)].boxed(),
-        1 => prop_oneof![prop::sample::select(vec!["x", "y", "z"]).prop_map(Value::from), Just(Value::Int(3))].boxed(),
+        0 => prop_oneof![
+            (-5i64..5).prop_map(Value::Int),
+            Just(Value::Float(1.5)),
+            Just(Value::Null)
+        ]
+        .boxed(),
+        1 => prop_oneof![
+            prop::sample::select(vec!["x", "y", "z"]).prop_map(Value::from),
+            Just(Value::Int(3))
+        ]
+        .boxed(),
         2 => prop_oneof![
-            prop::array::uniform3(-3i8..3).prop_map(|p| Value::Point3D([p[0] as f64, p[1] as f64, p[2] as f64])),
+            prop::array::uniform3(-3i8..3).prop_map(|p| Value::Point3D([
+                p[0] as f64,
+                p[1] as f64,
+                p[2] as f64
+            ])),
             Just(Value::from("nowhere")),
         ]
         .boxed(),
         3 => prop_oneof![
-            prop::array::uniform4(-2i8..3).prop_map(|v| Value::Vector(v.iter().map(|x| *x as f32).collect())),
+            prop::array::uniform4(-2i8..3)
+                .prop_map(|v| Value::Vector(v.iter().map(|x| *x as f32).collect())),
             Just(Value::Vector(vec![1.0, 2.0])),
         ]
         .boxed(),
-        4 => prop::collection::vec(prop::sample::select(WORDS.to_vec()), 1..4).prop_map(|w| Value::from(w.join(" "))).boxed(),
+        4 => prop::collection::vec(prop::sample::select(WORDS.to_vec()), 1..4)
+            .prop_map(|w| Value::from(w.join(" ")))
+            .boxed(),
         _ => prop_oneof![any::<bool>().prop_map(Value::Bool), Just(Value::Null)].boxed(),
     }
 }
@@ -113,10 +169,9 @@ impl Model {
             if !matches!(u, Value::String(_) | Value::Int(_)) {
                 return false;
             }
-            let clash = self
-                .nodes
-                .iter()
-                .any(|(oid, o)| Some(*oid) != id && o.labels.contains("A") && o.props.get("u") == Some(u));
+            let clash = self.nodes.iter().any(|(oid, o)| {
+                Some(*oid) != id && o.labels.contains("A") && o.props.get("u") == Some(u)
+            });
             if clash {
                 return false;
             }
@@ -136,7 +191,10 @@ impl Model {
     }
 
     fn degree(&self, id: u64) -> usize {
-        self.rels.values().filter(|(_, s, e)| *s == id || *e == id).count()
+        self.rels
+            .values()
+            .filter(|(_, s, e)| *s == id || *e == id)
+            .count()
     }
 }
 
@@ -169,7 +227,9 @@ fn apply(tx: &mut graphstore::WriteTxn<'_>, m: &mut Model, op: &Op) {
             }
         }
         Op::SetProp { node, key, value } => {
-            let Some(id) = pick(m.nodes.keys().copied(), *node) else { return };
+            let Some(id) = pick(m.nodes.keys().copied(), *node) else {
+                return;
+            };
             let mut n = m.nodes[&id].clone();
             if value.is_null() {
                 n.props.remove(KEYS[*key]);
@@ -179,13 +239,20 @@ fn apply(tx: &mut graphstore::WriteTxn<'_>, m: &mut Model, op: &Op) {
             let expect = m.valid(Some(id), &n);
             let k = tx.prop_key_id(KEYS[*key]).unwrap();
             let got = tx.set_node_prop(id, k, value.clone());
-            assert_eq!(got.is_ok(), expect, "set {id} {} = {value:?}: {got:?}", KEYS[*key]);
+            assert_eq!(
+                got.is_ok(),
+                expect,
+                "set {id} {} = {value:?}: {got:?}",
+                KEYS[*key]
+            );
             if got.is_ok() {
                 m.nodes.insert(id, n);
             }
         }
         Op::AddLabel { node, label } | Op::RemoveLabel { node, label } => {
-            let Some(id) = pick(m.nodes.keys().copied(), *node) else { return };
+            let Some(id) = pick(m.nodes.keys().copied(), *node) else {
+                return;
+            };
             let add = matches!(op, Op::AddLabel { .. });
             let mut n = m.nodes[&id].clone();
             if add {
@@ -195,29 +262,42 @@ fn apply(tx: &mut graphstore::WriteTxn<'_>, m: &mut Model, op: &Op) {
             }
             let expect = m.valid(Some(id), &n);
             let l = tx.label_id(LABELS[*label]).unwrap();
-            let got = if add { tx.add_label(id, l) } else { tx.remove_label(id, l) };
+            let got = if add {
+                tx.add_label(id, l)
+            } else {
+                tx.remove_label(id, l)
+            };
             assert_eq!(got.is_ok(), expect, "{op:?}: {got:?}");
             if got.is_ok() {
                 m.nodes.insert(id, n);
             }
         }
         Op::CreateRel { a, b, ty } => {
-            let (Some(s), Some(e)) = (pick(m.nodes.keys().copied(), *a), pick(m.nodes.keys().copied(), *b)) else {
+            let (Some(s), Some(e)) = (
+                pick(m.nodes.keys().copied(), *a),
+                pick(m.nodes.keys().copied(), *b),
+            ) else {
                 return;
             };
             let t = ["T1", "T2"][*ty];
-            let id = tx.create_rel_named(s, t, e, &[("w", Value::Int(*a as i64))]).unwrap();
+            let id = tx
+                .create_rel_named(s, t, e, &[("w", Value::Int(*a as i64))])
+                .unwrap();
             assert_eq!(id, m.next_rel);
             m.rels.insert(id, (t.into(), s, e));
             m.next_rel += 1;
         }
         Op::DeleteRel { rel } => {
-            let Some(id) = pick(m.rels.keys().copied(), *rel) else { return };
+            let Some(id) = pick(m.rels.keys().copied(), *rel) else {
+                return;
+            };
             tx.delete_rel(id).unwrap();
             m.rels.remove(&id);
         }
         Op::DeleteNode { node, detach } => {
-            let Some(id) = pick(m.nodes.keys().copied(), *node) else { return };
+            let Some(id) = pick(m.nodes.keys().copied(), *node) else {
+                return;
+            };
             if *detach {
                 tx.detach_delete_node(id).unwrap();
                 m.rels.retain(|_, (_, s, e)| *s != id && *e != id);
@@ -237,7 +317,11 @@ fn apply(tx: &mut graphstore::WriteTxn<'_>, m: &mut Model, op: &Op) {
 }
 
 fn cos(a: &[f32], b: &[f32]) -> f64 {
-    let d: f64 = a.iter().zip(b).map(|(x, y)| f64::from(*x) * f64::from(*y)).sum();
+    let d: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| f64::from(*x) * f64::from(*y))
+        .sum();
     let na: f64 = a.iter().map(|x| f64::from(*x).powi(2)).sum::<f64>().sqrt();
     let nb: f64 = b.iter().map(|x| f64::from(*x).powi(2)).sum::<f64>().sqrt();
     d / (na * nb)
@@ -248,7 +332,12 @@ fn bm25(m: &Model, query: &str) -> Vec<(u64, f64)> {
         .nodes
         .iter()
         .filter(|(_, n)| n.labels.contains("A"))
-        .filter_map(|(id, n)| n.props.get("txt").and_then(Value::as_str).map(|t| (*id, tokenize(t))))
+        .filter_map(|(id, n)| {
+            n.props
+                .get("txt")
+                .and_then(Value::as_str)
+                .map(|t| (*id, tokenize(t)))
+        })
         .collect();
     let n = docs.len() as f64;
     if n == 0.0 {
@@ -265,7 +354,8 @@ fn bm25(m: &Model, query: &str) -> Vec<(u64, f64)> {
         for (id, d) in &docs {
             let tf = d.iter().filter(|x| *x == t).count() as f64;
             if tf > 0.0 {
-                *scores.entry(*id).or_default() += idf * tf * 2.2 / (tf + 1.2 * (0.25 + 0.75 * d.len() as f64 / avg.max(1e-9)));
+                *scores.entry(*id).or_default() +=
+                    idf * tf * 2.2 / (tf + 1.2 * (0.25 + 0.75 * d.len() as f64 / avg.max(1e-9)));
             }
         }
     }
@@ -276,30 +366,74 @@ fn bm25(m: &Model, query: &str) -> Vec<(u64, f64)> {
 
 /// Everything observable must match the model.
 fn check(r: &impl GraphRead, m: &Model, store: &Store) {
-    assert_eq!(r.all_node_ids().unwrap(), m.nodes.keys().copied().collect::<Vec<_>>());
-    assert_eq!(r.all_rel_ids().unwrap(), m.rels.keys().copied().collect::<Vec<_>>());
+    assert_eq!(
+        r.all_node_ids().unwrap(),
+        m.nodes.keys().copied().collect::<Vec<_>>()
+    );
+    assert_eq!(
+        r.all_rel_ids().unwrap(),
+        m.rels.keys().copied().collect::<Vec<_>>()
+    );
     for (id, n) in &m.nodes {
         let node = r.node(*id).unwrap().unwrap();
-        let labels: BTreeSet<String> = node.labels.iter().map(|l| r.name_of(l.0).unwrap()).collect();
+        let labels: BTreeSet<String> = node
+            .labels
+            .iter()
+            .map(|l| r.name_of(l.0).unwrap())
+            .collect();
         assert_eq!(labels, n.labels);
-        let props: BTreeMap<String, Value> = node.props.iter().map(|(k, v)| (r.name_of(k.0).unwrap(), v.clone())).collect();
+        let props: BTreeMap<String, Value> = node
+            .props
+            .iter()
+            .map(|(k, v)| (r.name_of(k.0).unwrap(), v.clone()))
+            .collect();
         assert_eq!(&props, &n.props);
-        let out: BTreeSet<u64> = r.neighbours(*id, Direction::Outgoing, None).unwrap().iter().map(|a| a.rel).collect();
-        let want: BTreeSet<u64> = m.rels.iter().filter(|(_, (_, s, _))| s == id).map(|(k, _)| *k).collect();
+        let out: BTreeSet<u64> = r
+            .neighbours(*id, Direction::Outgoing, None)
+            .unwrap()
+            .iter()
+            .map(|a| a.rel)
+            .collect();
+        let want: BTreeSet<u64> = m
+            .rels
+            .iter()
+            .filter(|(_, (_, s, _))| s == id)
+            .map(|(k, _)| *k)
+            .collect();
         assert_eq!(out, want);
     }
     for (id, (t, s, e)) in &m.rels {
         let rel = r.rel(*id).unwrap().unwrap();
-        assert_eq!((r.name_of(rel.ty.0).unwrap(), rel.start, rel.end), (t.clone(), *s, *e));
+        assert_eq!(
+            (r.name_of(rel.ty.0).unwrap(), rel.start, rel.end),
+            (t.clone(), *s, *e)
+        );
     }
     for l in LABELS {
-        let want: Vec<u64> = m.nodes.iter().filter(|(_, n)| n.labels.contains(l)).map(|(id, _)| *id).collect();
+        let want: Vec<u64> = m
+            .nodes
+            .iter()
+            .filter(|(_, n)| n.labels.contains(l))
+            .map(|(id, _)| *id)
+            .collect();
         assert_eq!(r.nodes_with_label(l).unwrap(), want, "label {l}");
     }
-    let a_nodes: Vec<(&u64, &MNode)> = m.nodes.iter().filter(|(_, n)| n.labels.contains("A")).collect();
+    let a_nodes: Vec<(&u64, &MNode)> = m
+        .nodes
+        .iter()
+        .filter(|(_, n)| n.labels.contains("A"))
+        .collect();
     for k in -5..5i64 {
-        let want: Vec<u64> = a_nodes.iter().filter(|(_, n)| n.props.get("k") == Some(&Value::Int(k))).map(|(i, _)| **i).collect();
-        assert_eq!(r.find_nodes("A", "k", &Value::Int(k)).unwrap(), want, "k = {k}");
+        let want: Vec<u64> = a_nodes
+            .iter()
+            .filter(|(_, n)| n.props.get("k") == Some(&Value::Int(k)))
+            .map(|(i, _)| **i)
+            .collect();
+        assert_eq!(
+            r.find_nodes("A", "k", &Value::Int(k)).unwrap(),
+            want,
+            "k = {k}"
+        );
     }
     let mut want: Vec<(i64, u64)> = a_nodes
         .iter()
@@ -308,7 +442,12 @@ fn check(r: &impl GraphRead, m: &Model, store: &Store) {
         .collect();
     want.sort();
     let got = r
-        .find_range("A", "k", ValueBound::Inclusive(Value::Int(-2)), ValueBound::Exclusive(Value::Float(3.5)))
+        .find_range(
+            "A",
+            "k",
+            ValueBound::Inclusive(Value::Int(-2)),
+            ValueBound::Exclusive(Value::Float(3.5)),
+        )
         .unwrap();
     assert_eq!(got, want.iter().map(|x| x.1).collect::<Vec<_>>());
     // spatial
@@ -317,7 +456,10 @@ fn check(r: &impl GraphRead, m: &Model, store: &Store) {
         .iter()
         .filter_map(|(i, n)| match n.props.get("pos") {
             Some(Value::Point3D(p)) => {
-                let d = ((p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2) + (p[2] - center[2]).powi(2)).sqrt();
+                let d = ((p[0] - center[0]).powi(2)
+                    + (p[1] - center[1]).powi(2)
+                    + (p[2] - center[2]).powi(2))
+                .sqrt();
                 (d <= 2.5).then_some((**i, d))
             }
             _ => None,
@@ -325,14 +467,22 @@ fn check(r: &impl GraphRead, m: &Model, store: &Store) {
         .collect();
     want.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
     let got = r.spatial_within("space", center, 2.5).unwrap();
-    assert_eq!(got.iter().map(|h| h.node).collect::<Vec<_>>(), want.iter().map(|w| w.0).collect::<Vec<_>>());
+    assert_eq!(
+        got.iter().map(|h| h.node).collect::<Vec<_>>(),
+        want.iter().map(|w| w.0).collect::<Vec<_>>()
+    );
     let near = r.spatial_nearest("space", center, 3).unwrap();
     assert!(near.len() <= 3);
     // vector: every hit's score matches the model, and the score list is the model's best
     let q = [1.0f32, -0.5, 0.25, 2.0];
     let mut model_scores: Vec<(u64, f64)> = a_nodes
         .iter()
-        .filter_map(|(i, n)| n.props.get("vec").and_then(Value::as_vector).map(|v| (**i, cos(&q, v))))
+        .filter_map(|(i, n)| {
+            n.props
+                .get("vec")
+                .and_then(Value::as_vector)
+                .map(|v| (**i, cos(&q, v)))
+        })
         .collect();
     model_scores.sort_by(|a, b| b.1.total_cmp(&a.1));
     let got = r.vector_top_k("vec", &q, 5).unwrap();

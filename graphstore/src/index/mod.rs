@@ -181,7 +181,10 @@ impl<L: LayerData> Stack<L> {
     }
 
     /// All visible entries, sorted by node (used by integrity checks and tests).
-    pub(crate) fn visible_entries(&self, pending: Option<&Pending<L::Entry>>) -> Vec<(u64, L::Entry)> {
+    pub(crate) fn visible_entries(
+        &self,
+        pending: Option<&Pending<L::Entry>>,
+    ) -> Vec<(u64, L::Entry)> {
         let mut out: Vec<(u64, L::Entry)> = Vec::new();
         for (l, vis) in self.view(pending) {
             out.extend(l.entries().into_iter().filter(|(n, _)| vis.visible(*n)));
@@ -194,7 +197,12 @@ impl<L: LayerData> Stack<L> {
     }
 }
 
-fn merge<L: LayerData>(params: &L::Params, lower: &Frozen<L>, upper: &Frozen<L>, is_base: bool) -> Frozen<L> {
+fn merge<L: LayerData>(
+    params: &L::Params,
+    lower: &Frozen<L>,
+    upper: &Frozen<L>,
+    is_base: bool,
+) -> Frozen<L> {
     let mut entries: Vec<(u64, L::Entry)> = lower
         .data
         .entries()

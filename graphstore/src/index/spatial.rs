@@ -65,7 +65,11 @@ fn boxes_intersect(a: &Aabb, b: &Aabb) -> bool {
 }
 
 /// Nodes whose box intersects `query`, sorted by id.
-pub(crate) fn in_box(stack: &Stack<SpatialLayer>, pending: Option<&Pending<Aabb>>, query: Aabb) -> Vec<u64> {
+pub(crate) fn in_box(
+    stack: &Stack<SpatialLayer>,
+    pending: Option<&Pending<Aabb>>,
+    query: Aabb,
+) -> Vec<u64> {
     let env = AABB::from_corners(query.0, query.1);
     let mut out = Vec::new();
     for (layer, vis) in stack.view(pending) {
@@ -78,7 +82,12 @@ pub(crate) fn in_box(stack: &Stack<SpatialLayer>, pending: Option<&Pending<Aabb>
         );
     }
     if let Some(p) = pending {
-        out.extend(p.entries.iter().filter(|(_, b)| boxes_intersect(b, &query)).map(|(n, _)| *n));
+        out.extend(
+            p.entries
+                .iter()
+                .filter(|(_, b)| boxes_intersect(b, &query))
+                .map(|(n, _)| *n),
+        );
     }
     out.sort_unstable();
     out
@@ -135,7 +144,11 @@ pub(crate) fn nearest(
         );
     }
     if let Some(p) = pending {
-        out.extend(p.entries.iter().map(|(n, b)| (*n, dist2_point_box(center, b).sqrt())));
+        out.extend(
+            p.entries
+                .iter()
+                .map(|(n, b)| (*n, dist2_point_box(center, b).sqrt())),
+        );
     }
     sort_by_distance(&mut out);
     out.truncate(k);
@@ -183,7 +196,10 @@ mod tests {
             assert!((g.1 - w.1).abs() < 1e-9);
         }
         let k = nearest(&stack, None, center, 5);
-        assert_eq!(k.iter().map(|x| x.0).collect::<Vec<_>>(), want.iter().take(5).map(|x| x.0).collect::<Vec<_>>());
+        assert_eq!(
+            k.iter().map(|x| x.0).collect::<Vec<_>>(),
+            want.iter().take(5).map(|x| x.0).collect::<Vec<_>>()
+        );
         let bx = in_box(&stack, None, ([0.0, 0.0, 0.0], [4.0, 4.0, 0.0]));
         let want_box: Vec<u64> = all
             .iter()

@@ -10,8 +10,8 @@ const K1: f64 = 1.2;
 const B: f64 = 0.75;
 
 const STOPWORDS: &[&str] = &[
-    "a", "an", "and", "are", "as", "at", "be", "by", "for", "from", "in", "is", "it", "its", "of", "on", "or",
-    "that", "the", "this", "to", "with",
+    "a", "an", "and", "are", "as", "at", "be", "by", "for", "from", "in", "is", "it", "its", "of",
+    "on", "or", "that", "the", "this", "to", "with",
 ];
 
 /// Splits text into lower-case alphanumeric terms, drops stop words and folds a plural `s`
@@ -101,7 +101,12 @@ impl LayerData for TextLayer {
 }
 
 /// BM25 search: the `k` best nodes with their scores, best first (ties by id).
-pub(crate) fn search(stack: &Stack<TextLayer>, pending: Option<&Pending<Doc>>, query: &str, k: usize) -> Vec<(u64, f64)> {
+pub(crate) fn search(
+    stack: &Stack<TextLayer>,
+    pending: Option<&Pending<Doc>>,
+    query: &str,
+    k: usize,
+) -> Vec<(u64, f64)> {
     let mut terms = tokenize(query);
     terms.sort();
     terms.dedup();
@@ -177,7 +182,10 @@ mod tests {
 
     #[test]
     fn tokenizer_folds_case_plurals_and_stopwords() {
-        assert_eq!(tokenize("The red Cars, on a bench!"), vec!["red", "car", "bench"]);
+        assert_eq!(
+            tokenize("The red Cars, on a bench!"),
+            vec!["red", "car", "bench"]
+        );
         assert_eq!(tokenize("glass"), vec!["glass"]);
     }
 
@@ -186,7 +194,10 @@ mod tests {
         let docs = vec![
             (1, Doc::from_text("a red car parked on the road")),
             (2, Doc::from_text("a wooden bench next to a tree")),
-            (3, Doc::from_text("a bench at the bus stop, bench painted green")),
+            (
+                3,
+                Doc::from_text("a bench at the bus stop, bench painted green"),
+            ),
         ];
         let stack: Stack<TextLayer> = Stack::new((), docs);
         let r = search(&stack, None, "bench", 10);

@@ -88,7 +88,12 @@ impl LayerData for VectorLayer {
             }
             q
         });
-        VectorLayer { dim, ids, data, quant }
+        VectorLayer {
+            dim,
+            ids,
+            data,
+            quant,
+        }
     }
 
     fn entries(&self) -> Vec<(u64, Unit)> {
@@ -135,11 +140,7 @@ impl TopK {
     /// Whether (score, node) would enter.
     #[inline]
     fn admits(&self, s: f32, n: u64) -> bool {
-        self.heap.len() < self.k
-            || self
-                .heap
-                .peek()
-                .is_some_and(|w| Scored(s, n) < *w)
+        self.heap.len() < self.k || self.heap.peek().is_some_and(|w| Scored(s, n) < *w)
     }
     #[inline]
     fn push(&mut self, s: f32, n: u64) {
@@ -157,7 +158,9 @@ impl TopK {
         v.into_iter().map(|Scored(s, n)| (n, s)).collect()
     }
     fn min_score(&self) -> Option<f32> {
-        (self.heap.len() == self.k).then(|| self.heap.peek().map(|s| s.0)).flatten()
+        (self.heap.len() == self.k)
+            .then(|| self.heap.peek().map(|s| s.0))
+            .flatten()
     }
 }
 
@@ -253,8 +256,13 @@ mod tests {
     fn int8_path_is_exact() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
         let dim = 48;
-        let all: Vec<(u64, Vec<f32>)> = (0..3000u64).map(|n| (n, random_unit(&mut rng, dim))).collect();
-        let entries: Vec<(u64, Unit)> = all.iter().map(|(n, v)| (*n, normalize(v).unwrap())).collect();
+        let all: Vec<(u64, Vec<f32>)> = (0..3000u64)
+            .map(|n| (n, random_unit(&mut rng, dim)))
+            .collect();
+        let entries: Vec<(u64, Unit)> = all
+            .iter()
+            .map(|(n, v)| (*n, normalize(v).unwrap()))
+            .collect();
         for int8 in [false, true] {
             let stack: Stack<VectorLayer> = Stack::new(VectorParams { dim, int8 }, entries.clone());
             assert_eq!(stack.layers[0].data.quant.is_some(), int8);
@@ -276,7 +284,10 @@ mod tests {
     fn hidden_rows_are_skipped_and_zero_query_is_empty() {
         let dim = 4;
         let params = VectorParams { dim, int8: false };
-        let entries = vec![(1, normalize(&[1.0, 0.0, 0.0, 0.0]).unwrap()), (2, normalize(&[0.9, 0.1, 0.0, 0.0]).unwrap())];
+        let entries = vec![
+            (1, normalize(&[1.0, 0.0, 0.0, 0.0]).unwrap()),
+            (2, normalize(&[0.9, 0.1, 0.0, 0.0]).unwrap()),
+        ];
         let stack: Stack<VectorLayer> = Stack::new(params, entries);
         let mut p = Pending::default();
         p.set(1, None);

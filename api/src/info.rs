@@ -1,0 +1,74 @@
+//! `opengraph info`: counts per label and type, and the declared indexes.
+
+use std::fmt::Write;
+
+use graphstore::Store;
+
+/// `{"nodes": {LABEL: count}, "relationships": {TYPE: count}}`, keys sorted.
+pub fn json(store: &Store) -> anyhow::Result<String> {
+    let c = store.counts()?;
+    let v = serde_json::json!({"nodes": c.nodes, "relationships": c.relationships});
+    Ok(format!("{}\n", serde_json::to_string_pretty(&v)?))
+}
+
+/// A human-readable summary: counts and declared indexes.
+pub fn table(store: &Store) -> anyhow::Result<String> {
+    let c = store.counts()?;
+    let s = store.schema();
+    let mut o = String::new();
+    writeln!(
+        o,
+        "store {} (format v{})",
+        store.path().display(),
+        graphstore::FORMAT_VERSION
+    )?;
+    writeln!(o, "nodes: {}", c.total_nodes)?;
+    for (l, n) in &c.nodes {
+        writeln!(o, "  {l:<20} {n:>10}")?;
+    }
+    writeln!(o, "relationships: {}", c.total_relationships)?;
+    for (t, n) in &c.relationships {
+        writeln!(o, "  {t:<20} {n:>10}")?;
+    }
+    let mut idx: Vec<String> = s
+        .effective_property_indexes()
+        .iter()
+        .map(|p| format!("property {}.{}", p.label, p.key))
+        .collect();
+    idx.extend(s.spatial_indexes.iter().map(|x| {
+        format!(
+            "spatial {} ({}.{})",
+            x.name,
+            x.label,
+            x.box_key.as_deref().unwrap_or(&x.position_key)
+        )
+    }));
+    idx.extend(s.vector_indexes.iter().map(|x| {
+        format!(
+            "vector {} ({}.{}, {}-d{})",
+            x.name,
+            x.label,
+            x.key,
+            x.dim,
+            if x.int8 { ", int8 pre-scan" } else { "" }
+        )
+    }));
+    idx.extend(
+        s.text_indexes
+            .iter()
+            .map(|x| format!("text {} ({}.{})", x.name, x.label, x.key)),
+    );
+    writeln!(
+        o,
+        "indexes: {}",
+        if idx.is_empty() {
+            "none".to_string()
+        } else {
+            idx.len().to_string()
+        }
+    )?;
+    for i in idx {
+        writeln!(o, "  {i}")?;
+    }
+    Ok(o)
+}
