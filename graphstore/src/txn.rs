@@ -107,6 +107,8 @@ pub struct WriteTxn<'a> {
     pending: PendingMem,
     new_tokens: Vec<String>,
     new_token_ids: HashMap<String, u32>,
+    /// Count changes, written to the counts table once at the end.
+    count_deltas: HashMap<(u8, u32), i64>,
     next_node: u64,
     next_rel: u64,
     meta: Table<'a, &'static str, &'static [u8]>,
@@ -190,12 +192,16 @@ macro_rules! raw_reads {
         }
 
         fn count_rows(&self) -> Result<Vec<((u8, u32), u64)>> {
-            let mut out = Vec::new();
+            let mut out = std::collections::BTreeMap::new();
             for row in self.counts.iter().map_err(storage)? {
                 let (k, v) = row.map_err(storage)?;
-                out.push((k.value(), v.value()));
+                out.insert(k.value(), v.value());
             }
-            Ok(out)
+            for (k, d) in self.deltas() {
+                let e = out.entry(*k).or_insert(0u64);
+                *e = e.saturating_add_signed(*d);
+            }
+            Ok(out.into_iter().filter(|(_, n)| *n > 0).collect())
         }
 
         fn payload(&self, node: u64, key: &str) -> Result<Option<Vec<u8>>> {
@@ -316,6 +322,18 @@ impl Raw for WriteTxn<'_> {
     raw_reads!();
 }
 
+impl ReadTxn {
+    fn deltas(&self) -> std::iter::Empty<(&(u8, u32), &i64)> {
+        std::iter::empty()
+    }
+}
+
+impl WriteTxn<'_> {
+    fn deltas(&self) -> impl Iterator<Item = (&(u8, u32), &i64)> {
+        self.count_deltas.iter()
+    }
+}
+
 impl GraphRead for ReadTxn {
     fn view(&self) -> View<'_> {
         View { raw: self }
@@ -360,6 +378,7 @@ impl<'a> WriteTxn<'a> {
             base,
             new_tokens: Vec::new(),
             new_token_ids: HashMap::new(),
+            count_deltas: HashMap::new(),
             next_node,
             next_rel,
             meta,
@@ -376,6 +395,7 @@ impl<'a> WriteTxn<'a> {
 
     /// Writes the id counters; returns the index changes and new tokens for the commit.
     pub(crate) fn finish(mut self) -> Result<(PendingMem, Vec<String>)> {
+        self.flush_counts()?;
         self.meta
             .insert(K_NEXT_NODE, self.next_node.to_le_bytes().as_slice())
             .map_err(storage)?;
@@ -428,22 +448,32 @@ impl<'a> WriteTxn<'a> {
     // ---- counts ----
 
     fn bump(&mut self, kind: u8, tok: u32, delta: i64) -> Result<()> {
-        let cur = self
-            .counts
-            .get(&(kind, tok))
-            .map_err(storage)?
-            .map(|g| g.value())
-            .unwrap_or(0);
-        let next = cur.checked_add_signed(delta).ok_or_else(|| {
-            corrupt(
-                "counts",
-                format!("count for ({kind}, {tok}) would go negative"),
-            )
-        })?;
-        if next == 0 {
-            self.counts.remove(&(kind, tok)).map_err(storage)?;
-        } else {
-            self.counts.insert(&(kind, tok), &next).map_err(storage)?;
+        *self.count_deltas.entry((kind, tok)).or_default() += delta;
+        Ok(())
+    }
+
+    fn flush_counts(&mut self) -> Result<()> {
+        let mut deltas: Vec<((u8, u32), i64)> =
+            self.count_deltas.drain().filter(|(_, d)| *d != 0).collect();
+        deltas.sort_unstable();
+        for ((kind, tok), delta) in deltas {
+            let cur = self
+                .counts
+                .get(&(kind, tok))
+                .map_err(storage)?
+                .map(|g| g.value())
+                .unwrap_or(0);
+            let next = cur.checked_add_signed(delta).ok_or_else(|| {
+                corrupt(
+                    "counts",
+                    format!("count for ({kind}, {tok}) would go negative"),
+                )
+            })?;
+            if next == 0 {
+                self.counts.remove(&(kind, tok)).map_err(storage)?;
+            } else {
+                self.counts.insert(&(kind, tok), &next).map_err(storage)?;
+            }
         }
         Ok(())
     }
