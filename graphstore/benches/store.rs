@@ -139,6 +139,7 @@ fn vectors(m: usize, dir: &std::path::Path, clustered: bool) -> anyhow::Result<(
             key: "v".into(),
             dim,
             int8,
+            method: Default::default(),
         });
     }
     s.spatial_indexes.push(SpatialIndexSpec {

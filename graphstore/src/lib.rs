@@ -21,7 +21,7 @@ pub use error::{Error, Result};
 pub use index::text::tokenize;
 pub use model::{Adjacent, Direction, Node, Relationship};
 pub use payload::{DEFAULT_RESOLUTION_M, PointCloud};
-pub use read::{GraphRead, Hit, ValueBound, View};
+pub use read::{FlatVectorIndex, GraphRead, Hit, ValueBound, VectorSearch, View};
 pub use schema::{
     FEATURE_DIM, LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec,
     TextIndexSpec, VectorIndexSpec, opengraph_schema,

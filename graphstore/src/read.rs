@@ -71,6 +71,63 @@ pub struct Hit {
     pub score: f64,
 }
 
+/// Top-k vector search. The exact flat index ([`FlatVectorIndex`]) implements it; an
+/// approximate index (HNSW, IVF) would implement it too and report `is_exact() == false`.
+pub trait VectorSearch {
+    /// Dimension of the vectors.
+    fn dim(&self) -> usize;
+    /// Whether results are guaranteed to be the true top-k.
+    fn is_exact(&self) -> bool;
+    /// The `k` most cosine-similar nodes, best first (ties by id).
+    fn top_k(&self, query: &[f32], k: usize) -> Result<Vec<Hit>>;
+}
+
+/// A vector index as seen by one transaction.
+#[derive(Debug, Clone, Copy)]
+pub struct FlatVectorIndex<'a> {
+    view: View<'a>,
+    slot: usize,
+    name: &'a str,
+}
+
+impl VectorSearch for FlatVectorIndex<'_> {
+    fn dim(&self) -> usize {
+        self.view.raw.base().schema.vector[self.slot].params.dim
+    }
+
+    fn is_exact(&self) -> bool {
+        true
+    }
+
+    fn top_k(&self, query: &[f32], k: usize) -> Result<Vec<Hit>> {
+        let raw = self.view.raw;
+        let dim = self.dim();
+        if query.len() != dim {
+            return Err(Error::InvalidValue(format!(
+                "query has {} dimensions, index {:?} has {dim}",
+                query.len(),
+                self.name
+            )));
+        }
+        if query.iter().any(|x| !x.is_finite()) {
+            return Err(Error::InvalidValue("query vector has NaN or inf".into()));
+        }
+        let i = self.slot;
+        Ok(vector::top_k(
+            &raw.base().mem.vector[i],
+            raw.pending_mem().map(|p| &p.vector[i]),
+            query,
+            k,
+        )
+        .into_iter()
+        .map(|(node, s)| Hit {
+            node,
+            score: f64::from(s),
+        })
+        .collect())
+    }
+}
+
 fn index_prefix(index: u32) -> Vec<u8> {
     index.to_be_bytes().to_vec()
 }
@@ -360,32 +417,16 @@ pub trait GraphRead {
         .collect())
     }
 
+    /// A vector index by name, searchable through [`VectorSearch`].
+    fn vector_index<'a>(&'a self, name: &'a str) -> Result<FlatVectorIndex<'a>> {
+        let view = self.view();
+        let slot = view.raw.base().schema.vector_by_name(name)?;
+        Ok(FlatVectorIndex { view, slot, name })
+    }
+
     /// Exact top-k by cosine similarity in a vector index, best first (ties by id).
     fn vector_top_k(&self, index: &str, query: &[f32], k: usize) -> Result<Vec<Hit>> {
-        let raw = self.view().raw;
-        let i = raw.base().schema.vector_by_name(index)?;
-        let dim = raw.base().schema.vector[i].params.dim;
-        if query.len() != dim {
-            return Err(Error::InvalidValue(format!(
-                "query has {} dimensions, index {index:?} has {dim}",
-                query.len()
-            )));
-        }
-        if query.iter().any(|x| !x.is_finite()) {
-            return Err(Error::InvalidValue("query vector has NaN or inf".into()));
-        }
-        Ok(vector::top_k(
-            &raw.base().mem.vector[i],
-            raw.pending_mem().map(|p| &p.vector[i]),
-            query,
-            k,
-        )
-        .into_iter()
-        .map(|(node, s)| Hit {
-            node,
-            score: f64::from(s),
-        })
-        .collect())
+        self.vector_index(index)?.top_k(query, k)
     }
 
     /// BM25 search in a text index, best first (ties by id).

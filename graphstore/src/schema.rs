@@ -92,6 +92,20 @@ pub struct VectorIndexSpec {
     /// with a proven error bound).
     #[serde(default = "yes")]
     pub int8: bool,
+    /// Search method. Only the exact flat scan exists today; the field is stored so an
+    /// approximate method can be added without a format change.
+    #[serde(default)]
+    pub method: VectorMethod,
+}
+
+/// How a vector index searches.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum VectorMethod {
+    /// Exact scan over contiguous rows (with the optional int8 pre-scan).
+    #[default]
+    Flat,
 }
 
 fn yes() -> bool {
@@ -439,6 +453,7 @@ pub fn opengraph_schema() -> Schema {
         key: "feature".into(),
         dim: FEATURE_DIM,
         int8: true,
+        method: VectorMethod::Flat,
     }];
     s.text_indexes = vec![TextIndexSpec {
         name: "instance_caption".into(),

@@ -54,6 +54,7 @@ fn schema() -> Schema {
         key: "v".into(),
         dim: 8,
         int8: true,
+        method: Default::default(),
     });
     s
 }

@@ -46,6 +46,7 @@ fn schema() -> Schema {
         key: "vec".into(),
         dim: 4,
         int8: false,
+        method: Default::default(),
     });
     s.text_indexes.push(TextIndexSpec {
         name: "txt".into(),

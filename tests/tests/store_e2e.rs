@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use graphstore::export::{ExportFormat, export};
-use graphstore::{Error, GraphRead, Store, Value, opengraph_schema};
+use graphstore::{Error, GraphRead, Store, Value, VectorSearch, opengraph_schema};
 
 fn instance(i: i64, x: f64) -> Vec<(&'static str, Value)> {
     vec![
@@ -103,6 +103,28 @@ fn readers_see_consistent_snapshots_while_a_writer_commits() {
     assert!(checks > 0);
     assert_eq!(store.counts().unwrap().nodes["Instance"], 600);
     assert!(store.check_consistency().unwrap().is_empty());
+    // the vector index behind the trait
+    let r = store.read().unwrap();
+    let idx = r.vector_index("instance_feature").unwrap();
+    assert!(idx.is_exact());
+    assert_eq!(idx.dim(), 384);
+    let q: Vec<f32> = (0..384)
+        .map(|d| ((d as i64 * 31 + 7) % 17) as f32 - 8.0)
+        .collect();
+    let hits = idx.top_k(&q, 3).unwrap();
+    assert_eq!(
+        r.node_prop(hits[0].node, "instance_id").unwrap(),
+        Some(Value::Int(7))
+    );
+    assert!((hits[0].score - 1.0).abs() < 1e-5);
+    assert!(matches!(
+        idx.top_k(&[1.0; 3], 3),
+        Err(Error::InvalidValue(_))
+    ));
+    assert!(matches!(
+        r.vector_index("nope"),
+        Err(Error::NoSuchIndex { .. })
+    ));
 }
 
 #[test]
