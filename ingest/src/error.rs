@@ -1,0 +1,54 @@
+//! The crate's single error type.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong while reading sources or building the map.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A text file has a bad line.
+    #[error("{}:{line}: {detail}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        detail: String,
+    },
+    /// A file is missing something it must have.
+    #[error("{}: {detail}", path.display())]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        detail: String,
+    },
+    /// An OS error on a file.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// Input that cannot be processed (too short, non-finite, inconsistent).
+    #[error("invalid input: {0}")]
+    Invalid(String),
+    /// The store refused a write or a read failed.
+    #[error(transparent)]
+    Store(#[from] graphstore::Error),
+    /// Drawing or encoding an image failed.
+    #[error("rendering failed: {0}")]
+    Render(String),
+}
+
+/// Result alias for ingest.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}

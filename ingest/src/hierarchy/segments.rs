@@ -1,0 +1,351 @@
+//! Segment and environment layers: a junction area (disc) around every intersection and
+//! bend node, a road corridor (buffered centreline) for every stretch of lane between them,
+//! `CONNECTS` between segments that join. Containment and distance go through parry2d.
+
+use parry2d::math::{Pose, Vector};
+use parry2d::query::PointQuery;
+use parry2d::shape::{Ball, Polyline};
+
+use super::lanes::{LaneGraph, LaneNodeKind, polyline_length};
+
+/// Segment parameters.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct SegmentConfig {
+    /// Radius of a junction area.
+    pub junction_radius_m: f64,
+    /// Half-width of a road corridor.
+    pub road_half_width_m: f64,
+}
+
+impl Default for SegmentConfig {
+    fn default() -> Self {
+        SegmentConfig {
+            junction_radius_m: 12.0,
+            road_half_width_m: 8.0,
+        }
+    }
+}
+
+/// Segment types.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SegmentKind {
+    /// 4+ way junction area.
+    Intersection,
+    /// T-junction area.
+    TIntersection,
+    /// Bend area.
+    LIntersection,
+    /// Road between junction areas.
+    StraightRoadway,
+}
+
+impl SegmentKind {
+    /// The name used in the graph.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SegmentKind::Intersection => "intersection",
+            SegmentKind::TIntersection => "t_intersection",
+            SegmentKind::LIntersection => "l_intersection",
+            SegmentKind::StraightRoadway => "straight_roadway",
+        }
+    }
+}
+
+/// The area a segment covers.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub enum SegmentArea {
+    /// A junction: a disc.
+    Disc {
+        /// Centre on the ground plane.
+        centre: [f64; 2],
+        /// Radius.
+        radius_m: f64,
+    },
+    /// A road: the centreline buffered by a half-width.
+    Corridor {
+        /// Centreline on the ground plane.
+        centreline: Vec<[f64; 2]>,
+        /// Half-width.
+        half_width_m: f64,
+    },
+}
+
+fn v(p: [f64; 2]) -> Vector {
+    Vector::new(p[0] as f32, p[1] as f32)
+}
+
+impl SegmentArea {
+    /// Distance from `p` to the area (0 inside), computed with parry2d.
+    pub fn distance(&self, p: [f64; 2]) -> f64 {
+        match self {
+            SegmentArea::Disc { centre, radius_m } => {
+                let ball = Ball::new(*radius_m as f32);
+                f64::from(ball.distance_to_point(&Pose::from_translation(v(*centre)), v(p), true))
+            }
+            SegmentArea::Corridor {
+                centreline,
+                half_width_m,
+            } => {
+                let d = if centreline.len() < 2 {
+                    let c = centreline.first().copied().unwrap_or([0.0, 0.0]);
+                    ((c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2)).sqrt()
+                } else {
+                    let line = Polyline::new(centreline.iter().map(|q| v(*q)).collect(), None);
+                    f64::from(line.distance_to_local_point(v(p), false))
+                };
+                (d - half_width_m).max(0.0)
+            }
+        }
+    }
+
+    /// Whether `p` lies in the area.
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        self.distance(p) <= 0.0
+    }
+
+    /// A closed ring approximating the outline of a disc (`n` vertices), or the centreline of a
+    /// corridor (for display; containment uses [`Self::distance`]).
+    pub fn outline(&self, n: usize) -> Vec<[f64; 2]> {
+        match self {
+            SegmentArea::Disc { centre, radius_m } => (0..=n)
+                .map(|k| {
+                    let a = std::f64::consts::TAU * k as f64 / n as f64;
+                    [
+                        centre[0] + radius_m * a.cos(),
+                        centre[1] + radius_m * a.sin(),
+                    ]
+                })
+                .collect(),
+            SegmentArea::Corridor { centreline, .. } => centreline.clone(),
+        }
+    }
+
+    /// The road direction at the point of the area nearest to `p` (unit vector), for
+    /// corridors; None for discs.
+    pub fn direction_near(&self, p: [f64; 2]) -> Option<[f64; 2]> {
+        let SegmentArea::Corridor { centreline, .. } = self else {
+            return None;
+        };
+        let best = centreline.windows(2).min_by(|a, b| {
+            super::lanes::point_segment_distance(p, a[0], a[1])
+                .total_cmp(&super::lanes::point_segment_distance(p, b[0], b[1]))
+        })?;
+        let d = [best[1][0] - best[0][0], best[1][1] - best[0][1]];
+        let l = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        (l > 0.0).then(|| [d[0] / l, d[1] / l])
+    }
+}
+
+/// One segment.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Segment {
+    /// Index in [`Segments::segments`].
+    pub id: usize,
+    /// Its type.
+    pub kind: SegmentKind,
+    /// Centroid on the ground plane.
+    pub centroid: [f64; 2],
+    /// Its area.
+    pub area: SegmentArea,
+    /// Lane nodes inside it.
+    pub lane_nodes: Vec<usize>,
+}
+
+/// The segment layer.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct Segments {
+    /// Junction areas first (in lane-node order), then roads (in lane-edge order).
+    pub segments: Vec<Segment>,
+    /// Pairs of joining segments (smaller id first), sorted.
+    pub connects: Vec<(usize, usize)>,
+}
+
+impl Segments {
+    /// The segment nearest to `p` and the distance to it.
+    pub fn nearest(&self, p: [f64; 2]) -> Option<(usize, f64)> {
+        self.segments
+            .iter()
+            .map(|s| (s.id, s.area.distance(p)))
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+    }
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// Drops the parts of `line` inside the disc (`c`, `r`) at its start, ending the cut exactly
+/// on the circle.
+fn clip_start(line: &[[f64; 2]], c: [f64; 2], r: f64) -> Vec<[f64; 2]> {
+    let Some(k) = line.iter().position(|p| dist(*p, c) > r) else {
+        return Vec::new();
+    };
+    let mut out = Vec::with_capacity(line.len() - k + 1);
+    if k > 0 {
+        // the crossing on [line[k-1], line[k]]: |a + t(b - a) - c| = r
+        let (a, b) = (line[k - 1], line[k]);
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let f = [a[0] - c[0], a[1] - c[1]];
+        let qa = d[0] * d[0] + d[1] * d[1];
+        let qb = 2.0 * (f[0] * d[0] + f[1] * d[1]);
+        let qc = f[0] * f[0] + f[1] * f[1] - r * r;
+        let disc = (qb * qb - 4.0 * qa * qc).max(0.0);
+        let t = if qa > 0.0 {
+            ((-qb + disc.sqrt()) / (2.0 * qa)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        out.push([a[0] + t * d[0], a[1] + t * d[1]]);
+    }
+    out.extend_from_slice(&line[k..]);
+    out
+}
+
+/// Builds the segment layer from a lane graph.
+pub fn build_segments(lanes: &LaneGraph, cfg: &SegmentConfig) -> Segments {
+    let mut segs = Segments::default();
+    let mut junction_of = vec![None; lanes.nodes.len()];
+    for n in &lanes.nodes {
+        let kind = match n.kind {
+            LaneNodeKind::Intersection => SegmentKind::Intersection,
+            LaneNodeKind::TIntersection => SegmentKind::TIntersection,
+            LaneNodeKind::LIntersection => SegmentKind::LIntersection,
+            LaneNodeKind::Breakpoint => continue,
+        };
+        let id = segs.segments.len();
+        junction_of[n.id] = Some(id);
+        segs.segments.push(Segment {
+            id,
+            kind,
+            centroid: n.xy,
+            area: SegmentArea::Disc {
+                centre: n.xy,
+                radius_m: cfg.junction_radius_m,
+            },
+            lane_nodes: vec![n.id],
+        });
+    }
+    let mut connects = std::collections::BTreeSet::new();
+    for e in &lanes.edges {
+        let mut line = e.polyline.clone();
+        if junction_of[e.from].is_some() {
+            line = clip_start(&line, lanes.nodes[e.from].xy, cfg.junction_radius_m);
+        }
+        if junction_of[e.to].is_some() {
+            line.reverse();
+            line = clip_start(&line, lanes.nodes[e.to].xy, cfg.junction_radius_m);
+            line.reverse();
+        }
+        let ends: Vec<usize> = [junction_of[e.from], junction_of[e.to]]
+            .into_iter()
+            .flatten()
+            .collect();
+        if polyline_length(&line) < 1.0 {
+            // junction areas touch: connect them directly
+            if let [a, b] = ends[..]
+                && a != b
+            {
+                connects.insert((a.min(b), a.max(b)));
+            }
+            continue;
+        }
+        let id = segs.segments.len();
+        let lane_nodes = [e.from, e.to]
+            .into_iter()
+            .filter(|n| junction_of[*n].is_none())
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        segs.segments.push(Segment {
+            id,
+            kind: SegmentKind::StraightRoadway,
+            centroid: centroid(&line),
+            area: SegmentArea::Corridor {
+                centreline: line,
+                half_width_m: cfg.road_half_width_m,
+            },
+            lane_nodes,
+        });
+        for j in ends {
+            connects.insert((j.min(id), j.max(id)));
+        }
+    }
+    segs.connects = connects.into_iter().collect();
+    segs
+}
+
+/// The point halfway along a polyline.
+fn centroid(line: &[[f64; 2]]) -> [f64; 2] {
+    let half = polyline_length(line) / 2.0;
+    let mut acc = 0.0;
+    for w in line.windows(2) {
+        let l = dist(w[0], w[1]);
+        if acc + l >= half && l > 0.0 {
+            let t = (half - acc) / l;
+            return [
+                w[0][0] + t * (w[1][0] - w[0][0]),
+                w[0][1] + t * (w[1][1] - w[0][1]),
+            ];
+        }
+        acc += l;
+    }
+    line[0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::lanes::{LaneConfig, extract_lanes, tests::drive};
+
+    #[test]
+    fn t_junction_gives_one_junction_area_and_three_roads() {
+        let t = drive(&[
+            [-200.0, 0.0],
+            [0.0, 0.0],
+            [0.0, 200.0],
+            [0.0, 0.0],
+            [200.0, 0.0],
+        ]);
+        let lanes = extract_lanes(&t, &LaneConfig::default()).unwrap();
+        let s = build_segments(&lanes, &SegmentConfig::default());
+        let kinds: Vec<SegmentKind> = s.segments.iter().map(|s| s.kind).collect();
+        assert_eq!(
+            kinds
+                .iter()
+                .filter(|k| **k == SegmentKind::TIntersection)
+                .count(),
+            1
+        );
+        assert_eq!(
+            kinds
+                .iter()
+                .filter(|k| **k == SegmentKind::StraightRoadway)
+                .count(),
+            3
+        );
+        assert_eq!(s.connects.len(), 3);
+        assert!(s.connects.iter().all(|(a, _)| *a == 0));
+        // containment and distance through parry
+        let junction = &s.segments[0];
+        let c = junction.centroid;
+        assert!(dist(c, [0.0, 0.0]) < 5.0, "{c:?}");
+        assert!(junction.area.contains([c[0] + 3.0, c[1] + 4.0]));
+        assert!((junction.area.distance([c[0], c[1] - 20.0]) - 8.0).abs() < 1e-3);
+        let (near, d) = s.nearest([-100.0, 5.0]).unwrap();
+        assert_eq!(s.segments[near].kind, SegmentKind::StraightRoadway);
+        assert!(d.abs() < 1e-3);
+        let (_, d) = s.nearest([-100.0, 30.0]).unwrap();
+        assert!((d - 22.0).abs() < 1e-3, "{d}");
+        // the road segment starts on the junction circle
+        let SegmentArea::Corridor { centreline, .. } = &s.segments[1].area else {
+            panic!()
+        };
+        let ends = [centreline[0], *centreline.last().unwrap()];
+        assert!(
+            ends.iter().any(|p| (dist(*p, c) - 12.0).abs() < 1e-6),
+            "{ends:?}"
+        );
+    }
+}

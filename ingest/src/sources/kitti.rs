@@ -1,0 +1,225 @@
+//! KITTI odometry text files: `poses.txt` (cam0-to-world, 3×4 row-major per line) and
+//! `calib.txt` (`P0`..`P3`, `Tr` velodyne-to-cam0, each 3×4 row-major).
+//!
+//! `world_from_velo = world_from_cam0 × cam0_from_velo`, i.e. `pose × Tr`. KITTI's world frame
+//! is cam0's first frame: x right, y down, z forward, so the ground plane is (x, z).
+
+use std::path::Path;
+
+use crate::error::{Error, Result, read_text};
+
+/// A rigid transform as a 3×4 row-major matrix `[R | t]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mat34(pub [[f64; 4]; 3]);
+
+impl Mat34 {
+    /// The identity.
+    pub const IDENTITY: Mat34 = Mat34([
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ]);
+
+    /// From 12 row-major values.
+    pub fn from_row_major(v: &[f64]) -> Option<Mat34> {
+        if v.len() != 12 {
+            return None;
+        }
+        let mut m = [[0.0; 4]; 3];
+        for (i, x) in v.iter().enumerate() {
+            m[i / 4][i % 4] = *x;
+        }
+        Some(Mat34(m))
+    }
+
+    /// `self × other` (both as 4×4 with a last row 0 0 0 1).
+    pub fn compose(&self, other: &Mat34) -> Mat34 {
+        let (a, b) = (&self.0, &other.0);
+        let mut m = [[0.0; 4]; 3];
+        for (r, row) in m.iter_mut().enumerate() {
+            for (c, cell) in row.iter_mut().enumerate() {
+                let mut s = (0..3).map(|k| a[r][k] * b[k][c]).sum::<f64>();
+                if c == 3 {
+                    s += a[r][3];
+                }
+                *cell = s;
+            }
+        }
+        Mat34(m)
+    }
+
+    /// The translation column.
+    pub fn translation(&self) -> [f64; 3] {
+        [self.0[0][3], self.0[1][3], self.0[2][3]]
+    }
+
+    /// Applies the transform to a point.
+    pub fn apply(&self, p: [f64; 3]) -> [f64; 3] {
+        let m = &self.0;
+        [0, 1, 2].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
+    }
+
+    /// The 12 row-major values.
+    pub fn to_row_major(&self) -> Vec<f64> {
+        self.0.iter().flat_map(|r| r.iter().copied()).collect()
+    }
+}
+
+fn parse_floats(path: &Path, line_no: usize, text: &str, want: usize) -> Result<Vec<f64>> {
+    let mut out = Vec::with_capacity(want);
+    for tok in text.split_whitespace() {
+        let v: f64 = tok.parse().map_err(|_| Error::Parse {
+            path: path.to_path_buf(),
+            line: line_no,
+            detail: format!("{tok:?} is not a number"),
+        })?;
+        if !v.is_finite() {
+            return Err(Error::Parse {
+                path: path.to_path_buf(),
+                line: line_no,
+                detail: format!("{tok} is not finite"),
+            });
+        }
+        out.push(v);
+    }
+    if out.len() != want {
+        return Err(Error::Parse {
+            path: path.to_path_buf(),
+            line: line_no,
+            detail: format!("expected {want} numbers, found {}", out.len()),
+        });
+    }
+    Ok(out)
+}
+
+/// Reads `poses.txt`: one 3×4 world-from-cam0 matrix per non-empty line.
+pub fn read_poses(path: &Path) -> Result<Vec<Mat34>> {
+    let text = read_text(path)?;
+    let mut poses = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let v = parse_floats(path, i + 1, line, 12)?;
+        poses.push(Mat34::from_row_major(&v).expect("12 values"));
+    }
+    if poses.is_empty() {
+        return Err(Error::File {
+            path: path.to_path_buf(),
+            detail: "no poses".into(),
+        });
+    }
+    Ok(poses)
+}
+
+/// KITTI odometry calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calib {
+    /// Projection matrices P0..P3 (rectified cameras).
+    pub p: [Mat34; 4],
+    /// `Tr`: cam0 from velodyne.
+    pub cam0_from_velo: Mat34,
+}
+
+/// Reads `calib.txt`; `Tr` and `P0`..`P3` must all be present.
+pub fn read_calib(path: &Path) -> Result<Calib> {
+    let text = read_text(path)?;
+    let mut p: [Option<Mat34>; 4] = [None; 4];
+    let mut tr = None;
+    for (i, line) in text.lines().enumerate() {
+        let Some((key, rest)) = line.split_once(':') else {
+            if line.trim().is_empty() {
+                continue;
+            }
+            return Err(Error::Parse {
+                path: path.to_path_buf(),
+                line: i + 1,
+                detail: "expected `KEY: 12 numbers`".into(),
+            });
+        };
+        let key = key.trim();
+        let slot = match key {
+            "P0" => &mut p[0],
+            "P1" => &mut p[1],
+            "P2" => &mut p[2],
+            "P3" => &mut p[3],
+            "Tr" | "Tr_velo_to_cam" => &mut tr,
+            _ => continue,
+        };
+        let v = parse_floats(path, i + 1, rest, 12)?;
+        *slot = Mat34::from_row_major(&v);
+    }
+    let missing = |k: &str| Error::File {
+        path: path.to_path_buf(),
+        detail: format!("calibration has no {k} line"),
+    };
+    let cam0_from_velo = tr.ok_or_else(|| missing("Tr"))?;
+    let get = |i: usize| p[i].ok_or_else(|| missing(&format!("P{i}")));
+    Ok(Calib {
+        p: [get(0)?, get(1)?, get(2)?, get(3)?],
+        cam0_from_velo,
+    })
+}
+
+/// Ground-plane trajectory from KITTI poses: the (x, z) of each pose's position, or of the
+/// velodyne's position when `calib` is given (`pose × Tr`).
+pub fn ground_trajectory(poses: &[Mat34], calib: Option<&Calib>) -> Vec<[f64; 2]> {
+    poses
+        .iter()
+        .map(|pose| {
+            let t = match calib {
+                Some(c) => pose.compose(&c.cam0_from_velo).translation(),
+                None => pose.translation(),
+            };
+            [t[0], t[2]]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compose_matches_hand_computation() {
+        let a = Mat34([
+            [0.0, -1.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0, 2.0],
+            [0.0, 0.0, 1.0, 3.0],
+        ]);
+        let b = Mat34([
+            [1.0, 0.0, 0.0, 5.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ]);
+        let c = a.compose(&b);
+        let p = c.apply([0.0, 0.0, 0.0]);
+        let q = a.apply(b.apply([0.0, 0.0, 0.0]));
+        for i in 0..3 {
+            assert!((p[i] - q[i]).abs() < 1e-12);
+        }
+        assert!((p[0] - 1.0).abs() < 1e-12 && (p[1] - 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_lines_name_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("poses.txt");
+        std::fs::write(&f, "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n").unwrap();
+        let e = read_poses(&f).unwrap_err().to_string();
+        assert!(
+            e.contains("poses.txt:2: expected 12 numbers, found 11"),
+            "{e}"
+        );
+        std::fs::write(&f, "1 0 0 nan 0 1 0 0 0 0 1 0\n").unwrap();
+        assert!(read_poses(&f).unwrap_err().to_string().contains(":1:"));
+        let c = dir.path().join("calib.txt");
+        std::fs::write(&c, "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nP1: 1 0 0 0 0 1 0 0 0 0 1 0\nP2: 1 0 0 0 0 1 0 0 0 0 1 0\nP3: 1 0 0 0 0 1 0 0 0 0 1 0\n").unwrap();
+        assert!(
+            read_calib(&c)
+                .unwrap_err()
+                .to_string()
+                .contains("no Tr line")
+        );
+    }
+}
