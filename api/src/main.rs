@@ -63,6 +63,26 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Write the hierarchy (environment, segments, lane graph) into a store from a KITTI-format
+    /// trajectory, and link the store's instances (IN_SEGMENT, geometric RELATED). Replaces a
+    /// previous hierarchy in that store.
+    Hierarchy {
+        /// The store file (created if missing).
+        #[arg(long)]
+        db: PathBuf,
+        /// poses.txt (3x4 world-from-cam0 per line).
+        #[arg(long)]
+        poses: PathBuf,
+        /// calib.txt: use the velodyne position (pose x Tr) instead of the camera's.
+        #[arg(long)]
+        calib: Option<PathBuf>,
+        /// Name of the environment node.
+        #[arg(long, default_value = "environment")]
+        name: String,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Build a small hand-made demo graph with the OpenGraph schema (a stand-in until
     /// `sim` exists), then print its summary.
     Demo {
@@ -79,6 +99,12 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             return !matches!(
                 g,
                 graphstore::Error::Storage(_) | graphstore::Error::Io { .. }
+            );
+        }
+        if let Some(i) = c.downcast_ref::<ingest::Error>() {
+            return !matches!(
+                i,
+                ingest::Error::Render(_) | ingest::Error::Store(graphstore::Error::Storage(_))
             );
         }
         c.downcast_ref::<UsageError>().is_some()
@@ -178,6 +204,43 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     segs.segments.len(),
                     took.as_secs_f64() * 1e3
                 );
+            }
+        }
+        Command::Hierarchy {
+            db,
+            poses,
+            calib,
+            name,
+            json,
+        } => {
+            let p = ingest::sources::kitti::read_poses(&poses)?;
+            let c = calib
+                .as_deref()
+                .map(ingest::sources::kitti::read_calib)
+                .transpose()?;
+            let traj: Vec<[f64; 3]> = p
+                .iter()
+                .map(|pose| match &c {
+                    Some(c) => pose.compose(&c.cam0_from_velo).translation(),
+                    None => pose.translation(),
+                })
+                .collect();
+            let store = graphstore::Store::create(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            if store.schema() == graphstore::Schema::default() {
+                store.set_schema(graphstore::opengraph_schema())?;
+            }
+            let (_, _, report) = ingest::hierarchy::build_hierarchy(
+                &store,
+                &traj,
+                ingest::hierarchy::frame::GroundFrame::KittiCam,
+                &name,
+                &ingest::hierarchy::HierarchyConfig::default(),
+            )?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                println!("{report:?}");
             }
         }
         Command::Demo { db } => {

@@ -111,3 +111,116 @@ fn bad_input_exits_2_with_a_message() {
     let out = og(&["demo", "--db", db.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2), "demo refuses to overwrite");
 }
+
+/// A KITTI-format poses.txt for a T-junction drive at 1 m per pose (ground plane x, z).
+fn t_junction_poses(path: &std::path::Path) {
+    let way = [
+        [-150.0, 0.0],
+        [0.0, 0.0],
+        [0.0, 150.0],
+        [0.0, 0.0],
+        [150.0, 0.0],
+    ];
+    let mut s = String::new();
+    for w in way.windows(2) {
+        let a: [f64; 2] = w[0];
+        let b: [f64; 2] = w[1];
+        let n = (b[0] - a[0]).hypot(b[1] - a[1]).round() as usize;
+        for k in 0..n {
+            let f = k as f64 / n as f64;
+            let (x, z) = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]));
+            s.push_str(&format!("1 0 0 {x} 0 1 0 0 0 0 1 {z}\n"));
+        }
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+#[test]
+fn lanes_json_geojson_png_and_hierarchy() {
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.txt");
+    t_junction_poses(&poses);
+    let gj = dir.path().join("l.geojson");
+    let png = dir.path().join("l.png");
+    let out = og(&[
+        "lanes",
+        "--poses",
+        poses.to_str().unwrap(),
+        "--out",
+        gj.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let kinds: Vec<&str> = v["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        kinds.iter().filter(|k| **k == "t_intersection").count(),
+        1,
+        "{kinds:?}"
+    );
+    assert_eq!(kinds.iter().filter(|k| **k == "breakpoint").count(), 3);
+    assert_eq!(v["edges"].as_array().unwrap().len(), 3);
+    assert_eq!(v["nodes"][0]["xy"].as_array().unwrap().len(), 2);
+    assert!(v["edges"][0]["length_m"].as_f64().unwrap() > 100.0);
+    let g: serde_json::Value = serde_json::from_slice(&std::fs::read(&gj).unwrap()).unwrap();
+    assert_eq!(g["type"], "FeatureCollection");
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+
+    let db = dir.path().join("h.og");
+    let out = og(&[
+        "hierarchy",
+        "--db",
+        db.to_str().unwrap(),
+        "--poses",
+        poses.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info: serde_json::Value =
+        serde_json::from_slice(&og(&["info", "--db", db.to_str().unwrap(), "--json"]).stdout)
+            .unwrap();
+    assert_eq!(info["nodes"]["Environment"], 1);
+    assert_eq!(info["nodes"]["LaneNode"], 4);
+    assert_eq!(info["relationships"]["LANE"], 3);
+    assert_eq!(info["relationships"]["CONNECTS"], 3);
+}
+
+#[test]
+fn lanes_bad_poses_name_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.txt");
+    std::fs::write(&poses, "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 x 0 1 0 0 0 0 1 1\n").unwrap();
+    let out = og(&[
+        "lanes",
+        "--poses",
+        poses.to_str().unwrap(),
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("poses.txt:2"), "{err}");
+    let out = og(&[
+        "lanes",
+        "--poses",
+        dir.path().join("none.txt").to_str().unwrap(),
+        "--out",
+        "o",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+}

@@ -92,12 +92,12 @@ pub enum Error {
     #[error("transaction rolled back")]
     RolledBack,
     /// An I/O error outside redb (export files and the like).
-    #[error("i/o error on {path}: {source}")]
+    #[error("i/o error on {path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
 }
 

@@ -52,7 +52,7 @@ fn attr_name(name: String, reserved: &[&str]) -> String {
 fn io(e: std::io::Error) -> Error {
     Error::Io {
         path: "<export>".into(),
-        source: e,
+        error: e,
     }
 }
 

@@ -112,9 +112,10 @@ pub struct LaneNode {
 /// A lane-graph edge (undirected: trajectory-derived lanes are two-way).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct LaneEdge {
-    /// Node id (the smaller of the two, unless a self-loop).
+    /// Node id where the first drive along this edge started (edges are two-way; the
+    /// orientation only fixes "along the road" for relations such as `in_front_of`).
     pub from: usize,
-    /// Node id.
+    /// Node id where that drive ended.
     pub to: usize,
     /// The driven path from `from` to `to`, in metres on the ground plane.
     pub polyline: Vec<[f64; 2]>,
@@ -679,10 +680,7 @@ fn build_edges(
         poly.extend(idx.iter().map(|&i| pts[i]));
         poly.push(nodes[b].xy);
         poly.dedup_by(|x, y| dist(*x, *y) < 1e-9);
-        let (from, to) = if a <= b { (a, b) } else { (b, a) };
-        if a > b {
-            poly.reverse();
-        }
+        let (from, to) = (a, b);
         // every pose between consecutive samples of the path (not only the sampled ones)
         let mut frames: Vec<u32> = Vec::new();
         for w in idx.windows(2) {
@@ -704,7 +702,8 @@ fn build_edges(
         frames.sort_unstable();
         frames.dedup();
         if let Some(e) = edges.iter_mut().find(|e| {
-            e.from == from && e.to == to && hausdorff(&e.polyline, &poly) <= cfg.edge_merge_m
+            (e.from.min(e.to), e.from.max(e.to)) == (from.min(to), from.max(to))
+                && hausdorff(&e.polyline, &poly) <= cfg.edge_merge_m
         }) {
             e.frames.extend(frames);
             e.frames.sort_unstable();
@@ -745,12 +744,8 @@ fn build_edges(
         })
         .collect();
     for e in &mut edges {
-        let (f, t) = (new_id[e.from], new_id[e.to]);
-        if f > t {
-            e.polyline.reverse();
-        }
-        e.from = f.min(t);
-        e.to = f.max(t);
+        e.from = new_id[e.from];
+        e.to = new_id[e.to];
     }
     Ok(LaneGraph {
         nodes: out_nodes,

@@ -1,5 +1,10 @@
 //! The paper's third module: lane graph, segments, environment and instance relations.
 
+pub mod frame;
 pub mod lanes;
+pub mod relations;
 pub mod render;
 pub mod segments;
+pub mod write;
+
+pub use write::{HierarchyConfig, HierarchyReport, build_hierarchy};

@@ -159,7 +159,7 @@ pub fn write_png(
     }
     pm.save_png(path).map_err(|e| Error::Io {
         path: path.to_path_buf(),
-        source: std::io::Error::other(e.to_string()),
+        error: std::io::Error::other(e.to_string()),
     })
 }
 

@@ -1,0 +1,63 @@
+//! How the ground plane sits in a world frame.
+
+/// Which world axes span the ground and which way is up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GroundFrame {
+    /// KITTI's cam0 world: x right, y down, z forward; ground (x, z), up is -y.
+    KittiCam,
+    /// East-north-up style: ground (x, y), up is +z.
+    Enu,
+}
+
+impl GroundFrame {
+    /// Ground-plane coordinates of a world point.
+    pub fn ground(self, p: [f64; 3]) -> [f64; 2] {
+        match self {
+            GroundFrame::KittiCam => [p[0], p[2]],
+            GroundFrame::Enu => [p[0], p[1]],
+        }
+    }
+
+    /// Height of a world point (positive up).
+    pub fn height(self, p: [f64; 3]) -> f64 {
+        match self {
+            GroundFrame::KittiCam => -p[1],
+            GroundFrame::Enu => p[2],
+        }
+    }
+
+    /// The world point at ground coordinates `g` and height `h`.
+    pub fn world(self, g: [f64; 2], h: f64) -> [f64; 3] {
+        match self {
+            GroundFrame::KittiCam => [g[0], -h, g[1]],
+            GroundFrame::Enu => [g[0], g[1], h],
+        }
+    }
+
+    /// The ground direction to the left of heading `d` (looking along `d`, up as above).
+    pub fn left_of(self, d: [f64; 2]) -> [f64; 2] {
+        // up x d, expressed in ground coordinates, is the same rotation in both frames
+        [-d[1], d[0]]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: [f64; 2], b: [f64; 2]) -> bool {
+        (a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12
+    }
+
+    #[test]
+    fn kitti_left_is_minus_x_when_driving_forward() {
+        let f = GroundFrame::KittiCam;
+        assert!(close(f.left_of([0.0, 1.0]), [-1.0, 0.0]));
+        let p = f.world([3.0, 4.0], 1.5);
+        assert!(close(f.ground(p), [3.0, 4.0]));
+        assert!((f.height(p) - 1.5).abs() < 1e-12);
+        assert!((p[1] + 1.5).abs() < 1e-12, "KITTI y points down");
+        assert!(close(GroundFrame::Enu.left_of([1.0, 0.0]), [0.0, 1.0]));
+    }
+}

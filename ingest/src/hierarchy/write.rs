@@ -1,0 +1,298 @@
+//! Writes the hierarchy (environment, segments, lane graph, instance links) into a store, in
+//! one transaction. Re-running replaces the previous hierarchy and geometric relations.
+
+use std::collections::BTreeMap;
+
+use graphstore::{GraphRead, Store, Value, WriteTxn};
+
+use super::frame::GroundFrame;
+use super::lanes::{LaneConfig, LaneGraph, LaneNodeKind, extract_lanes};
+use super::relations::{InstanceBox, RelationConfig, infer_relations};
+use super::segments::{SegmentArea, SegmentConfig, Segments, build_segments};
+use crate::cluster::Grid2;
+use crate::error::{Error, Result};
+
+/// All hierarchy parameters.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct HierarchyConfig {
+    /// Lane graph.
+    pub lanes: LaneConfig,
+    /// Segments.
+    pub segments: SegmentConfig,
+    /// Instance relations.
+    pub relations: RelationConfig,
+}
+
+/// What was written.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct HierarchyReport {
+    /// Lane nodes per kind.
+    pub lane_nodes: BTreeMap<String, usize>,
+    /// Lane edges.
+    pub lane_edges: usize,
+    /// Segments per kind.
+    pub segments: BTreeMap<String, usize>,
+    /// Instances linked to a segment.
+    pub instances_linked: usize,
+    /// Geometric relations per label.
+    pub relations: BTreeMap<String, usize>,
+}
+
+/// The world trajectory, ready for height look-ups.
+struct Heights {
+    ground: Vec<[f64; 2]>,
+    height: Vec<f64>,
+    grid: Grid2,
+}
+
+const HEIGHT_CELL_M: f64 = 25.0;
+
+impl Heights {
+    fn new(traj: &[[f64; 3]], frame: GroundFrame) -> Heights {
+        let ground: Vec<[f64; 2]> = traj.iter().map(|p| frame.ground(*p)).collect();
+        let height = traj.iter().map(|p| frame.height(*p)).collect();
+        let grid = Grid2::new(&ground, HEIGHT_CELL_M);
+        Heights {
+            ground,
+            height,
+            grid,
+        }
+    }
+
+    /// Height of the nearest pose (the sensor height above the world origin).
+    fn at(&self, g: [f64; 2]) -> f64 {
+        let d2 = |i: usize| (self.ground[i][0] - g[0]).powi(2) + (self.ground[i][1] - g[1]).powi(2);
+        let near = self.grid.within(&self.ground, g, HEIGHT_CELL_M);
+        let pick =
+            |it: &mut dyn Iterator<Item = usize>| it.min_by(|a, b| d2(*a).total_cmp(&d2(*b)));
+        let best = pick(&mut near.into_iter()).or_else(|| pick(&mut (0..self.ground.len())));
+        best.map_or(0.0, |i| self.height[i])
+    }
+}
+
+fn world_box(frame: GroundFrame, lo: [f64; 2], hi: [f64; 2], h0: f64, h1: f64) -> Value {
+    let a = frame.world(lo, h0);
+    let b = frame.world(hi, h1);
+    let min = [0, 1, 2].map(|i| a[i].min(b[i]));
+    let max = [0, 1, 2].map(|i| a[i].max(b[i]));
+    Value::box3d(min, max)
+}
+
+fn bounds(pts: &[[f64; 2]], pad: f64) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in pts {
+        for i in 0..2 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad])
+}
+
+/// Extracts the lane graph and segments from `traj` (world positions, one per pose) and
+/// writes the environment, segment and lane layers, and links existing `Instance` nodes
+/// (`IN_SEGMENT`, geometric `RELATED`). Returns what was written.
+pub fn build_hierarchy(
+    store: &Store,
+    traj: &[[f64; 3]],
+    frame: GroundFrame,
+    environment: &str,
+    cfg: &HierarchyConfig,
+) -> Result<(LaneGraph, Segments, HierarchyReport)> {
+    let ground: Vec<[f64; 2]> = traj.iter().map(|p| frame.ground(*p)).collect();
+    let lanes = extract_lanes(&ground, &cfg.lanes)?;
+    let segs = build_segments(&lanes, &cfg.segments);
+    let heights = Heights::new(traj, frame);
+    let report = store.write(|tx| {
+        write_all(tx, &lanes, &segs, &heights, frame, environment, cfg).map_err(into_store)
+    })?;
+    Ok((lanes, segs, report))
+}
+
+fn into_store(e: Error) -> graphstore::Error {
+    match e {
+        Error::Store(s) => s,
+        other => graphstore::Error::InvalidValue(other.to_string()),
+    }
+}
+
+fn write_all(
+    tx: &mut WriteTxn<'_>,
+    lanes: &LaneGraph,
+    segs: &Segments,
+    heights: &Heights,
+    frame: GroundFrame,
+    environment: &str,
+    cfg: &HierarchyConfig,
+) -> Result<HierarchyReport> {
+    // replace any previous hierarchy
+    for label in ["Environment", "Segment", "LaneNode"] {
+        for id in tx.nodes_with_label(label)? {
+            tx.detach_delete_node(id)?;
+        }
+    }
+    let related = tx.rel_type_id("RELATED")?;
+    for inst in tx.nodes_with_label("Instance")? {
+        for adj in tx.neighbours(inst, graphstore::Direction::Outgoing, Some(related))? {
+            let rel = tx
+                .rel(adj.rel)?
+                .ok_or(graphstore::Error::RelNotFound(adj.rel))?;
+            let source = tx.prop_key("source").and_then(|k| rel.get(k).cloned());
+            if source == Some(Value::from("geometric")) {
+                tx.delete_rel(adj.rel)?;
+            }
+        }
+    }
+    let mut report = HierarchyReport::default();
+    let p3 = |g: [f64; 2]| Value::Point3D(frame.world(g, heights.at(g)));
+    let env = tx.create_node_named(
+        &["Environment"],
+        &[
+            ("name", environment.into()),
+            ("source", "trajectory".into()),
+        ],
+    )?;
+    let mut seg_ids = Vec::with_capacity(segs.segments.len());
+    for s in &segs.segments {
+        let h = heights.at(s.centroid);
+        let mut props: Vec<(&str, Value)> = vec![
+            ("segment_id", Value::Int(s.id as i64)),
+            ("kind", s.kind.as_str().into()),
+            ("centroid", p3(s.centroid)),
+        ];
+        match &s.area {
+            SegmentArea::Disc { centre, radius_m } => {
+                props.push(("radius_m", Value::Float(*radius_m)));
+                props.push((
+                    "area",
+                    Value::List(s.area.outline(24).into_iter().map(p3).collect()),
+                ));
+                let (lo, hi) = bounds(&[*centre], *radius_m);
+                props.push(("bbox", world_box(frame, lo, hi, h - 3.0, h + 3.0)));
+            }
+            SegmentArea::Corridor {
+                centreline,
+                half_width_m,
+            } => {
+                props.push(("half_width_m", Value::Float(*half_width_m)));
+                props.push((
+                    "centerline",
+                    Value::List(centreline.iter().map(|g| p3(*g)).collect()),
+                ));
+                let (lo, hi) = bounds(centreline, *half_width_m);
+                props.push(("bbox", world_box(frame, lo, hi, h - 3.0, h + 3.0)));
+            }
+        }
+        let id = tx.create_node_named(&["Segment"], &props)?;
+        tx.create_rel_named(env, "CONTAINS", id, &[])?;
+        seg_ids.push(id);
+        *report
+            .segments
+            .entry(s.kind.as_str().to_string())
+            .or_default() += 1;
+    }
+    for (a, b) in &segs.connects {
+        tx.create_rel_named(seg_ids[*a], "CONNECTS", seg_ids[*b], &[])?;
+    }
+    let mut lane_ids = Vec::with_capacity(lanes.nodes.len());
+    for n in &lanes.nodes {
+        let id = tx.create_node_named(
+            &["LaneNode"],
+            &[
+                ("lane_id", Value::Int(n.id as i64)),
+                ("kind", n.kind.as_str().into()),
+                ("position", p3(n.xy)),
+            ],
+        )?;
+        lane_ids.push(id);
+        *report
+            .lane_nodes
+            .entry(n.kind.as_str().to_string())
+            .or_default() += 1;
+        let seg = segs
+            .segments
+            .iter()
+            .find(|s| s.kind.as_str() == n.kind.as_str() && s.lane_nodes.contains(&n.id))
+            .map(|s| (s.id, 0.0))
+            .or_else(|| {
+                (n.kind == LaneNodeKind::Breakpoint)
+                    .then(|| segs.nearest(n.xy))
+                    .flatten()
+            });
+        if let Some((sid, d)) = seg {
+            tx.create_rel_named(
+                id,
+                "IN_SEGMENT",
+                seg_ids[sid],
+                &[("distance_m", Value::Float(d))],
+            )?;
+        }
+    }
+    for e in &lanes.edges {
+        tx.create_rel_named(
+            lane_ids[e.from],
+            "LANE",
+            lane_ids[e.to],
+            &[
+                ("length_m", Value::Float(e.length_m)),
+                (
+                    "polyline",
+                    Value::List(e.polyline.iter().map(|g| p3(*g)).collect()),
+                ),
+                (
+                    "frames",
+                    Value::List(e.frames.iter().map(|f| Value::Int(i64::from(*f))).collect()),
+                ),
+                ("directed", Value::Bool(false)),
+            ],
+        )?;
+    }
+    report.lane_edges = lanes.edges.len();
+    // instances
+    let instances = tx.nodes_with_label("Instance")?;
+    let mut boxes = Vec::with_capacity(instances.len());
+    for &id in &instances {
+        let bbox = tx.node_prop(id, "bbox")?.and_then(|v| v.as_box3d());
+        let centroid = tx.node_prop(id, "centroid")?.and_then(|v| v.as_point3());
+        let Some((min, max)) = bbox.or_else(|| centroid.map(|c| (c, c))) else {
+            return Err(Error::Invalid(format!(
+                "instance node {id} has neither bbox nor centroid"
+            )));
+        };
+        boxes.push(InstanceBox { min, max });
+        let c = frame.ground([0, 1, 2].map(|i| (min[i] + max[i]) / 2.0));
+        if let Some((sid, d)) = segs.nearest(c) {
+            tx.create_rel_named(
+                id,
+                "IN_SEGMENT",
+                seg_ids[sid],
+                &[("distance_m", Value::Float(d))],
+            )?;
+            report.instances_linked += 1;
+        }
+    }
+    let road_dir = |g: [f64; 2]| {
+        segs.segments
+            .iter()
+            .filter(|s| matches!(s.area, SegmentArea::Corridor { .. }))
+            .min_by(|a, b| a.area.distance(g).total_cmp(&b.area.distance(g)))
+            .and_then(|s| s.area.direction_near(g))
+    };
+    for r in infer_relations(&boxes, frame, road_dir, &cfg.relations) {
+        tx.create_rel_named(
+            instances[r.a],
+            "RELATED",
+            instances[r.b],
+            &[
+                ("relation", r.relation.into()),
+                ("distance_m", Value::Float(r.distance_m)),
+                ("source", "geometric".into()),
+                ("confidence", Value::Float(r.confidence)),
+            ],
+        )?;
+        *report.relations.entry(r.relation.to_string()).or_default() += 1;
+    }
+    Ok(report)
+}
