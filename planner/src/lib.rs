@@ -1,1 +1,13 @@
 #![doc = include_str!("../README.md")]
+
+mod error;
+mod ffi;
+pub mod graph;
+pub mod motion;
+pub mod render;
+pub mod route;
+
+pub use error::{Error, Result};
+pub use graph::{Ground, RoadEdge, RoadGraph, RoadNode};
+pub use motion::{MotionConfig, MotionPath, Obstacle, Validity, plan_path};
+pub use route::{Anchor, Route, Spec, astar, resolve, snap, unit_cost_route};

@@ -1,0 +1,61 @@
+//! The only unsafe boundary of the planner: a cxx bridge to `shim/ompl_shim.cc`.
+//!
+//! C++ calls back into Rust for every state validity check through [`Checker`].
+#![allow(unsafe_code)]
+#![allow(missing_debug_implementations)]
+
+/// Validity callback handed to OMPL. Holds a boxed Rust closure.
+pub struct Checker {
+    pub(crate) f: Box<dyn Fn(f64, f64, f64) -> bool>,
+}
+
+impl Checker {
+    fn is_valid(&self, x: f64, y: f64, yaw: f64) -> bool {
+        (self.f)(x, y, yaw)
+    }
+}
+
+#[cxx::bridge(namespace = "og")]
+pub(crate) mod bridge {
+    /// One SE(2) planning problem.
+    struct PlanRequest {
+        start_x: f64,
+        start_y: f64,
+        start_yaw: f64,
+        goal_x: f64,
+        goal_y: f64,
+        goal_yaw: f64,
+        min_x: f64,
+        min_y: f64,
+        max_x: f64,
+        max_y: f64,
+        turning_radius: f64,
+        reverse_allowed: bool,
+        budget_secs: f64,
+        check_resolution: f64,
+        goal_tolerance: f64,
+        range: f64,
+        sample_step: f64,
+        cost_threshold: f64,
+        seed: u32,
+    }
+
+    /// What OMPL found: poses flattened as x, y, yaw triples.
+    struct PlanResult {
+        solved: bool,
+        exact: bool,
+        planner: String,
+        poses: Vec<f64>,
+        length: f64,
+    }
+
+    extern "Rust" {
+        type Checker;
+        fn is_valid(self: &Checker, x: f64, y: f64, yaw: f64) -> bool;
+    }
+
+    unsafe extern "C++" {
+        include!("planner/shim/ompl_shim.h");
+        fn plan_se2(req: &PlanRequest, checker: &Checker) -> PlanResult;
+    }
+}

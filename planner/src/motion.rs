@@ -1,0 +1,356 @@
+//! Motion planning: a kinematically feasible SE(2) path for a car-like robot along a route,
+//! planned by OMPL (RRT* in a Reeds-Shepp or Dubins space) with a Rust validity checker:
+//! inside the corridor around the route (parry2d distance to the route polyline), clear of
+//! blocking boxes, inside the planning bounds.
+//!
+//! Long routes are planned in consecutive chunks of about `chunk_m` metres between waypoints
+//! on the route, each with its share of the time budget; the pieces join at the waypoints
+//! with matching headings. When OMPL finds no solution in time, the route polyline itself is
+//! returned, marked as a fallback, with a warning.
+
+use parry2d::math::{Pose, Vector};
+use parry2d::query::PointQuery;
+use parry2d::shape::{Cuboid, Polyline};
+
+use crate::error::{Error, Result};
+use crate::ffi::{Checker, bridge};
+use crate::graph::{dist, point_at, polyline_length};
+use crate::route::Route;
+
+/// Motion-planning parameters.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct MotionConfig {
+    /// Minimum turning radius.
+    pub turning_radius_m: f64,
+    /// Half-width of the corridor around the route.
+    pub corridor_half_width_m: f64,
+    /// Total time budget for OMPL.
+    pub budget_ms: f64,
+    /// Length of one planning chunk.
+    pub chunk_m: f64,
+    /// Reeds-Shepp (reverse allowed) instead of Dubins.
+    pub reverse_allowed: bool,
+    /// Clearance kept from blocking boxes.
+    pub obstacle_margin_m: f64,
+    /// Spacing of the returned poses.
+    pub sample_step_m: f64,
+    /// OMPL's random seed (set once per process).
+    pub seed: u32,
+}
+
+impl Default for MotionConfig {
+    fn default() -> Self {
+        MotionConfig {
+            turning_radius_m: 5.0,
+            corridor_half_width_m: 6.0,
+            budget_ms: 200.0,
+            chunk_m: 60.0,
+            reverse_allowed: true,
+            obstacle_margin_m: 0.3,
+            sample_step_m: 0.5,
+            seed: 42,
+        }
+    }
+}
+
+/// An axis-aligned box on the ground plane that the path must avoid.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Obstacle {
+    /// Min corner.
+    pub min: [f64; 2],
+    /// Max corner.
+    pub max: [f64; 2],
+}
+
+/// A planned path.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MotionPath {
+    /// Poses (x, y, yaw in radians).
+    pub poses: Vec<[f64; 3]>,
+    /// Path length.
+    pub length_m: f64,
+    /// Which planner produced it (`fallback:route` when OMPL did not).
+    pub planner: String,
+    /// Whether this is the route polyline because OMPL found nothing in time.
+    pub fallback: bool,
+    /// Why, when it is a fallback.
+    pub warning: Option<String>,
+}
+
+fn v(p: [f64; 2]) -> Vector {
+    Vector::new(p[0] as f32, p[1] as f32)
+}
+
+/// The state validity test, shared by OMPL's checker and by tests.
+pub struct Validity {
+    corridor: Polyline,
+    half_width_m: f64,
+    boxes: Vec<(Cuboid, Pose)>,
+    bounds: ([f64; 2], [f64; 2]),
+}
+
+impl std::fmt::Debug for Validity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Validity")
+            .field("boxes", &self.boxes.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Validity {
+    /// A corridor of `half_width_m` around `route`, minus `obstacles` grown by `margin_m`.
+    pub fn new(
+        route: &[[f64; 2]],
+        half_width_m: f64,
+        obstacles: &[Obstacle],
+        margin_m: f64,
+    ) -> Validity {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in route {
+            for i in 0..2 {
+                lo[i] = lo[i].min(p[i]);
+                hi[i] = hi[i].max(p[i]);
+            }
+        }
+        let boxes = obstacles
+            .iter()
+            .map(|o| {
+                let h = [
+                    (o.max[0] - o.min[0]) / 2.0 + margin_m,
+                    (o.max[1] - o.min[1]) / 2.0 + margin_m,
+                ];
+                let c = [(o.max[0] + o.min[0]) / 2.0, (o.max[1] + o.min[1]) / 2.0];
+                (Cuboid::new(v(h)), Pose::from_translation(v(c)))
+            })
+            .collect();
+        Validity {
+            corridor: Polyline::new(route.iter().map(|p| v(*p)).collect(), None),
+            half_width_m,
+            boxes,
+            bounds: (
+                [lo[0] - half_width_m, lo[1] - half_width_m],
+                [hi[0] + half_width_m, hi[1] + half_width_m],
+            ),
+        }
+    }
+
+    /// Distance from `p` to the route's centreline.
+    pub fn corridor_distance(&self, p: [f64; 2]) -> f64 {
+        f64::from(self.corridor.distance_to_local_point(v(p), false))
+    }
+
+    /// Whether a position is a valid state.
+    pub fn is_valid(&self, p: [f64; 2]) -> bool {
+        let (lo, hi) = self.bounds;
+        if !(p[0].is_finite() && p[1].is_finite())
+            || p[0] < lo[0]
+            || p[1] < lo[1]
+            || p[0] > hi[0]
+            || p[1] > hi[1]
+        {
+            return false;
+        }
+        if self.corridor_distance(p) > self.half_width_m {
+            return false;
+        }
+        !self
+            .boxes
+            .iter()
+            .any(|(b, pose)| b.contains_point(pose, v(p)))
+    }
+}
+
+fn heading(poly: &[[f64; 2]], s: f64) -> f64 {
+    let total = polyline_length(poly);
+    let a = point_at(poly, (s - 1.0).max(0.0));
+    let b = point_at(poly, (s + 1.0).min(total));
+    (b[1] - a[1]).atan2(b[0] - a[0])
+}
+
+fn fallback(route: &Route, reason: String) -> MotionPath {
+    let poly = &route.polyline;
+    let total = polyline_length(poly);
+    let mut poses = Vec::new();
+    let mut s = 0.0;
+    while s < total {
+        let p = point_at(poly, s);
+        poses.push([p[0], p[1], heading(poly, s)]);
+        s += 1.0;
+    }
+    let end = *poly.last().expect("route polyline");
+    poses.push([end[0], end[1], heading(poly, total)]);
+    MotionPath {
+        poses,
+        length_m: total,
+        planner: "fallback:route".into(),
+        fallback: true,
+        warning: Some(reason),
+    }
+}
+
+/// Plans a drivable path along `route`, avoiding `obstacles`.
+pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> Result<MotionPath> {
+    if !(cfg.turning_radius_m > 0.0
+        && cfg.corridor_half_width_m > 0.0
+        && cfg.chunk_m > 0.0
+        && cfg.sample_step_m > 0.0)
+    {
+        return Err(Error::Invalid(
+            "turning radius, corridor width, chunk and sample step must be positive".into(),
+        ));
+    }
+    if !(cfg.budget_ms >= 0.0 && cfg.budget_ms.is_finite()) {
+        return Err(Error::Invalid(format!(
+            "budget {} ms must be a non-negative number",
+            cfg.budget_ms
+        )));
+    }
+    let poly = &route.polyline;
+    let total = polyline_length(poly);
+    if cfg.budget_ms == 0.0 {
+        return Ok(fallback(
+            route,
+            "no time budget for OMPL (--budget-ms 0); returning the route polyline".into(),
+        ));
+    }
+    if total < 1e-6 {
+        let p = poly[0];
+        return Ok(MotionPath {
+            poses: vec![[p[0], p[1], 0.0]],
+            length_m: 0.0,
+            planner: "none (start is the goal)".into(),
+            fallback: false,
+            warning: None,
+        });
+    }
+    let validity = std::rc::Rc::new(Validity::new(
+        poly,
+        cfg.corridor_half_width_m,
+        obstacles,
+        cfg.obstacle_margin_m,
+    ));
+    // waypoints every chunk_m, moved forward along the route while they are not valid states
+    let n_chunks = (total / cfg.chunk_m).ceil().max(1.0) as usize;
+    let mut marks = vec![0.0];
+    for k in 1..n_chunks {
+        let mut s = total * k as f64 / n_chunks as f64;
+        while s < total && !validity.is_valid(point_at(poly, s)) {
+            s += 0.5;
+        }
+        if s < total - 1.0 && s > marks.last().copied().unwrap_or(0.0) + 1.0 {
+            marks.push(s);
+        }
+    }
+    marks.push(total);
+    for &s in [marks[0], total].iter() {
+        if !validity.is_valid(point_at(poly, s)) {
+            return Ok(fallback(
+                route,
+                format!(
+                    "the {} of the route is blocked; returning the route polyline",
+                    if s == 0.0 { "start" } else { "goal" }
+                ),
+            ));
+        }
+    }
+    let mut poses: Vec<[f64; 3]> = Vec::new();
+    let mut length = 0.0;
+    let mut planner = String::new();
+    let started = std::time::Instant::now();
+    for (k, w) in marks.windows(2).enumerate() {
+        let (s0, s1) = (w[0], w[1]);
+        let spent = started.elapsed().as_secs_f64() * 1e3;
+        let left_ms = cfg.budget_ms - spent;
+        // this chunk's share of what is left, by length
+        let share = left_ms * (s1 - s0) / (total - s0).max(1e-9);
+        if share <= 0.0 {
+            return Ok(fallback(
+                route,
+                format!(
+                    "OMPL ran out of the {} ms budget at chunk {} of {}; returning the route polyline",
+                    cfg.budget_ms,
+                    k + 1,
+                    marks.len() - 1
+                ),
+            ));
+        }
+        let (a, b) = (point_at(poly, s0), point_at(poly, s1));
+        let piece = crate::route::sub_polyline(poly, s0, s1);
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in &piece {
+            for i in 0..2 {
+                lo[i] = lo[i].min(p[i]);
+                hi[i] = hi[i].max(p[i]);
+            }
+        }
+        let pad = cfg.corridor_half_width_m;
+        let req = bridge::PlanRequest {
+            start_x: a[0],
+            start_y: a[1],
+            start_yaw: heading(poly, s0),
+            goal_x: b[0],
+            goal_y: b[1],
+            goal_yaw: heading(poly, s1),
+            min_x: lo[0] - pad,
+            min_y: lo[1] - pad,
+            max_x: hi[0] + pad,
+            max_y: hi[1] + pad,
+            turning_radius: cfg.turning_radius_m,
+            reverse_allowed: cfg.reverse_allowed,
+            budget_secs: share / 1e3,
+            check_resolution: 0.01,
+            // tight, so consecutive chunks join without a jump
+            goal_tolerance: 0.05,
+            range: (s1 - s0).clamp(5.0, 25.0),
+            sample_step: cfg.sample_step_m,
+            // good enough: within 10% of the route's own length for this chunk
+            cost_threshold: 1.1 * (s1 - s0),
+            seed: cfg.seed,
+        };
+        let bounds = (req.min_x, req.min_y, req.max_x, req.max_y);
+        let val = validity.clone();
+        let checker = Checker {
+            f: Box::new(move |x, y, _yaw| {
+                x >= bounds.0
+                    && y >= bounds.1
+                    && x <= bounds.2
+                    && y <= bounds.3
+                    && val.is_valid([x, y])
+            }),
+        };
+        let res = bridge::plan_se2(&req, &checker);
+        if !res.solved {
+            return Ok(fallback(
+                route,
+                format!(
+                    "OMPL found no solution for chunk {} of {} within {share:.0} ms; returning the route polyline",
+                    k + 1,
+                    marks.len() - 1
+                ),
+            ));
+        }
+        planner = res.planner.clone();
+        length += res.length;
+        for t in res.poses.chunks_exact(3) {
+            let p = [t[0], t[1], t[2]];
+            if poses
+                .last()
+                .is_none_or(|l| dist([l[0], l[1]], [p[0], p[1]]) > 1e-6)
+            {
+                poses.push(p);
+            }
+        }
+    }
+    Ok(MotionPath {
+        poses,
+        length_m: length,
+        planner: format!(
+            "{planner} ({} chunk{}, simplified)",
+            marks.len() - 1,
+            if marks.len() == 2 { "" } else { "s" }
+        ),
+        fallback: false,
+        warning: None,
+    })
+}
