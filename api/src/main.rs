@@ -83,6 +83,36 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Route over the store's lane graph (A*) and refine it into a drivable path with OMPL.
+    Plan {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Start: X,Y (ground plane), lane:ID, segment:ID or instance:ID.
+        #[arg(long, allow_hyphen_values = true)]
+        from: String,
+        /// Goal, in the same forms.
+        #[arg(long, allow_hyphen_values = true)]
+        to: String,
+        /// Minimum turning radius of the vehicle.
+        #[arg(long, default_value_t = 5.0)]
+        turning_radius_m: f64,
+        /// Time budget for OMPL; 0 returns the route polyline as a fallback.
+        #[arg(long, default_value_t = 200.0)]
+        budget_ms: f64,
+        /// Half-width of the corridor around the route the path must stay in.
+        #[arg(long, default_value_t = 6.0)]
+        corridor_m: f64,
+        /// Points farther than this from every lane are refused.
+        #[arg(long, default_value_t = 15.0)]
+        snap_m: f64,
+        /// Print `{"route": {...}, "path": {...}}` as JSON.
+        #[arg(long)]
+        json: bool,
+        /// Draw the lane graph, the route and the path.
+        #[arg(long)]
+        png: Option<PathBuf>,
+    },
     /// Build a small hand-made demo graph with the OpenGraph schema (a stand-in until
     /// `sim` exists), then print its summary.
     Demo {
@@ -99,6 +129,12 @@ fn is_input_error(e: &anyhow::Error) -> bool {
             return !matches!(
                 g,
                 graphstore::Error::Storage(_) | graphstore::Error::Io { .. }
+            );
+        }
+        if let Some(p) = c.downcast_ref::<planner::Error>() {
+            return !matches!(
+                p,
+                planner::Error::Render(_) | planner::Error::Store(graphstore::Error::Storage(_))
             );
         }
         if let Some(i) = c.downcast_ref::<ingest::Error>() {
@@ -241,6 +277,65 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&report)?);
             } else {
                 println!("{report:?}");
+            }
+        }
+        Command::Plan {
+            db,
+            from,
+            to,
+            turning_radius_m,
+            budget_ms,
+            corridor_m,
+            snap_m,
+            json,
+            png,
+        } => {
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = store.read()?;
+            let t0 = std::time::Instant::now();
+            let g = planner::RoadGraph::from_store(&r)?;
+            let ground = planner::graph::ground_of_store(&r)?;
+            let (a, b) = (from.parse::<planner::Spec>()?, to.parse::<planner::Spec>()?);
+            let (a, b) = (
+                planner::resolve(&g, &r, ground, &a, snap_m)?,
+                planner::resolve(&g, &r, ground, &b, snap_m)?,
+            );
+            let route = planner::astar(&g, a, b)?;
+            let t_route = t0.elapsed();
+            let cfg = planner::MotionConfig {
+                turning_radius_m,
+                budget_ms,
+                corridor_half_width_m: corridor_m,
+                ..planner::MotionConfig::default()
+            };
+            let obstacles = planner::motion::blocking_instances(&r, ground, &route, corridor_m)?;
+            let path = planner::plan_path(&route, &obstacles, &cfg)?;
+            let t_all = t0.elapsed();
+            if let Some(w) = &path.warning {
+                eprintln!("warning: {w}");
+            }
+            if let Some(p) = &png {
+                planner::render::write_png(p, &g, &route, &path, &obstacles)?;
+            }
+            if json {
+                let v = serde_json::json!({
+                    "route": {"nodes": route.nodes, "length_m": route.length_m},
+                    "path": {"poses": path.poses, "length_m": path.length_m, "planner": path.planner},
+                });
+                println!("{}", serde_json::to_string_pretty(&v)?);
+            } else {
+                println!(
+                    "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes)",
+                    route.nodes.len(),
+                    route.length_m,
+                    t_route.as_secs_f64() * 1e3,
+                    path.poses.len(),
+                    path.length_m,
+                    path.planner,
+                    t_all.as_secs_f64() * 1e3,
+                    obstacles.len()
+                );
             }
         }
         Command::Demo { db } => {

@@ -224,3 +224,82 @@ fn lanes_bad_poses_name_the_line() {
     ]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn plan_json_png_fallback_and_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.txt");
+    t_junction_poses(&poses);
+    let db = dir.path().join("p.og");
+    let d = db.to_str().unwrap();
+    assert!(
+        og(&["hierarchy", "--db", d, "--poses", poses.to_str().unwrap()])
+            .status
+            .success()
+    );
+    let png = dir.path().join("plan.png");
+    // KITTI ground plane is (x, z): the west arm is at negative x
+    let out = og(&[
+        "plan",
+        "--db",
+        d,
+        "--from",
+        "-100,0",
+        "--to",
+        "lane:0",
+        "--budget-ms",
+        "3000",
+        "--json",
+        "--png",
+        png.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["route"]["nodes"][0], "start");
+    assert!(v["route"]["length_m"].as_f64().unwrap() > 40.0);
+    let poses_out = v["path"]["poses"].as_array().unwrap();
+    assert!(poses_out.len() > 10);
+    assert_eq!(poses_out[0].as_array().unwrap().len(), 3);
+    assert!(
+        v["path"]["planner"]
+            .as_str()
+            .unwrap()
+            .starts_with("RRTstar")
+    );
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    // no budget: the route comes back as a fallback, with a warning
+    let out = og(&[
+        "plan",
+        "--db",
+        d,
+        "--from",
+        "-100,0",
+        "--to",
+        "lane:0",
+        "--budget-ms",
+        "0",
+        "--json",
+    ]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["path"]["planner"], "fallback:route");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("warning"));
+    // bad input: unknown id, a point too far from every lane, a malformed spec
+    for (from, msg) in [
+        ("lane:999", "no lane with id 999"),
+        ("500,500", "snap limit"),
+        ("lane:x", "bad location"),
+    ] {
+        let out = og(&["plan", "--db", d, "--from", from, "--to", "lane:0"]);
+        assert_eq!(out.status.code(), Some(2), "{from}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(msg),
+            "{from}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}

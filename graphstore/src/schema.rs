@@ -281,7 +281,11 @@ pub fn opengraph_schema() -> Schema {
     s.labels.insert(
         "Environment".into(),
         LabelRule {
-            properties: vec![req("name", T::String), opt("source", T::String)],
+            properties: vec![
+                req("name", T::String),
+                opt("source", T::String),
+                opt("ground_frame", T::String),
+            ],
             unique: vec!["name".into()],
             description: "Root of the hierarchy: one per mapped environment.".into(),
         },

@@ -53,7 +53,9 @@ PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
     const auto *st = s->as<ob::SE2StateSpace::StateType>();
     return checker.is_valid(st->getX(), st->getY(), st->getYaw());
   });
-  ss.getSpaceInformation()->setStateValidityCheckingResolution(req.check_resolution);
+  // an absolute step along motions, whatever the size of the space
+  ss.getSpaceInformation()->setStateValidityCheckingResolution(
+      std::min(1.0, req.check_step_m / space->getMaximumExtent()));
   ob::ScopedState<ob::SE2StateSpace> start(space), goal(space);
   start->setXY(req.start_x, req.start_y);
   start->setYaw(req.start_yaw);
@@ -73,6 +75,7 @@ PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
   const auto t0 = std::chrono::steady_clock::now();
   ob::PlannerStatus status = ss.solve(ob::timedPlannerTerminationCondition(req.budget_secs));
   if (status != ob::PlannerStatus::EXACT_SOLUTION) {
+    out.planner = status.asString();
     return out;
   }
   const double used =

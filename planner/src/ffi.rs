@@ -32,7 +32,7 @@ pub(crate) mod bridge {
         turning_radius: f64,
         reverse_allowed: bool,
         budget_secs: f64,
-        check_resolution: f64,
+        check_step_m: f64,
         goal_tolerance: f64,
         range: f64,
         sample_step: f64,

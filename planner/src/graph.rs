@@ -355,7 +355,9 @@ pub(crate) fn point_at(p: &[[f64; 2]], s: f64) -> [f64; 2] {
     *p.last().expect("non-empty polyline")
 }
 
-fn ground_of_store(r: &impl GraphRead) -> Result<Ground> {
+/// The ground plane recorded on the store's Environment node (`ground_frame`); ENU-like when
+/// absent.
+pub fn ground_of_store(r: &impl GraphRead) -> Result<Ground> {
     let env = r.nodes_with_label("Environment")?;
     let name = match env.first() {
         Some(id) => r

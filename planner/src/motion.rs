@@ -35,6 +35,9 @@ pub struct MotionConfig {
     pub obstacle_margin_m: f64,
     /// Spacing of the returned poses.
     pub sample_step_m: f64,
+    /// RRT* stops optimizing a chunk once its path is at most this many times the route's
+    /// length for that chunk (or when the chunk's share of the budget is spent).
+    pub good_enough_ratio: f64,
     /// OMPL's random seed (set once per process).
     pub seed: u32,
 }
@@ -45,10 +48,11 @@ impl Default for MotionConfig {
             turning_radius_m: 5.0,
             corridor_half_width_m: 6.0,
             budget_ms: 200.0,
-            chunk_m: 60.0,
+            chunk_m: 100.0,
             reverse_allowed: true,
             obstacle_margin_m: 0.3,
             sample_step_m: 0.5,
+            good_enough_ratio: 1.25,
             seed: 42,
         }
     }
@@ -161,11 +165,16 @@ impl Validity {
     }
 }
 
+/// Spacing of OMPL's validity checks along a motion.
+const CHECK_STEP_M: f64 = 0.5;
+
 fn heading(poly: &[[f64; 2]], s: f64) -> f64 {
     let total = polyline_length(poly);
     let a = point_at(poly, (s - 1.0).max(0.0));
     let b = point_at(poly, (s + 1.0).min(total));
-    (b[1] - a[1]).atan2(b[0] - a[0])
+    // OMPL's SO(2) range is [-pi, pi): atan2 may return pi itself
+    let yaw = (b[1] - a[1]).atan2(b[0] - a[0]);
+    (yaw + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
 
 fn fallback(route: &Route, reason: String) -> MotionPath {
@@ -224,11 +233,20 @@ pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> R
             warning: None,
         });
     }
+    // OMPL checks states every CHECK_STEP_M along a motion; a point between two checks is at
+    // most half a step (plus a negligible arc sagitta) from a checked one, so checking against a
+    // corridor narrowed, and obstacles grown, by that much keeps every point of the path valid
+    let slack = CHECK_STEP_M / 2.0 + 0.01;
+    if cfg.corridor_half_width_m <= slack {
+        return Err(Error::Invalid(format!(
+            "the corridor half-width must exceed {slack} m"
+        )));
+    }
     let validity = std::rc::Rc::new(Validity::new(
         poly,
-        cfg.corridor_half_width_m,
+        cfg.corridor_half_width_m - slack,
         obstacles,
-        cfg.obstacle_margin_m,
+        cfg.obstacle_margin_m + slack,
     ));
     // waypoints every chunk_m, moved forward along the route while they are not valid states
     let n_chunks = (total / cfg.chunk_m).ceil().max(1.0) as usize;
@@ -299,13 +317,12 @@ pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> R
             turning_radius: cfg.turning_radius_m,
             reverse_allowed: cfg.reverse_allowed,
             budget_secs: share / 1e3,
-            check_resolution: 0.01,
+            check_step_m: CHECK_STEP_M,
             // tight, so consecutive chunks join without a jump
             goal_tolerance: 0.05,
             range: (s1 - s0).clamp(5.0, 25.0),
             sample_step: cfg.sample_step_m,
-            // good enough: within 10% of the route's own length for this chunk
-            cost_threshold: 1.1 * (s1 - s0),
+            cost_threshold: cfg.good_enough_ratio * (s1 - s0),
             seed: cfg.seed,
         };
         let bounds = (req.min_x, req.min_y, req.max_x, req.max_y);
@@ -324,9 +341,10 @@ pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> R
             return Ok(fallback(
                 route,
                 format!(
-                    "OMPL found no solution for chunk {} of {} within {share:.0} ms; returning the route polyline",
+                    "OMPL found no solution for chunk {} of {} within {share:.0} ms ({}); returning the route polyline",
                     k + 1,
-                    marks.len() - 1
+                    marks.len() - 1,
+                    res.planner
                 ),
             ));
         }
@@ -353,4 +371,44 @@ pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> R
         fallback: false,
         warning: None,
     })
+}
+
+/// Ground-plane boxes of the store's `Instance` nodes that reach into the corridor of
+/// `half_width_m` around the route (they block the road), sorted by position.
+pub fn blocking_instances(
+    r: &impl graphstore::GraphRead,
+    ground: crate::Ground,
+    route: &Route,
+    half_width_m: f64,
+) -> Result<Vec<Obstacle>> {
+    let corridor = Validity::new(&route.polyline, half_width_m, &[], 0.0);
+    let mut out = Vec::new();
+    for id in r.nodes_with_label("Instance")? {
+        let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
+            continue;
+        };
+        let (a, b) = (ground.of(lo), ground.of(hi));
+        let o = Obstacle {
+            min: [a[0].min(b[0]), a[1].min(b[1])],
+            max: [a[0].max(b[0]), a[1].max(b[1])],
+        };
+        // a box reaches into the corridor if its nearest point to the route is inside it
+        let c = [(o.min[0] + o.max[0]) / 2.0, (o.min[1] + o.max[1]) / 2.0];
+        let half_diag = dist(o.min, o.max) / 2.0;
+        if corridor.corridor_distance(c) - half_diag <= half_width_m {
+            let corners = [o.min, [o.max[0], o.min[1]], o.max, [o.min[0], o.max[1]], c];
+            if corners
+                .iter()
+                .any(|p| corridor.corridor_distance(*p) <= half_width_m)
+            {
+                out.push(o);
+            }
+        }
+    }
+    out.sort_by(|a, b| {
+        a.min[0]
+            .total_cmp(&b.min[0])
+            .then(a.min[1].total_cmp(&b.min[1]))
+    });
+    Ok(out)
 }

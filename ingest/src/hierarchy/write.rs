@@ -147,11 +147,16 @@ fn write_all(
     }
     let mut report = HierarchyReport::default();
     let p3 = |g: [f64; 2]| Value::Point3D(frame.world(g, heights.at(g)));
+    let frame_name = match frame {
+        GroundFrame::KittiCam => "kitti_cam",
+        GroundFrame::Enu => "enu",
+    };
     let env = tx.create_node_named(
         &["Environment"],
         &[
             ("name", environment.into()),
             ("source", "trajectory".into()),
+            ("ground_frame", frame_name.into()),
         ],
     )?;
     let mut seg_ids = Vec::with_capacity(segs.segments.len());
