@@ -200,12 +200,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
         } => {
             use ingest::hierarchy::{lanes, render, segments};
-            let p = ingest::sources::kitti::read_poses(&poses)?;
-            let c = calib
-                .as_deref()
-                .map(ingest::sources::kitti::read_calib)
-                .transpose()?;
-            let full = ingest::sources::kitti::ground_trajectory(&p, c.as_ref());
+            let world = ingest::sources::kitti::load_trajectory(&poses, calib.as_deref())?;
+            let frame = ingest::hierarchy::frame::GroundFrame::KittiCam;
+            let full: Vec<[f64; 2]> = world.iter().map(|p| frame.ground(*p)).collect();
             let traj: Vec<[f64; 2]> = full.iter().step_by(stride as usize).copied().collect();
             let t0 = std::time::Instant::now();
             let mut g = lanes::extract_lanes(&traj, &lanes::LaneConfig::default())?;
@@ -232,7 +229,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     .collect();
                 println!(
                     "{} poses -> {} lane nodes ({}), {} lane edges ({:.0} m), {} segments, in {:.1} ms",
-                    p.len(),
+                    full.len(),
                     g.nodes.len(),
                     kinds.join(", "),
                     g.edges.len(),
@@ -249,18 +246,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             name,
             json,
         } => {
-            let p = ingest::sources::kitti::read_poses(&poses)?;
-            let c = calib
-                .as_deref()
-                .map(ingest::sources::kitti::read_calib)
-                .transpose()?;
-            let traj: Vec<[f64; 3]> = p
-                .iter()
-                .map(|pose| match &c {
-                    Some(c) => pose.compose(&c.cam0_from_velo).translation(),
-                    None => pose.translation(),
-                })
-                .collect();
+            let traj = ingest::sources::kitti::load_trajectory(&poses, calib.as_deref())?;
             let store = graphstore::Store::create(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             if store.schema() == graphstore::Schema::default() {

@@ -4,7 +4,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use crate::error::Result;
 use crate::read::{GraphRead, Raw};
-use crate::store::{Mem, spatial_entry, text_entry, vector_entry};
+use crate::store::{EntryLists, Mem};
 use crate::txn::ReadTxn;
 
 /// Returns a list of problems (empty when the store is consistent).
@@ -18,9 +18,7 @@ pub(crate) fn check(r: &ReadTxn) -> Result<Vec<String>> {
     let mut label_rows = BTreeSet::new();
     let mut label_counts: BTreeMap<u32, u64> = BTreeMap::new();
     let mut pidx = BTreeSet::new();
-    let mut spatial: Vec<Vec<_>> = vec![Vec::new(); schema.spatial.len()];
-    let mut vector: Vec<Vec<_>> = vec![Vec::new(); schema.vector.len()];
-    let mut text: Vec<Vec<_>> = vec![Vec::new(); schema.text.len()];
+    let mut lists = EntryLists::new(schema);
     for &id in &nodes {
         if id >= next_node {
             problems.push(format!(
@@ -42,21 +40,7 @@ pub(crate) fn check(r: &ReadTxn) -> Result<Vec<String>> {
                 pidx.insert(k);
             }
         }
-        for (i, s) in schema.spatial.iter().enumerate() {
-            if let Some(e) = spatial_entry(s, &rec) {
-                spatial[i].push((id, e));
-            }
-        }
-        for (i, v) in schema.vector.iter().enumerate() {
-            if let Some(e) = vector_entry(v, &rec) {
-                vector[i].push((id, e));
-            }
-        }
-        for (i, t) in schema.text.iter().enumerate() {
-            if let Some(e) = text_entry(t, &rec) {
-                text[i].push((id, e));
-            }
-        }
+        lists.add(schema, id, &rec);
     }
     let stored_labels: BTreeSet<(u32, u64)> = r.raw_label_rows()?.into_iter().collect();
     if stored_labels != label_rows {
@@ -126,17 +110,17 @@ pub(crate) fn check(r: &ReadTxn) -> Result<Vec<String>> {
     }
     // in-memory indexes
     let mem: &Mem = &base.mem;
-    for (i, want) in spatial.into_iter().enumerate() {
+    for (i, want) in lists.spatial.into_iter().enumerate() {
         if mem.spatial[i].visible_entries(None) != want {
             problems.push(format!("spatial index {i} disagrees with the data"));
         }
     }
-    for (i, want) in vector.into_iter().enumerate() {
+    for (i, want) in lists.vector.into_iter().enumerate() {
         if mem.vector[i].visible_entries(None) != want {
             problems.push(format!("vector index {i} disagrees with the data"));
         }
     }
-    for (i, want) in text.into_iter().enumerate() {
+    for (i, want) in lists.text.into_iter().enumerate() {
         if mem.text[i].visible_entries(None) != want {
             problems.push(format!("text index {i} disagrees with the data"));
         }

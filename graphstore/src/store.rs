@@ -435,13 +435,46 @@ impl Store {
     }
 }
 
+/// Index entries of nodes, gathered per index (for rebuilding and for checking).
+pub(crate) struct EntryLists {
+    pub(crate) spatial: Vec<Vec<(u64, crate::index::spatial::Aabb)>>,
+    pub(crate) vector: Vec<Vec<(u64, crate::index::vector::Unit)>>,
+    pub(crate) text: Vec<Vec<(u64, Doc)>>,
+}
+
+impl EntryLists {
+    pub(crate) fn new(c: &Compiled) -> EntryLists {
+        EntryLists {
+            spatial: vec![Vec::new(); c.spatial.len()],
+            vector: vec![Vec::new(); c.vector.len()],
+            text: vec![Vec::new(); c.text.len()],
+        }
+    }
+
+    /// Adds whatever node `id` contributes to each index.
+    pub(crate) fn add(&mut self, c: &Compiled, id: u64, rec: &NodeRec) {
+        for (i, s) in c.spatial.iter().enumerate() {
+            if let Some(e) = spatial_entry(s, rec) {
+                self.spatial[i].push((id, e));
+            }
+        }
+        for (i, v) in c.vector.iter().enumerate() {
+            if let Some(e) = vector_entry(v, rec) {
+                self.vector[i].push((id, e));
+            }
+        }
+        for (i, t) in c.text.iter().enumerate() {
+            if let Some(e) = text_entry(t, rec) {
+                self.text[i].push((id, e));
+            }
+        }
+    }
+}
+
 /// Builds the in-memory indexes from what `r` sees.
 fn build_mem(r: &ReadTxn) -> Result<Mem> {
     let c = r.base().schema.clone();
-    let mut spatial: Vec<Vec<(u64, crate::index::spatial::Aabb)>> =
-        vec![Vec::new(); c.spatial.len()];
-    let mut vector: Vec<Vec<(u64, crate::index::vector::Unit)>> = vec![Vec::new(); c.vector.len()];
-    let mut text: Vec<Vec<(u64, Doc)>> = vec![Vec::new(); c.text.len()];
+    let mut lists = EntryLists::new(&c);
     let mut labels: Vec<u32> = c
         .spatial
         .iter()
@@ -458,31 +491,22 @@ fn build_mem(r: &ReadTxn) -> Result<Mem> {
                 continue;
             }
             let Some(rec) = r.load_rec(id)? else { continue };
-            for (i, s) in c.spatial.iter().enumerate() {
-                if let Some(e) = spatial_entry(s, &rec) {
-                    spatial[i].push((id, e));
-                }
-            }
-            for (i, v) in c.vector.iter().enumerate() {
-                if let Some(e) = vector_entry(v, &rec) {
-                    vector[i].push((id, e));
-                }
-            }
-            for (i, t) in c.text.iter().enumerate() {
-                if let Some(e) = text_entry(t, &rec) {
-                    text[i].push((id, e));
-                }
-            }
+            lists.add(&c, id, &rec);
         }
     }
     Ok(Mem {
-        spatial: spatial.into_iter().map(|e| Stack::new((), e)).collect(),
-        vector: vector
+        spatial: lists
+            .spatial
+            .into_iter()
+            .map(|e| Stack::new((), e))
+            .collect(),
+        vector: lists
+            .vector
             .into_iter()
             .zip(&c.vector)
             .map(|(e, v)| Stack::new(v.params, e))
             .collect(),
-        text: text.into_iter().map(|e| Stack::new((), e)).collect(),
+        text: lists.text.into_iter().map(|e| Stack::new((), e)).collect(),
     })
 }
 

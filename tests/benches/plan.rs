@@ -22,12 +22,10 @@ fn main() -> anyhow::Result<()> {
     };
     let quick = !std::env::args().any(|a| a == "--bench");
     let dir = data.join("kitti/sequences/00");
-    let poses = ingest::sources::kitti::read_poses(&dir.join("poses.txt"))?;
-    let calib = ingest::sources::kitti::read_calib(&dir.join("calib.txt"))?;
-    let traj: Vec<[f64; 3]> = poses
-        .iter()
-        .map(|p| p.compose(&calib.cam0_from_velo).translation())
-        .collect();
+    let traj = ingest::sources::kitti::load_trajectory(
+        &dir.join("poses.txt"),
+        Some(&dir.join("calib.txt")),
+    )?;
     let tmp = tempfile::tempdir()?;
     let store = Store::create(tmp.path().join("00.og"))?;
     store.set_schema(opengraph_schema())?;

@@ -176,12 +176,11 @@ fn real_seq00_hierarchy() {
         return;
     };
     let seq = data.join("kitti/sequences/00");
-    let poses = ingest::sources::kitti::read_poses(&seq.join("poses.txt")).unwrap();
-    let calib = ingest::sources::kitti::read_calib(&seq.join("calib.txt")).unwrap();
-    let traj: Vec<[f64; 3]> = poses
-        .iter()
-        .map(|p| p.compose(&calib.cam0_from_velo).translation())
-        .collect();
+    let traj = ingest::sources::kitti::load_trajectory(
+        &seq.join("poses.txt"),
+        Some(&seq.join("calib.txt")),
+    )
+    .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let store = Store::create(dir.path().join("00.og")).unwrap();
     store.set_schema(opengraph_schema()).unwrap();

@@ -15,12 +15,11 @@ fn real_lane_graph_routes_and_paths() {
     };
     for seq in ["00", "05"] {
         let dir = data.join("kitti/sequences").join(seq);
-        let poses = ingest::sources::kitti::read_poses(&dir.join("poses.txt")).unwrap();
-        let calib = ingest::sources::kitti::read_calib(&dir.join("calib.txt")).unwrap();
-        let traj: Vec<[f64; 3]> = poses
-            .iter()
-            .map(|p| p.compose(&calib.cam0_from_velo).translation())
-            .collect();
+        let traj = ingest::sources::kitti::load_trajectory(
+            &dir.join("poses.txt"),
+            Some(&dir.join("calib.txt")),
+        )
+        .unwrap();
         let tmp = tempfile::tempdir().unwrap();
         let store = Store::create(tmp.path().join("s.og")).unwrap();
         store.set_schema(opengraph_schema()).unwrap();

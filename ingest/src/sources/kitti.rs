@@ -161,19 +161,31 @@ pub fn read_calib(path: &Path) -> Result<Calib> {
     })
 }
 
-/// Ground-plane trajectory from KITTI poses: the (x, z) of each pose's position, or of the
-/// velodyne's position when `calib` is given (`pose × Tr`).
-pub fn ground_trajectory(poses: &[Mat34], calib: Option<&Calib>) -> Vec<[f64; 2]> {
+/// World positions of the sensor for each pose: cam0's, or the velodyne's when `calib` is
+/// given (`world_from_velo = pose × Tr`).
+pub fn positions(poses: &[Mat34], calib: Option<&Calib>) -> Vec<[f64; 3]> {
     poses
         .iter()
-        .map(|pose| {
-            let t = match calib {
-                Some(c) => pose.compose(&c.cam0_from_velo).translation(),
-                None => pose.translation(),
-            };
-            [t[0], t[2]]
+        .map(|pose| match calib {
+            Some(c) => pose.compose(&c.cam0_from_velo).translation(),
+            None => pose.translation(),
         })
         .collect()
+}
+
+/// Ground-plane trajectory from KITTI poses: the (x, z) of each of [`positions`].
+pub fn ground_trajectory(poses: &[Mat34], calib: Option<&Calib>) -> Vec<[f64; 2]> {
+    positions(poses, calib)
+        .into_iter()
+        .map(|t| [t[0], t[2]])
+        .collect()
+}
+
+/// Reads `poses.txt` (and `calib.txt`, if given) and returns the sensor's world positions.
+pub fn load_trajectory(poses: &Path, calib: Option<&Path>) -> Result<Vec<[f64; 3]>> {
+    let p = read_poses(poses)?;
+    let c = calib.map(read_calib).transpose()?;
+    Ok(positions(&p, c.as_ref()))
 }
 
 #[cfg(test)]
