@@ -188,9 +188,131 @@ pub fn load_trajectory(poses: &Path, calib: Option<&Path>) -> Result<Vec<[f64; 3
     Ok(positions(&p, c.as_ref()))
 }
 
+/// One Velodyne scan: x, y, z in metres (velodyne frame) and intensity.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Scan {
+    /// Points as stored, NaN or infinite ones included (see [`Scan::finite`]).
+    pub points: Vec<[f32; 4]>,
+}
+
+impl Scan {
+    /// Whether each point's coordinates are all finite. NaN/inf points are kept in
+    /// `points` so labels stay aligned; mapping drops them and counts them.
+    pub fn finite(&self) -> Vec<bool> {
+        self.points
+            .iter()
+            .map(|p| p[..3].iter().all(|c| c.is_finite()))
+            .collect()
+    }
+}
+
+/// Reads `velodyne/NNNNNN.bin`: little-endian float32 x, y, z, intensity per point.
+pub fn read_scan(path: &Path) -> Result<Scan> {
+    let bytes = std::fs::read(path).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    if bytes.len() % 16 != 0 {
+        return Err(Error::File {
+            path: path.to_path_buf(),
+            detail: format!(
+                "scan size {} bytes is not a multiple of 16 (4 float32 per point); the file is truncated or not a KITTI scan (last whole point ends at byte {})",
+                bytes.len(),
+                bytes.len() / 16 * 16
+            ),
+        });
+    }
+    let points = bytes
+        .chunks_exact(16)
+        .map(|c| {
+            let f = |i: usize| f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
+            [f(0), f(4), f(8), f(12)]
+        })
+        .collect();
+    Ok(Scan { points })
+}
+
+/// A SemanticKITTI point label: semantic class id (low 16 bits) and instance id (high 16).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PointLabel {
+    /// Raw semantic id (see semantic-kitti.yaml `labels`).
+    pub semantic: u16,
+    /// Instance id, 0 for none.
+    pub instance: u16,
+}
+
+/// Reads `labels/NNNNNN.label` (uint32 per point) and checks it matches a scan of
+/// `n_points` points.
+pub fn read_labels(path: &Path, n_points: usize) -> Result<Vec<PointLabel>> {
+    let bytes = std::fs::read(path).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    if bytes.len() % 4 != 0 {
+        return Err(Error::File {
+            path: path.to_path_buf(),
+            detail: format!(
+                "label file size {} bytes is not a multiple of 4",
+                bytes.len()
+            ),
+        });
+    }
+    if bytes.len() / 4 != n_points {
+        return Err(Error::File {
+            path: path.to_path_buf(),
+            detail: format!("{} labels for a scan of {n_points} points", bytes.len() / 4),
+        });
+    }
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|c| {
+            let v = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            PointLabel {
+                semantic: (v & 0xffff) as u16,
+                instance: (v >> 16) as u16,
+            }
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scan_and_label_errors_name_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let scan = dir.path().join("000000.bin");
+        let mut bytes: Vec<u8> = [1.0f32, 2.0, 3.0, 0.5, f32::NAN, 0.0, 0.0, 0.1]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        std::fs::write(&scan, &bytes).unwrap();
+        let s = read_scan(&scan).unwrap();
+        assert_eq!(s.points.len(), 2);
+        assert_eq!(s.finite(), vec![true, false]);
+        bytes.truncate(20);
+        std::fs::write(&scan, &bytes).unwrap();
+        let e = read_scan(&scan).unwrap_err().to_string();
+        assert!(
+            e.contains("000000.bin") && e.contains("not a multiple of 16") && e.contains("byte 16"),
+            "{e}"
+        );
+        let labels = dir.path().join("000000.label");
+        std::fs::write(&labels, (0x0003_000au32).to_le_bytes()).unwrap();
+        assert_eq!(
+            read_labels(&labels, 1).unwrap(),
+            vec![PointLabel {
+                semantic: 10,
+                instance: 3
+            }]
+        );
+        let e = read_labels(&labels, 2).unwrap_err().to_string();
+        assert!(
+            e.contains("000000.label") && e.contains("1 labels for a scan of 2 points"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn compose_matches_hand_computation() {
