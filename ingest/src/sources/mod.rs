@@ -1,3 +1,5 @@
 //! Data sources.
 
+pub mod detections;
 pub mod kitti;
+pub mod rle;
