@@ -271,7 +271,13 @@ pub trait GraphRead {
             .view()
             .raw
             .propidx(Bound::Included(&lo), Bound::Included(&hi))?;
-        verify_exact(self.view(), label, key, ids, value, value)
+        verify_exact(
+            self.view(),
+            key,
+            ids,
+            &ValueBound::Inclusive(value.clone()),
+            &ValueBound::Inclusive(value.clone()),
+        )
     }
 
     /// Nodes with `label` whose `key` lies in the range, ascending by value then id. Only
@@ -344,25 +350,7 @@ pub trait GraphRead {
             }
         };
         let ids = self.view().raw.propidx(lo, hi)?;
-        let big = |b: &ValueBound| matches!(b, ValueBound::Inclusive(Value::Int(i)) | ValueBound::Exclusive(Value::Int(i)) if !int_exact_in_f64(*i));
-        if big(&lower) || big(&upper) {
-            let k = self.prop_key(key);
-            let raw = self.view().raw;
-            let mut kept = Vec::with_capacity(ids.len());
-            for id in ids {
-                let v = k.and_then(|k| {
-                    raw.load_rec(id)
-                        .ok()
-                        .flatten()
-                        .and_then(|r| r.get(k.0).cloned())
-                });
-                if v.is_some_and(|v| in_range(&v, &lower, &upper)) {
-                    kept.push(id);
-                }
-            }
-            return Ok(kept);
-        }
-        Ok(ids)
+        verify_exact(self.view(), key, ids, &lower, &upper)
     }
 
     /// Nodes of a spatial index whose box intersects `[min, max]`, ascending by id.
@@ -534,13 +522,12 @@ fn property_index(v: View<'_>, label: &str, key: &str) -> Result<Option<u32>> {
 /// Index keys compare integers as f64; for integers f64 cannot hold exactly, re-check.
 fn verify_exact(
     v: View<'_>,
-    _label: &str,
     key: &str,
     ids: Vec<u64>,
-    lo: &Value,
-    hi: &Value,
+    lo: &ValueBound,
+    hi: &ValueBound,
 ) -> Result<Vec<u64>> {
-    let big = |x: &Value| matches!(x, Value::Int(i) if !int_exact_in_f64(*i));
+    let big = |b: &ValueBound| matches!(b, ValueBound::Inclusive(Value::Int(i)) | ValueBound::Exclusive(Value::Int(i)) if !int_exact_in_f64(*i));
     if !big(lo) && !big(hi) {
         return Ok(ids);
     }
@@ -550,11 +537,7 @@ fn verify_exact(
     let mut out = Vec::new();
     for id in ids {
         if let Some(val) = v.raw.load_rec(id)?.and_then(|r| r.get(k).cloned())
-            && in_range(
-                &val,
-                &ValueBound::Inclusive(lo.clone()),
-                &ValueBound::Inclusive(hi.clone()),
-            )
+            && in_range(&val, lo, hi)
         {
             out.push(id);
         }

@@ -178,7 +178,7 @@ impl LaneGraph {
     }
 }
 
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
 }
 
@@ -842,7 +842,6 @@ pub(crate) mod tests {
             [0.0, 200.0],
             [0.0, -200.0],
         ]);
-        let t: Vec<[f64; 2]> = t;
         let g = extract_lanes(&t, &LaneConfig::default()).unwrap();
         assert_eq!(
             kinds(&g),

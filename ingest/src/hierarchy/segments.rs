@@ -6,7 +6,7 @@ use parry2d::math::{Pose, Vector};
 use parry2d::query::PointQuery;
 use parry2d::shape::{Ball, Polyline};
 
-use super::lanes::{LaneGraph, LaneNodeKind, polyline_length};
+use super::lanes::{LaneGraph, LaneNodeKind, dist, polyline_length};
 
 /// Segment parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -170,10 +170,6 @@ impl Segments {
             .map(|s| (s.id, s.area.distance(p)))
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
     }
-}
-
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
 }
 
 /// Drops the parts of `line` inside the disc (`c`, `r`) at its start, ending the cut exactly
