@@ -2,7 +2,9 @@
 
 pub mod embed;
 mod error;
+pub mod hash_embed;
 pub mod wordpiece;
 
 pub use embed::{Embedder, MiniLm};
 pub use error::{Error, Result};
+pub use hash_embed::HashEmbedder;

@@ -2,4 +2,5 @@
 
 pub mod detections;
 pub mod kitti;
+pub mod oracle;
 pub mod rle;

@@ -1,0 +1,158 @@
+//! The 19 SemanticKITTI evaluation classes and the raw-label mapping (`learning_map` in
+//! `semantic-kitti.yaml`), plus which classes the mapper treats as background.
+
+/// Class names in SemanticKITTI's training order (index + 1 is the class id; 0 is unlabelled).
+pub const CLASSES: [&str; 19] = [
+    "car",
+    "bicycle",
+    "motorcycle",
+    "truck",
+    "other-vehicle",
+    "person",
+    "bicyclist",
+    "motorcyclist",
+    "road",
+    "parking",
+    "sidewalk",
+    "other-ground",
+    "building",
+    "fence",
+    "vegetation",
+    "trunk",
+    "terrain",
+    "pole",
+    "traffic-sign",
+];
+
+/// Texts embedded to assign a class from a caption (one per class, same order as
+/// [`CLASSES`]): the class name in plain words, with the common synonyms a captioner uses.
+pub const CLASS_PROMPTS: [&str; 19] = [
+    "a car",
+    "a bicycle",
+    "a motorcycle",
+    "a truck",
+    "another vehicle such as a bus, tram or trailer",
+    "a person walking",
+    "a cyclist riding a bicycle",
+    "a motorcyclist riding a motorcycle",
+    "the road",
+    "a parking area",
+    "a sidewalk",
+    "other ground such as a traffic island",
+    "a building",
+    "a fence",
+    "vegetation such as bushes and trees",
+    "a tree trunk",
+    "terrain such as grass and soil",
+    "a pole",
+    "a traffic sign",
+];
+
+/// Evaluation class id (1..=19) of a raw SemanticKITTI label, 0 for unlabelled/ignored.
+pub fn learning_class(raw: u16) -> u8 {
+    match raw {
+        10 | 252 => 1,
+        11 => 2,
+        15 => 3,
+        18 | 258 => 4,
+        13 | 16 | 20 | 256 | 257 | 259 => 5,
+        30 | 254 => 6,
+        31 | 253 => 7,
+        32 | 255 => 8,
+        40 | 60 => 9,
+        44 => 10,
+        48 => 11,
+        49 => 12,
+        50 => 13,
+        51 => 14,
+        70 => 15,
+        71 => 16,
+        72 => 17,
+        80 => 18,
+        81 => 19,
+        _ => 0,
+    }
+}
+
+/// Name of an evaluation class id (1..=19).
+pub fn class_name(id: u8) -> Option<&'static str> {
+    CLASSES.get(usize::from(id).checked_sub(1)?).copied()
+}
+
+/// Class id (1..=19) of a name.
+pub fn class_id(name: &str) -> Option<u8> {
+    CLASSES.iter().position(|c| *c == name).map(|i| i as u8 + 1)
+}
+
+/// Classes with instance ids in SemanticKITTI (vehicles and people).
+pub fn is_thing(id: u8) -> bool {
+    (1..=8).contains(&id)
+}
+
+/// Classes fused per class within spatial tiles instead of as objects: large surfaces and
+/// vegetation that have no meaningful object extent.
+pub fn is_background(id: u8) -> bool {
+    matches!(id, 9..=15 | 17)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_and_ids_roundtrip() {
+        for (i, n) in CLASSES.iter().enumerate() {
+            assert_eq!(class_id(n), Some(i as u8 + 1));
+            assert_eq!(class_name(i as u8 + 1), Some(*n));
+        }
+        assert_eq!(class_name(0), None);
+        assert_eq!(class_name(20), None);
+        assert!(is_background(9) && !is_background(18) && is_thing(1) && !is_thing(9));
+    }
+
+    /// The table above agrees with the `learning_map` of the real `semantic-kitti.yaml`.
+    #[test]
+    fn learning_map_matches_semantic_kitti_yaml() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../shared/data/kitti/semantic-kitti.yaml");
+        let Ok(text) = std::fs::read_to_string(&path) else {
+            eprintln!("skipping: {} not found", path.display());
+            return;
+        };
+        let section = |name: &str| -> Vec<(u16, u16)> {
+            let start = text.find(&format!("\n{name}:")).expect("section");
+            text[start + name.len() + 2..]
+                .lines()
+                .skip(1)
+                .take_while(|l| l.starts_with(' '))
+                .filter_map(|l| {
+                    let (k, v) = l.split_once(':')?;
+                    let v = v.split('#').next()?.trim();
+                    Some((k.trim().parse().ok()?, v.parse().ok()?))
+                })
+                .collect()
+        };
+        let map = section("learning_map");
+        assert!(map.len() > 30, "{map:?}");
+        for (raw, class) in &map {
+            assert_eq!(u16::from(learning_class(*raw)), *class, "raw label {raw}");
+        }
+        let inv = section("learning_map_inv");
+        let labels: std::collections::BTreeMap<u16, String> = text
+            [text.find("\nlabels:").unwrap() + 8..]
+            .lines()
+            .skip(1)
+            .take_while(|l| l.starts_with(' '))
+            .filter_map(|l| {
+                let (k, v) = l.split_once(':')?;
+                Some((
+                    k.trim().parse().ok()?,
+                    v.trim().trim_matches('"').to_string(),
+                ))
+            })
+            .collect();
+        for (class, raw) in inv.iter().filter(|(c, _)| *c > 0) {
+            assert_eq!(class_name(*class as u8), Some(labels[raw].as_str()));
+        }
+    }
+}

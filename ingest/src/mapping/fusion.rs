@@ -1,0 +1,755 @@
+//! Map objects, per-frame integration (projection → denoise → world → associate → fuse) and
+//! post-processing.
+
+use std::collections::{BTreeMap, HashSet};
+use std::time::Instant;
+
+use super::MappingConfig;
+use super::associate::{TfIdf, Weights, cosine, greedy_assign, phi, words};
+use super::geometry::{Aabb, VoxelKey, largest_cluster, voxel_downsample, voxel_key};
+use super::project::{Camera, points_in_mask};
+use crate::classes;
+use crate::hierarchy::frame::GroundFrame;
+use crate::sources::detections::DetectionFrame;
+use crate::sources::kitti::Mat34;
+
+/// One object of the map.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapObject {
+    /// Stable id (the `Instance.instance_id`).
+    pub instance_id: u64,
+    /// For background objects: the class and the ground-plane tile.
+    pub tile: Option<(u8, [i64; 2])>,
+    /// World points, one per occupied voxel.
+    pub points: Vec<[f32; 3]>,
+    voxels: HashSet<VoxelKey>,
+    /// Bounds of `points`.
+    pub bbox: Aabb,
+    /// Running mean of the detection features, weighted by detection count.
+    pub feature: Vec<f32>,
+    /// Every caption, in the order seen.
+    pub captions: Vec<String>,
+    /// Detections fused into the object.
+    pub detection_count: u32,
+    /// First key frame it was seen in.
+    pub first_frame: u32,
+    /// Last key frame it was seen in.
+    pub last_frame: u32,
+    /// Detections per frame since the last commit.
+    pub observations: BTreeMap<u32, u32>,
+    /// Changed since the last commit.
+    pub dirty: bool,
+}
+
+impl MapObject {
+    /// An object restored from stored state.
+    #[allow(clippy::too_many_arguments)]
+    pub fn restore(
+        instance_id: u64,
+        tile: Option<(u8, [i64; 2])>,
+        points: Vec<[f32; 3]>,
+        feature: Vec<f32>,
+        captions: Vec<String>,
+        detection_count: u32,
+        first_frame: u32,
+        last_frame: u32,
+        voxel_m: f32,
+    ) -> MapObject {
+        let mut o = MapObject {
+            instance_id,
+            tile,
+            points: Vec::new(),
+            voxels: HashSet::new(),
+            bbox: Aabb {
+                min: [0.0; 3],
+                max: [0.0; 3],
+            },
+            feature,
+            captions,
+            detection_count,
+            first_frame,
+            last_frame,
+            observations: BTreeMap::new(),
+            dirty: false,
+        };
+        o.set_points(points, voxel_m);
+        o
+    }
+
+    /// Replaces the points (recomputing voxels and bounds).
+    pub fn set_points(&mut self, points: Vec<[f32; 3]>, voxel_m: f32) {
+        self.voxels = points.iter().map(|p| voxel_key(*p, voxel_m)).collect();
+        self.bbox = Aabb::of(&points).unwrap_or(Aabb {
+            min: [0.0; 3],
+            max: [0.0; 3],
+        });
+        self.points = points;
+    }
+
+    /// The latest `n` captions joined, for caption comparison.
+    pub fn recent_captions(&self, n: usize) -> &[String] {
+        &self.captions[self.captions.len().saturating_sub(n)..]
+    }
+
+    fn absorb_points(&mut self, pts: &[[f32; 3]], voxel_m: f32) {
+        for p in pts {
+            if self.voxels.insert(voxel_key(*p, voxel_m)) {
+                self.points.push(*p);
+                for i in 0..3 {
+                    self.bbox.min[i] = self.bbox.min[i].min(p[i]);
+                    self.bbox.max[i] = self.bbox.max[i].max(p[i]);
+                }
+            }
+        }
+    }
+
+    fn add_feature(&mut self, f: &[f32], weight: u32) {
+        if self.feature.len() != f.len() {
+            if self.feature.is_empty() {
+                self.feature = vec![0.0; f.len()];
+            } else {
+                return;
+            }
+        }
+        let n = self.detection_count as f32;
+        let w = weight as f32;
+        for (a, b) in self.feature.iter_mut().zip(f) {
+            *a = (*a * n + b * w) / (n + w);
+        }
+    }
+}
+
+/// Turns an object's latest captions into its caption (the paper merges them with an LLM).
+pub trait CaptionMerger {
+    /// One caption for `recent` (never empty).
+    fn merge(&mut self, recent: &[String]) -> String;
+}
+
+/// The deterministic merge: the caption with the highest summed word-overlap (bag-of-words
+/// cosine) with the others, the most recent on ties.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MedoidMerger;
+
+impl CaptionMerger for MedoidMerger {
+    fn merge(&mut self, recent: &[String]) -> String {
+        let bags: Vec<BTreeMap<String, f64>> = recent
+            .iter()
+            .map(|c| {
+                let mut m = BTreeMap::new();
+                for w in words(c) {
+                    *m.entry(w).or_insert(0.0) += 1.0;
+                }
+                m
+            })
+            .collect();
+        let cos = |a: &BTreeMap<String, f64>, b: &BTreeMap<String, f64>| {
+            let dot: f64 = a.iter().map(|(k, x)| x * b.get(k).unwrap_or(&0.0)).sum();
+            let n = |m: &BTreeMap<String, f64>| m.values().map(|x| x * x).sum::<f64>().sqrt();
+            if dot > 0.0 { dot / (n(a) * n(b)) } else { 0.0 }
+        };
+        let mut best = (f64::NEG_INFINITY, 0);
+        for i in 0..recent.len() {
+            let s: f64 = (0..recent.len())
+                .filter(|j| *j != i)
+                .map(|j| cos(&bags[i], &bags[j]))
+                .sum();
+            if s >= best.0 {
+                best = (s, i);
+            }
+        }
+        recent.get(best.1).cloned().unwrap_or_default()
+    }
+}
+
+/// One key frame, ready to integrate.
+#[derive(Debug)]
+pub struct FrameInput<'a> {
+    /// Key frame index.
+    pub index: u32,
+    /// Pose of the key frame's velodyne.
+    pub world_from_velo: Mat34,
+    /// Points in the key frame's velodyne frame (accumulated scans included); non-finite ones
+    /// never project.
+    pub points: &'a [[f32; 4]],
+    /// The camera the masks are in.
+    pub camera: &'a Camera,
+    /// The frame's detections.
+    pub detections: &'a DetectionFrame,
+    /// Per detection: its feature (its own, or its caption's embedding).
+    pub features: &'a [Vec<f32>],
+    /// Per detection: the class (1..=19) its caption is closest to.
+    pub classes: &'a [u8],
+}
+
+/// Milliseconds spent per stage.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct StageTimes {
+    /// Projection of the scan and mask look-ups.
+    pub project_ms: f64,
+    /// Voxel down-sampling and DBSCAN.
+    pub denoise_ms: f64,
+    /// Velodyne → world.
+    pub transform_ms: f64,
+    /// φ and assignment.
+    pub associate_ms: f64,
+    /// Fusion into objects.
+    pub fuse_ms: f64,
+}
+
+impl StageTimes {
+    /// Adds another set of times.
+    pub fn add(&mut self, o: &StageTimes) {
+        self.project_ms += o.project_ms;
+        self.denoise_ms += o.denoise_ms;
+        self.transform_ms += o.transform_ms;
+        self.associate_ms += o.associate_ms;
+        self.fuse_ms += o.fuse_ms;
+    }
+
+    /// Sum of the stages.
+    pub fn total_ms(&self) -> f64 {
+        self.project_ms + self.denoise_ms + self.transform_ms + self.associate_ms + self.fuse_ms
+    }
+}
+
+/// What integrating one frame did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct FrameStats {
+    /// Detections in the frame.
+    pub detections: usize,
+    /// Detections dropped: no points in the mask, or none left after denoising.
+    pub dropped: usize,
+    /// Detections fused into an existing object.
+    pub matched: usize,
+    /// New objects.
+    pub created: usize,
+    /// Background detections fused into tiles.
+    pub background: usize,
+    /// Time per stage.
+    pub times: StageTimes,
+}
+
+/// What post-processing did.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct PostReport {
+    /// Points removed by the final denoising.
+    pub denoised_points: usize,
+    /// Objects dropped for having too few points.
+    pub dropped: Vec<u64>,
+    /// Merges: (kept, absorbed).
+    pub merged: Vec<(u64, u64)>,
+}
+
+/// The object map under construction.
+#[derive(Debug, Clone)]
+pub struct Mapper {
+    cfg: MappingConfig,
+    ground: GroundFrame,
+    objects: BTreeMap<u64, MapObject>,
+    tiles: BTreeMap<(u8, [i64; 2]), u64>,
+    tfidf: TfIdf,
+    next_id: u64,
+}
+
+fn elapsed_ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+impl Mapper {
+    /// An empty map.
+    pub fn new(cfg: MappingConfig, ground: GroundFrame) -> Mapper {
+        Mapper::restore(cfg, ground, Vec::new(), 0)
+    }
+
+    /// A map restored from stored objects; new ids start at `next_id`.
+    pub fn restore(
+        cfg: MappingConfig,
+        ground: GroundFrame,
+        objects: Vec<MapObject>,
+        next_id: u64,
+    ) -> Mapper {
+        let mut m = Mapper {
+            cfg,
+            ground,
+            objects: BTreeMap::new(),
+            tiles: BTreeMap::new(),
+            tfidf: TfIdf::default(),
+            next_id,
+        };
+        for o in objects {
+            for c in &o.captions {
+                m.tfidf.add(c);
+            }
+            if let Some(t) = o.tile {
+                m.tiles.insert(t, o.instance_id);
+            }
+            m.next_id = m.next_id.max(o.instance_id + 1);
+            m.objects.insert(o.instance_id, o);
+        }
+        m
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MappingConfig {
+        &self.cfg
+    }
+
+    /// The objects, by id.
+    pub fn objects(&self) -> &BTreeMap<u64, MapObject> {
+        &self.objects
+    }
+
+    /// Mutable access (the store writer clears `dirty` and round-trips points).
+    pub fn objects_mut(&mut self) -> &mut BTreeMap<u64, MapObject> {
+        &mut self.objects
+    }
+
+    /// The id the next new object gets.
+    pub fn next_id(&self) -> u64 {
+        self.next_id
+    }
+
+    /// Integrates one key frame.
+    pub fn integrate(&mut self, f: &FrameInput<'_>) -> FrameStats {
+        let cfg = self.cfg.clone();
+        let n = f.detections.detections.len();
+        let mut st = FrameStats {
+            detections: n,
+            ..FrameStats::default()
+        };
+        // projection, once per frame, sorted by pixel for run-walking look-ups
+        let t = Instant::now();
+        let mut projected = f.camera.project_all(f.points);
+        projected.sort_unstable_by_key(|p| (p.pixel, p.point));
+        let in_mask: Vec<Vec<u32>> = f
+            .detections
+            .detections
+            .iter()
+            .map(|d| points_in_mask(&projected, &d.mask.counts))
+            .collect();
+        st.times.project_ms += elapsed_ms(t);
+        // per detection: voxel down-sample, DBSCAN (objects only), world transform
+        let mut det_points: Vec<Vec<[f32; 3]>> = Vec::with_capacity(n);
+        for (i, idx) in in_mask.iter().enumerate() {
+            let t = Instant::now();
+            let pts: Vec<[f32; 3]> = idx
+                .iter()
+                .map(|&j| {
+                    let p = f.points[j as usize];
+                    [p[0], p[1], p[2]]
+                })
+                .collect();
+            let mut pts = voxel_downsample(&pts, cfg.voxel_m);
+            if !classes::is_background(f.classes[i]) {
+                pts = largest_cluster(&pts, cfg.dbscan_eps_m, cfg.dbscan_min_points);
+            }
+            st.times.denoise_ms += elapsed_ms(t);
+            let t = Instant::now();
+            let world: Vec<[f32; 3]> = pts
+                .iter()
+                .map(|p| {
+                    f.world_from_velo
+                        .apply([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
+                        .map(|c| c as f32)
+                })
+                .collect();
+            st.times.transform_ms += elapsed_ms(t);
+            det_points.push(world);
+        }
+        // association of object detections
+        let t = Instant::now();
+        let w = Weights {
+            geo: cfg.w_geo,
+            cap: cfg.w_cap,
+            fea: cfg.w_fea,
+        };
+        let mut pairs = Vec::new();
+        let mut det_box: Vec<Option<Aabb>> = Vec::with_capacity(n);
+        let ids: Vec<u64> = self
+            .objects
+            .values()
+            .filter(|o| o.tile.is_none())
+            .map(|o| o.instance_id)
+            .collect();
+        let object_docs: BTreeMap<u64, Vec<(String, f64)>> = BTreeMap::new();
+        let mut object_docs = object_docs;
+        for (i, pts) in det_points.iter().enumerate() {
+            let b = Aabb::of(pts);
+            det_box.push(b);
+            let (Some(b), false) = (b, classes::is_background(f.classes[i])) else {
+                continue;
+            };
+            let caption = self.tfidf.vector(&f.detections.detections[i].caption);
+            for (k, id) in ids.iter().enumerate() {
+                let o = &self.objects[id];
+                // with no overlap φ ≤ w_cap + w_fea; skip when that cannot pass δ_sim
+                let iou = if o.bbox.intersects(&b) {
+                    o.bbox.iou(&b)
+                } else {
+                    0.0
+                };
+                if iou <= 0.0 && cfg.w_cap + cfg.w_fea <= cfg.sim_threshold {
+                    continue;
+                }
+                let doc = object_docs.entry(*id).or_insert_with(|| {
+                    self.tfidf
+                        .vector(&o.recent_captions(cfg.merge_captions).join(" "))
+                });
+                let c = super::associate::sparse_dot(&caption, doc);
+                let fc = cosine(&f.features[i], &o.feature);
+                pairs.push((i, k, phi(w, iou, c, fc)));
+            }
+        }
+        let assignment = greedy_assign(n, pairs, cfg.sim_threshold);
+        st.times.associate_ms += elapsed_ms(t);
+        // fusion
+        let t = Instant::now();
+        for (i, pts) in det_points.into_iter().enumerate() {
+            let d = &f.detections.detections[i];
+            if pts.is_empty() || det_box[i].is_none() {
+                st.dropped += 1;
+                continue;
+            }
+            let class = f.classes[i];
+            if classes::is_background(class) {
+                st.background += 1;
+                let mut by_tile: BTreeMap<[i64; 2], Vec<[f32; 3]>> = BTreeMap::new();
+                for p in pts {
+                    let g = self
+                        .ground
+                        .ground([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]);
+                    let tile = g.map(|c| (c / cfg.background_tile_m).floor() as i64);
+                    by_tile.entry(tile).or_default().push(p);
+                }
+                for (tile, tp) in by_tile {
+                    let id = match self.tiles.get(&(class, tile)) {
+                        Some(id) => *id,
+                        None => {
+                            let id = self.new_object(Some((class, tile)), f.index);
+                            self.tiles.insert((class, tile), id);
+                            id
+                        }
+                    };
+                    self.fuse(id, &tp, &f.features[i], &d.caption, f.index);
+                }
+                continue;
+            }
+            let id = match assignment[i] {
+                Some(k) => {
+                    st.matched += 1;
+                    ids[k]
+                }
+                None => {
+                    st.created += 1;
+                    self.new_object(None, f.index)
+                }
+            };
+            self.fuse(id, &pts, &f.features[i], &d.caption, f.index);
+        }
+        st.times.fuse_ms += elapsed_ms(t);
+        st
+    }
+
+    fn new_object(&mut self, tile: Option<(u8, [i64; 2])>, frame: u32) -> u64 {
+        let id = self.next_id;
+        self.next_id += 1;
+        let o = MapObject::restore(
+            id,
+            tile,
+            Vec::new(),
+            Vec::new(),
+            Vec::new(),
+            0,
+            frame,
+            frame,
+            self.cfg.voxel_m,
+        );
+        self.objects.insert(id, o);
+        id
+    }
+
+    fn fuse(&mut self, id: u64, pts: &[[f32; 3]], feature: &[f32], caption: &str, frame: u32) {
+        let voxel_m = self.cfg.voxel_m;
+        let o = self.objects.get_mut(&id).expect("object exists");
+        o.absorb_points(pts, voxel_m);
+        o.add_feature(feature, 1);
+        o.captions.push(caption.to_string());
+        o.detection_count += 1;
+        o.first_frame = o.first_frame.min(frame);
+        o.last_frame = o.last_frame.max(frame);
+        *o.observations.entry(frame).or_insert(0) += 1;
+        o.dirty = true;
+        self.tfidf.add(caption);
+    }
+
+    /// Post-processing: denoise every object (not background tiles), drop those under
+    /// `min_object_points`, then merge pairs whose shared-voxel ratio (over the smaller one)
+    /// exceeds `merge_overlap` and whose feature cosine exceeds `merge_feature_cos`. The
+    /// lower id survives and absorbs the other's points, feature, captions and counts.
+    pub fn post_process(&mut self) -> PostReport {
+        let cfg = self.cfg.clone();
+        let mut report = PostReport::default();
+        let ids: Vec<u64> = self
+            .objects
+            .values()
+            .filter(|o| o.tile.is_none())
+            .map(|o| o.instance_id)
+            .collect();
+        for id in &ids {
+            let o = self.objects.get_mut(id).expect("listed");
+            let kept = largest_cluster(&o.points, cfg.dbscan_eps_m, cfg.dbscan_min_points);
+            if kept.len() != o.points.len() {
+                report.denoised_points += o.points.len() - kept.len();
+                o.set_points(kept, cfg.voxel_m);
+                o.dirty = true;
+            }
+            if o.points.len() < cfg.min_object_points {
+                report.dropped.push(*id);
+                self.objects.remove(id);
+            }
+        }
+        // merging, in id order; a merged object can absorb more afterwards
+        let ids: Vec<u64> = self
+            .objects
+            .values()
+            .filter(|o| o.tile.is_none())
+            .map(|o| o.instance_id)
+            .collect();
+        let mut gone: HashSet<u64> = HashSet::new();
+        for (a_i, a) in ids.iter().enumerate() {
+            if gone.contains(a) {
+                continue;
+            }
+            for b in &ids[a_i + 1..] {
+                if gone.contains(b) {
+                    continue;
+                }
+                let (oa, ob) = (&self.objects[a], &self.objects[b]);
+                if !oa.bbox.intersects(&ob.bbox) {
+                    continue;
+                }
+                let (small, big) = if oa.voxels.len() <= ob.voxels.len() {
+                    (oa, ob)
+                } else {
+                    (ob, oa)
+                };
+                let shared = small
+                    .voxels
+                    .iter()
+                    .filter(|k| big.voxels.contains(*k))
+                    .count();
+                let ratio = shared as f64 / small.voxels.len().max(1) as f64;
+                if ratio > cfg.merge_overlap
+                    && cosine(&oa.feature, &ob.feature) > cfg.merge_feature_cos
+                {
+                    let absorbed = self.objects.remove(b).expect("present");
+                    let keep = self.objects.get_mut(a).expect("present");
+                    keep.absorb_points(&absorbed.points, cfg.voxel_m);
+                    if keep.feature.len() == absorbed.feature.len() {
+                        let (na, nb) =
+                            (keep.detection_count as f32, absorbed.detection_count as f32);
+                        for (x, y) in keep.feature.iter_mut().zip(&absorbed.feature) {
+                            *x = (*x * na + y * nb) / (na + nb).max(1.0);
+                        }
+                    }
+                    keep.captions.extend(absorbed.captions);
+                    keep.detection_count += absorbed.detection_count;
+                    keep.first_frame = keep.first_frame.min(absorbed.first_frame);
+                    keep.last_frame = keep.last_frame.max(absorbed.last_frame);
+                    for (fr, n) in absorbed.observations {
+                        *keep.observations.entry(fr).or_insert(0) += n;
+                    }
+                    keep.dirty = true;
+                    gone.insert(*b);
+                    report.merged.push((*a, *b));
+                }
+            }
+        }
+        report
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sources::detections::{Detection, Producer};
+    use crate::sources::rle::Rle;
+
+    #[test]
+    fn medoid_merge_picks_the_consensus_caption() {
+        let caps: Vec<String> = [
+            "a red car parked by the curb",
+            "a red car parked on the street",
+            "a blue bench",
+            "a small red car parked by the curb",
+        ]
+        .map(String::from)
+        .to_vec();
+        // word-overlap cosines: 0.935 (first/last), 0.714 (first/second), 0.668 (second/last)
+        assert_eq!(MedoidMerger.merge(&caps), "a red car parked by the curb");
+        assert_eq!(MedoidMerger.merge(&caps[2..3]), "a blue bench");
+    }
+
+    fn camera() -> Camera {
+        Camera {
+            image_from_velo: Mat34([
+                [50.0, -100.0, 0.0, 0.0],
+                [25.0, 0.0, -100.0, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+            ]),
+            width: 100,
+            height: 50,
+        }
+    }
+
+    /// A 1 m cube of points 10 m in front of the sensor, plus a few stray points.
+    fn cube(offset_y: f32) -> Vec<[f32; 4]> {
+        let mut pts = Vec::new();
+        for i in 0..20 {
+            for j in 0..20 {
+                for k in 0..3 {
+                    pts.push([
+                        10.0 + k as f32 * 0.3,
+                        offset_y + i as f32 * 0.05 - 0.5,
+                        j as f32 * 0.05 - 0.5,
+                        0.0,
+                    ]);
+                }
+            }
+        }
+        pts
+    }
+
+    fn full_mask_detection(caption: &str) -> Detection {
+        let mask = Rle::from_mask(50, 100, &vec![true; 5000]).unwrap();
+        Detection {
+            bbox: mask.bbox().unwrap(),
+            mask,
+            score: 1.0,
+            tags: vec![],
+            caption: caption.into(),
+            feature: None,
+        }
+    }
+
+    fn frame_of(d: Vec<Detection>) -> DetectionFrame {
+        DetectionFrame {
+            frame: 0,
+            width: 100,
+            height: 50,
+            producer: Producer::Detector,
+            detections: d,
+        }
+    }
+
+    #[test]
+    fn the_same_object_seen_twice_is_one_object() {
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        let cam = camera();
+        let pts = cube(0.0);
+        let dets = frame_of(vec![full_mask_detection("a red car")]);
+        let feats = vec![vec![1.0, 0.0, 0.0]];
+        for (k, shift) in [0.0f64, 0.05].iter().enumerate() {
+            let mut pose = Mat34::IDENTITY;
+            pose.0[0][3] = *shift;
+            let s = m.integrate(&FrameInput {
+                index: k as u32,
+                world_from_velo: pose,
+                points: &pts,
+                camera: &cam,
+                detections: &dets,
+                features: &feats,
+                classes: &[1],
+            });
+            assert_eq!(s.dropped, 0, "{s:?}");
+            assert_eq!((s.matched, s.created), if k == 0 { (0, 1) } else { (1, 0) });
+        }
+        assert_eq!(m.objects().len(), 1);
+        let o = &m.objects()[&0];
+        assert_eq!(o.detection_count, 2);
+        assert_eq!(o.captions.len(), 2);
+        assert_eq!((o.first_frame, o.last_frame), (0, 1));
+        // 10 x 10 voxels x 3 layers; the 5 cm shift along x moves no point out of its voxel
+        assert_eq!(o.points.len(), 300);
+        // a dissimilar detection far away becomes a new object
+        let far = cube(30.0);
+        let s = m.integrate(&FrameInput {
+            index: 2,
+            world_from_velo: Mat34::IDENTITY,
+            points: &far,
+            camera: &cam,
+            detections: &frame_of(vec![full_mask_detection("a red car")]),
+            features: &feats,
+            classes: &[1],
+        });
+        // 30 m to the side is outside this 100 px camera: the detection has no points
+        assert_eq!(s.dropped, 1);
+        let post = m.post_process();
+        assert!(
+            post.dropped.is_empty() && post.merged.is_empty(),
+            "{post:?}"
+        );
+    }
+
+    #[test]
+    fn background_is_fused_per_class_and_tile() {
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        let cam = camera();
+        // a wide wall 10..50 m ahead spanning several 20 m tiles along KITTI z (velo x here,
+        // with an identity pose the world is the velodyne frame: ground = (x, z))
+        let mut pts = Vec::new();
+        for i in 0..400 {
+            for j in 0..5 {
+                pts.push([10.05 + i as f32 * 0.1, 0.05, j as f32 * 0.1 + 0.05, 0.0]);
+            }
+        }
+        let dets = frame_of(vec![full_mask_detection("a brick building")]);
+        let s = m.integrate(&FrameInput {
+            index: 0,
+            world_from_velo: Mat34::IDENTITY,
+            points: &pts,
+            camera: &cam,
+            detections: &dets,
+            features: &[vec![0.0, 1.0]],
+            classes: &[13],
+        });
+        assert_eq!(s.background, 1);
+        let tiles: Vec<_> = m.objects().values().map(|o| o.tile.unwrap()).collect();
+        assert_eq!(tiles, vec![(13, [0, 0]), (13, [1, 0]), (13, [2, 0])]);
+        let total: usize = m.objects().values().map(|o| o.points.len()).sum();
+        assert_eq!(total, 2000);
+    }
+
+    #[test]
+    fn post_processing_drops_small_and_merges_overlapping() {
+        let cfg = MappingConfig::default();
+        let grid = |x0: f32, n: usize| -> Vec<[f32; 3]> {
+            let mut v = Vec::new();
+            for i in 0..n {
+                for j in 0..10 {
+                    v.push([x0 + i as f32 * 0.1 + 0.05, j as f32 * 0.1 + 0.05, 0.05]);
+                }
+            }
+            v
+        };
+        let mk = |id, pts, f: Vec<f32>| {
+            MapObject::restore(id, None, pts, f, vec![format!("o{id}")], 1, 0, 0, 0.1)
+        };
+        let objects = vec![
+            mk(0, grid(0.0, 10), vec![1.0, 0.0]),
+            mk(1, grid(0.5, 10), vec![1.0, 0.1]), // half overlaps 0, similar
+            mk(2, grid(0.5, 10), vec![-1.0, 0.0]), // overlaps, dissimilar
+            mk(3, grid(20.0, 3), vec![1.0, 0.0]), // 30 points: too small
+        ];
+        let mut m = Mapper::restore(cfg, GroundFrame::KittiCam, objects, 4);
+        let r = m.post_process();
+        assert_eq!(r.dropped, vec![3]);
+        assert_eq!(r.merged, vec![(0, 1)]);
+        let o = &m.objects()[&0];
+        assert_eq!(o.points.len(), 150);
+        assert_eq!(o.detection_count, 2);
+        assert_eq!(o.captions, vec!["o0".to_string(), "o1".to_string()]);
+        assert!(m.objects().contains_key(&2));
+        assert_eq!(m.next_id(), 4);
+    }
+}

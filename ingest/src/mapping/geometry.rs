@@ -1,0 +1,280 @@
+//! Point-set geometry for mapping: voxel down-sampling, 3D DBSCAN, axis-aligned boxes.
+
+use std::collections::HashMap;
+
+/// Integer voxel coordinates of a point.
+pub type VoxelKey = [i32; 3];
+
+/// The voxel of `p` for cells of `voxel_m` metres.
+pub fn voxel_key(p: [f32; 3], voxel_m: f32) -> VoxelKey {
+    p.map(|c| (c / voxel_m).floor() as i32)
+}
+
+/// Voxel down-sampling: one point per occupied voxel, the mean of the points in it (Open3D's
+/// `voxel_down_sample`). Output is ordered by voxel key, so it does not depend on input order.
+pub fn voxel_downsample(points: &[[f32; 3]], voxel_m: f32) -> Vec<[f32; 3]> {
+    let mut acc: HashMap<VoxelKey, ([f64; 3], u32)> = HashMap::with_capacity(points.len() / 2);
+    for p in points {
+        let e = acc.entry(voxel_key(*p, voxel_m)).or_insert(([0.0; 3], 0));
+        for i in 0..3 {
+            e.0[i] += f64::from(p[i]);
+        }
+        e.1 += 1;
+    }
+    let mut cells: Vec<(VoxelKey, [f32; 3])> = acc
+        .into_iter()
+        .map(|(k, (s, n))| (k, s.map(|c| (c / f64::from(n)) as f32)))
+        .collect();
+    cells.sort_unstable_by_key(|c| c.0);
+    cells.into_iter().map(|c| c.1).collect()
+}
+
+/// DBSCAN over 3D points (`min_samples` counts the point itself, as scikit-learn does).
+/// Returns each point's cluster, `None` for noise; clusters are numbered in order of their
+/// first core point.
+pub fn dbscan3(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<Option<usize>> {
+    let cell = eps_m.max(1e-6);
+    let mut grid: HashMap<VoxelKey, Vec<u32>> = HashMap::new();
+    for (i, p) in points.iter().enumerate() {
+        grid.entry(voxel_key(*p, cell)).or_default().push(i as u32);
+    }
+    let eps2 = eps_m * eps_m;
+    let region = |i: usize, out: &mut Vec<u32>| {
+        out.clear();
+        let p = points[i];
+        let k = voxel_key(p, cell);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(v) = grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
+                        out.extend(v.iter().copied().filter(|&j| {
+                            let q = points[j as usize];
+                            (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2)
+                                <= eps2
+                        }));
+                    }
+                }
+            }
+        }
+    };
+    let mut label: Vec<Option<usize>> = vec![None; points.len()];
+    let mut visited = vec![false; points.len()];
+    let mut n_clusters = 0;
+    let mut buf = Vec::new();
+    let mut queue = Vec::new();
+    for i in 0..points.len() {
+        if visited[i] {
+            continue;
+        }
+        visited[i] = true;
+        region(i, &mut buf);
+        if buf.len() < min_samples {
+            continue;
+        }
+        let c = n_clusters;
+        n_clusters += 1;
+        label[i] = Some(c);
+        queue.clear();
+        queue.extend_from_slice(&buf);
+        while let Some(j) = queue.pop() {
+            let j = j as usize;
+            if label[j].is_none() {
+                label[j] = Some(c);
+            }
+            if visited[j] {
+                continue;
+            }
+            visited[j] = true;
+            region(j, &mut buf);
+            if buf.len() >= min_samples {
+                queue.extend(buf.iter().copied().filter(|&q| !visited[q as usize]));
+            }
+        }
+    }
+    label
+}
+
+/// Keeps the largest DBSCAN cluster (ties: the first). With no cluster at all, returns
+/// nothing.
+pub fn largest_cluster(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<[f32; 3]> {
+    let labels = dbscan3(points, eps_m, min_samples);
+    let mut sizes: Vec<usize> = Vec::new();
+    for c in labels.iter().flatten() {
+        if *c >= sizes.len() {
+            sizes.resize(c + 1, 0);
+        }
+        sizes[*c] += 1;
+    }
+    let Some(best) = (0..sizes.len()).max_by_key(|c| (sizes[*c], std::cmp::Reverse(*c))) else {
+        return Vec::new();
+    };
+    points
+        .iter()
+        .zip(&labels)
+        .filter(|(_, l)| **l == Some(best))
+        .map(|(p, _)| *p)
+        .collect()
+}
+
+/// An axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    /// Minimum corner.
+    pub min: [f32; 3],
+    /// Maximum corner.
+    pub max: [f32; 3],
+}
+
+impl Aabb {
+    /// The bounds of a non-empty point set.
+    pub fn of(points: &[[f32; 3]]) -> Option<Aabb> {
+        let first = *points.first()?;
+        let mut b = Aabb {
+            min: first,
+            max: first,
+        };
+        for p in &points[1..] {
+            for i in 0..3 {
+                b.min[i] = b.min[i].min(p[i]);
+                b.max[i] = b.max[i].max(p[i]);
+            }
+        }
+        Some(b)
+    }
+
+    /// Volume in cubic metres.
+    pub fn volume(&self) -> f64 {
+        (0..3)
+            .map(|i| f64::from(self.max[i] - self.min[i]).max(0.0))
+            .product()
+    }
+
+    /// Whether the boxes overlap (touching counts).
+    pub fn intersects(&self, o: &Aabb) -> bool {
+        (0..3).all(|i| self.min[i] <= o.max[i] && o.min[i] <= self.max[i])
+    }
+
+    /// Intersection over union of the volumes; 0 for disjoint or degenerate boxes.
+    pub fn iou(&self, o: &Aabb) -> f64 {
+        let inter: f64 = (0..3)
+            .map(|i| f64::from(self.max[i].min(o.max[i]) - self.min[i].max(o.min[i])).max(0.0))
+            .product();
+        let union = self.volume() + o.volume() - inter;
+        if union > 0.0 { inter / union } else { 0.0 }
+    }
+
+    /// The centre.
+    pub fn center(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| (f64::from(self.min[i]) + f64::from(self.max[i])) / 2.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    const EPS: f64 = 1e-9;
+
+    #[test]
+    fn voxel_means_and_order() {
+        let pts = [
+            [0.01, 0.01, 0.01],
+            [0.09, 0.03, 0.05],
+            [0.15, 0.0, 0.0],
+            [-0.05, 0.0, 0.0],
+        ];
+        let v = voxel_downsample(&pts, 0.1);
+        assert_eq!(v.len(), 3);
+        assert!((v[1][0] - 0.05).abs() < 1e-6 && (v[1][1] - 0.02).abs() < 1e-6);
+        assert!((v[0][0] + 0.05).abs() < 1e-6);
+        let mut rev = pts;
+        rev.reverse();
+        assert_eq!(voxel_downsample(&rev, 0.1), v);
+    }
+
+    #[test]
+    fn dbscan_keeps_the_big_blob_and_drops_outliers() {
+        let mut pts = Vec::new();
+        for i in 0..10 {
+            for j in 0..10 {
+                pts.push([i as f32 * 0.1, j as f32 * 0.1, 0.0]);
+            }
+        }
+        for i in 0..5 {
+            for j in 0..6 {
+                pts.push([20.0 + i as f32 * 0.1, j as f32 * 0.1, 0.0]);
+            }
+        }
+        pts.push([50.0, 50.0, 50.0]);
+        let labels = dbscan3(&pts, 0.5, 20);
+        assert!(labels[..100].iter().all(|l| *l == Some(0)));
+        assert!(labels[100..130].iter().all(|l| *l == Some(1)));
+        assert_eq!(labels[130], None);
+        let big = largest_cluster(&pts, 0.5, 20);
+        assert_eq!(big.len(), 100);
+        assert!(largest_cluster(&pts[..5], 0.5, 20).is_empty());
+    }
+
+    #[test]
+    fn iou_of_known_boxes() {
+        let a = Aabb {
+            min: [0.0; 3],
+            max: [2.0, 2.0, 2.0],
+        };
+        let b = Aabb {
+            min: [1.0, 0.0, 0.0],
+            max: [3.0, 2.0, 2.0],
+        };
+        assert!((a.iou(&b) - 4.0 / 12.0).abs() < EPS);
+        assert!((a.iou(&a) - 1.0).abs() < EPS);
+        let c = Aabb {
+            min: [5.0; 3],
+            max: [6.0; 3],
+        };
+        assert!(a.iou(&c).abs() < EPS && !a.intersects(&c));
+    }
+
+    /// DBSCAN against a brute-force reference: same core points and the same partition of
+    /// core points into clusters.
+    fn brute_core(pts: &[[f32; 3]], eps: f32, min: usize) -> Vec<bool> {
+        pts.iter()
+            .map(|p| {
+                pts.iter()
+                    .filter(|q| {
+                        (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
+                            <= eps * eps
+                    })
+                    .count()
+                    >= min
+            })
+            .collect()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn dbscan_matches_brute_force(pts in proptest::collection::vec(
+            (0i32..40, 0i32..40, 0i32..4).prop_map(|(x, y, z)| [x as f32 * 0.13, y as f32 * 0.13, z as f32 * 0.13]), 1..120)) {
+            let (eps, min) = (0.3f32, 4usize);
+            let labels = dbscan3(&pts, eps, min);
+            let core = brute_core(&pts, eps, min);
+            for i in 0..pts.len() {
+                if core[i] {
+                    prop_assert!(labels[i].is_some());
+                }
+                for j in 0..pts.len() {
+                    let d2 = (0..3).map(|k| (pts[i][k] - pts[j][k]).powi(2)).sum::<f32>();
+                    if core[i] && core[j] && d2 <= eps * eps {
+                        prop_assert_eq!(labels[i], labels[j]);
+                    }
+                }
+                if labels[i].is_some() && !core[i] {
+                    // a border point is within eps of some core point of its cluster
+                    prop_assert!((0..pts.len()).any(|j| core[j] && labels[j] == labels[i]
+                        && (0..3).map(|k| (pts[i][k] - pts[j][k]).powi(2)).sum::<f32>() <= eps * eps));
+                }
+            }
+        }
+    }
+}

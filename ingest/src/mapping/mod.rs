@@ -1,0 +1,111 @@
+//! Object-centric map construction (the paper's second module): projection of LiDAR points
+//! into detection masks, per-object denoising, association, fusion and post-processing.
+//! The build driver ([`crate::build`]) feeds it frames and writes it into the store.
+
+pub mod associate;
+mod fusion;
+pub mod geometry;
+pub mod project;
+
+pub use fusion::{
+    CaptionMerger, FrameInput, FrameStats, MapObject, Mapper, MedoidMerger, PostReport, StageTimes,
+};
+
+/// Every mapping parameter, with the reference implementation's defaults. Loadable from the
+/// `[mapping]` table of a TOML file (see [`crate::build::BuildConfig`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MappingConfig {
+    /// Voxel size of the per-detection down-sample and of object point sets.
+    pub voxel_m: f32,
+    /// DBSCAN radius of the per-object denoising.
+    pub dbscan_eps_m: f32,
+    /// DBSCAN minimum neighbourhood (the point included).
+    pub dbscan_min_points: usize,
+    /// Weight of the 3D IoU in φ.
+    pub w_geo: f64,
+    /// Weight of the caption TF-IDF cosine in φ.
+    pub w_cap: f64,
+    /// Weight of the feature cosine in φ.
+    pub w_fea: f64,
+    /// δ_sim: a detection joins an object only when φ exceeds this.
+    pub sim_threshold: f64,
+    /// How many of the latest captions are merged into the object's caption (and compared
+    /// with new detections).
+    pub merge_captions: usize,
+    /// Post-processing: objects with fewer points are dropped.
+    pub min_object_points: usize,
+    /// Post-processing: merge when the shared-voxel ratio exceeds this ...
+    pub merge_overlap: f64,
+    /// ... and the feature cosine exceeds this.
+    pub merge_feature_cos: f64,
+    /// Background classes are fused per class within square tiles of this size.
+    pub background_tile_m: f64,
+    /// Scans accumulated into each key frame (1 = the key frame alone): the key frame and the
+    /// `accumulate - 1` scans before it, moved into the key frame's velodyne frame.
+    pub accumulate: usize,
+    /// Commit to the store after this many key frames.
+    pub commit_every: usize,
+    /// Image size used when a sequence has no `image_2/` images: `[width, height]`.
+    pub image_size: [u32; 2],
+}
+
+impl Default for MappingConfig {
+    fn default() -> Self {
+        MappingConfig {
+            voxel_m: 0.1,
+            dbscan_eps_m: 0.5,
+            dbscan_min_points: 20,
+            w_geo: 1.0,
+            w_cap: 0.2,
+            w_fea: 0.4,
+            sim_threshold: 0.6,
+            merge_captions: 4,
+            min_object_points: 50,
+            merge_overlap: 0.1,
+            merge_feature_cos: 0.3,
+            background_tile_m: 20.0,
+            accumulate: 1,
+            commit_every: 10,
+            image_size: [1242, 375],
+        }
+    }
+}
+
+impl MappingConfig {
+    /// Checks ranges; the message names the field.
+    pub fn validate(&self) -> crate::Result<()> {
+        let bad = |m: &str| Err(crate::Error::Invalid(format!("mapping config: {m}")));
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        if !pos(f64::from(self.voxel_m)) {
+            return bad("voxel_m must be positive");
+        }
+        if !pos(f64::from(self.dbscan_eps_m)) {
+            return bad("dbscan_eps_m must be positive");
+        }
+        if !pos(self.background_tile_m) {
+            return bad("background_tile_m must be positive");
+        }
+        for (n, w) in [
+            ("w_geo", self.w_geo),
+            ("w_cap", self.w_cap),
+            ("w_fea", self.w_fea),
+            ("sim_threshold", self.sim_threshold),
+            ("merge_overlap", self.merge_overlap),
+        ] {
+            if !(w.is_finite() && w >= 0.0) {
+                return bad(&format!("{n} must be a non-negative number"));
+            }
+        }
+        if !self.merge_feature_cos.is_finite() {
+            return bad("merge_feature_cos must be finite");
+        }
+        if self.merge_captions == 0 || self.accumulate == 0 || self.commit_every == 0 {
+            return bad("merge_captions, accumulate and commit_every must be at least 1");
+        }
+        if self.image_size[0] == 0 || self.image_size[1] == 0 {
+            return bad("image_size must be positive");
+        }
+        Ok(())
+    }
+}
