@@ -113,6 +113,71 @@ enum Command {
         #[arg(long)]
         png: Option<PathBuf>,
     },
+    /// Build an object map from a KITTI-layout sequence and per-frame detections (or the
+    /// SemanticKITTI label oracle), then the hierarchy over the whole trajectory.
+    Build {
+        /// The sequence directory (velodyne/, calib.txt, poses.txt; labels/ for the oracle).
+        #[arg(long)]
+        kitti: PathBuf,
+        /// A directory of detections files NNNNNN.json (docs/detections.md).
+        #[arg(
+            long,
+            conflicts_with = "oracle_labels",
+            required_unless_present = "oracle_labels"
+        )]
+        detections: Option<PathBuf>,
+        /// Use the SemanticKITTI label oracle instead of detections.
+        #[arg(long)]
+        oracle_labels: bool,
+        /// Key frames A..B (half-open); default: every frame with a scan and detections/labels.
+        #[arg(long, value_parser = parse_range)]
+        frames: Option<std::ops::Range<u32>>,
+        /// Use every N-th frame.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+        stride: u32,
+        /// Scans accumulated into each key frame (overrides the config's mapping.accumulate).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        accumulate: Option<u32>,
+        /// poses.txt from another path.
+        #[arg(long)]
+        poses: Option<PathBuf>,
+        /// TOML file with [mapping], [oracle] and [hierarchy] tables (docs/config.md).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Continue a build that was interrupted (same arguments).
+        #[arg(long)]
+        resume: bool,
+        /// Name of the environment node.
+        #[arg(long, default_value = "environment")]
+        name: String,
+        /// Sentence embedder: minilm (the real model), or hash (deterministic bag of words,
+        /// for tests; captures no meaning).
+        #[arg(long, default_value = "minilm", value_parser = ["minilm", "hash"])]
+        embedder: String,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write the label oracle's detections for a sequence as detections files.
+    Oracle {
+        /// The sequence directory (velodyne/, labels/, calib.txt, poses.txt).
+        #[arg(long)]
+        kitti: PathBuf,
+        /// Output directory for NNNNNN.json.
+        #[arg(long)]
+        out: PathBuf,
+        /// Frames A..B (half-open); default: every labelled frame.
+        #[arg(long, value_parser = parse_range)]
+        frames: Option<std::ops::Range<u32>>,
+    },
+    /// Evaluate a map.
+    Eval {
+        #[command(subcommand)]
+        what: EvalCommand,
+    },
     /// Build a small hand-made demo graph with the OpenGraph schema (a stand-in until
     /// `sim` exists), then print its summary.
     Demo {
@@ -120,6 +185,55 @@ enum Command {
         #[arg(long)]
         db: PathBuf,
     },
+}
+
+#[derive(Debug, Subcommand)]
+enum EvalCommand {
+    /// Per-class IoU, mean IoU and macro F1 of the map against SemanticKITTI labels.
+    Semseg {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The sequence directory with labels/.
+        #[arg(long)]
+        kitti: PathBuf,
+        /// Only these frames A..B (half-open).
+        #[arg(long, value_parser = parse_range)]
+        frames: Option<std::ops::Range<u32>>,
+        /// poses.txt from another path.
+        #[arg(long)]
+        poses: Option<PathBuf>,
+        /// A labelled point takes the class of the nearest map point within this radius.
+        #[arg(long, default_value_t = 0.3)]
+        max_dist_m: f32,
+        /// Print `{"miou", "f1", "per_class", "source", ...}`.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn parse_range(s: &str) -> Result<std::ops::Range<u32>, String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("{s:?} is not a range A..B"))?;
+    let n = |x: &str| {
+        x.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{x:?} is not a frame number"))
+    };
+    let (a, b) = (n(a)?, n(b)?);
+    if a >= b {
+        return Err(format!("{s}: the range is empty (A..B is half-open)"));
+    }
+    Ok(a..b)
+}
+
+/// Peak resident memory of this process in MiB (Linux), if known.
+fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
 }
 
 /// Errors caused by what the user gave us (exit code 2), as opposed to internal failures (1).
@@ -324,6 +438,183 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
             }
         }
+        Command::Build {
+            kitti,
+            detections,
+            oracle_labels,
+            frames,
+            stride,
+            accumulate,
+            poses,
+            config,
+            db,
+            resume,
+            name,
+            embedder,
+            json,
+        } => {
+            use ingest::build::{BuildArgs, BuildConfig, Progress, Source};
+            let mut cfg = match &config {
+                Some(p) => BuildConfig::from_toml_file(p)?,
+                None => BuildConfig::default(),
+            };
+            if let Some(a) = accumulate {
+                cfg.mapping.accumulate = a as usize;
+            }
+            let source = match (detections, oracle_labels) {
+                (Some(d), false) => Source::Detections(d),
+                (None, true) => Source::Oracle,
+                _ => {
+                    return Err(UsageError(
+                        "give either --detections DIR or --oracle-labels".into(),
+                    )
+                    .into());
+                }
+            };
+            let mut emb: Box<dyn llm_tools::Embedder> = match embedder.as_str() {
+                "hash" => Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+                _ => Box::new(
+                    llm_tools::MiniLm::from_dir(&llm_tools::embed::default_models_dir())
+                        .context("loading the sentence embedder")?,
+                ),
+            };
+            let store = graphstore::Store::create(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let args = BuildArgs {
+                sequence: kitti,
+                poses,
+                source,
+                frames,
+                stride,
+                config: cfg,
+                environment: name,
+            };
+            // test hook: pause after each commit so a test can kill the build at a known point
+            let pause_ms: u64 = std::env::var("OPENGRAPH_BUILD_PAUSE_AFTER_COMMIT_MS")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0);
+            let bar = indicatif::ProgressBar::new(0);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} key frames {msg}",
+                )
+                .expect("valid template"),
+            );
+            let mut on_progress = |p: Progress| match p {
+                Progress::Start { done, total } => {
+                    bar.set_length(total as u64);
+                    bar.set_position(done as u64);
+                }
+                Progress::Frame { frame } => {
+                    bar.inc(1);
+                    bar.set_message(format!("frame {frame}"));
+                }
+                Progress::Committed { frame } => {
+                    bar.suspend(|| eprintln!("committed through frame {frame}"));
+                    if pause_ms > 0 {
+                        std::thread::sleep(std::time::Duration::from_millis(pause_ms));
+                    }
+                }
+                Progress::Finishing => bar.set_message("post-processing and hierarchy"),
+            };
+            let mut merger = ingest::mapping::MedoidMerger;
+            let report = ingest::build::build(
+                &store,
+                &args,
+                emb.as_mut(),
+                &mut merger,
+                resume,
+                &mut on_progress,
+            )?;
+            bar.finish_and_clear();
+            let rss = peak_rss_mib();
+            if json {
+                let mut v = serde_json::to_value(&report)?;
+                v["peak_rss_mib"] = serde_json::json!(rss);
+                println!("{}", serde_json::to_string_pretty(&v)?);
+            } else {
+                print!("{}", build_summary(&report, rss));
+            }
+        }
+        Command::Oracle { kitti, out, frames } => {
+            use ingest::build::{Sequence, Source, key_frames};
+            let seq = Sequence::open(&kitti, None)?;
+            let list = key_frames(&seq, &Source::Oracle, frames.as_ref(), 1)?;
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            let cfg = ingest::sources::oracle::OracleConfig::default();
+            let mut n = 0;
+            for i in &list {
+                let scan = ingest::sources::kitti::read_scan(&seq.scan_path(*i))?;
+                let labels =
+                    ingest::sources::kitti::read_labels(&seq.label_path(*i), scan.points.len())?;
+                let image = seq.image_path(*i);
+                let (w, h) = if image.exists() {
+                    ingest::sources::kitti::png_size(&image)?
+                } else {
+                    (1242, 375)
+                };
+                let cam = ingest::mapping::project::Camera::kitti_p2(&seq.calib, w, h);
+                let (d, _) = ingest::sources::oracle::oracle_detections(
+                    *i,
+                    &scan.points,
+                    &labels,
+                    &cam,
+                    Some(&seq.world_from_velo(*i)),
+                    &cfg,
+                )?;
+                n += d.detections.len();
+                ingest::sources::detections::write_detections(
+                    &out.join(format!("{i:06}.json")),
+                    &d,
+                )?;
+            }
+            println!(
+                "wrote {} oracle detections for {} frames to {}",
+                n,
+                list.len(),
+                out.display()
+            );
+        }
+        Command::Eval {
+            what:
+                EvalCommand::Semseg {
+                    db,
+                    kitti,
+                    frames,
+                    poses,
+                    max_dist_m,
+                    json,
+                },
+        } => {
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = ingest::eval::eval_semseg(
+                &store,
+                &kitti,
+                poses.as_deref(),
+                frames,
+                max_dist_m,
+                ingest::mapping::MappingConfig::default().image_size,
+            )?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                println!(
+                    "semseg on {} scans, {} labelled points ({} missed), detections from {}",
+                    r.scans, r.points, r.missed, r.source
+                );
+                println!("{:<14} {:>7} {:>7} {:>9}", "class", "IoU", "F1", "points");
+                for (c, s) in &r.per_class {
+                    println!("{c:<14} {:>7.3} {:>7.3} {:>9}", s.iou, s.f1, s.support);
+                }
+                println!("mIoU {:.3}   macro F1 {:.3}", r.miou, r.f1);
+                println!(
+                    "in camera view: {} points ({} missed), mIoU {:.3}, macro F1 {:.3}",
+                    r.in_view.points, r.in_view.missed, r.in_view.miou, r.in_view.f1
+                );
+            }
+        }
         Command::Demo { db } => {
             if db.exists() {
                 return Err(UsageError(format!(
@@ -339,6 +630,60 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "key frames: {} ({} this run{}), detections from {}: {} ({} dropped), non-finite points dropped: {}",
+        r.frames_total,
+        r.frames_run,
+        r.resumed_at
+            .map(|f| format!(", resumed at frame {f}"))
+            .unwrap_or_default(),
+        r.source,
+        r.detections,
+        r.detections_dropped,
+        r.nonfinite_points
+    );
+    let total: usize = r.instances_per_class.values().sum();
+    let _ = writeln!(s, "instances: {total}");
+    for (c, n) in &r.instances_per_class {
+        let _ = writeln!(s, "  {c:<14} {n}");
+    }
+    let _ = writeln!(
+        s,
+        "post-processing: {} dropped, {} merged, {} points denoised",
+        r.post.dropped.len(),
+        r.post.merged.len(),
+        r.post.denoised_points
+    );
+    let stages: Vec<String> = r
+        .ms_per_frame
+        .iter()
+        .map(|(k, v)| format!("{k} {v:.1}"))
+        .collect();
+    let _ = writeln!(s, "ms per key frame: {}", stages.join(", "));
+    if let Some(h) = &r.hierarchy {
+        let lanes: Vec<String> = h
+            .lane_nodes
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "hierarchy: lane nodes {}, {} lane edges, {} instances linked to segments",
+            lanes.join(", "),
+            h.lane_edges,
+            h.instances_linked
+        );
+    }
+    if let Some(m) = rss_mib {
+        let _ = writeln!(s, "peak RSS: {m:.0} MiB");
+    }
+    s
 }
 
 fn main() -> ExitCode {

@@ -339,6 +339,8 @@ pub fn opengraph_schema() -> Schema {
                 opt("first_frame", T::Int),
                 opt("last_frame", T::Int),
                 opt("source", T::String),
+                opt("detection_feature", T::Vector),
+                opt("tile", T::List),
             ],
             unique: vec!["instance_id".into()],
             description: "A mapped object with caption, feature, class, box and points.".into(),
@@ -354,6 +356,23 @@ pub fn opengraph_schema() -> Schema {
             ],
             unique: vec!["index".into()],
             description: "A key frame with its pose (3x4 row-major, 12 floats).".into(),
+        },
+    );
+    s.labels.insert(
+        "Build".into(),
+        LabelRule {
+            properties: vec![
+                req("build_id", T::Int),
+                req("args", T::String),
+                req("next_frame", T::Int),
+                req("next_instance_id", T::Int),
+                req("finished", T::Bool),
+                opt("hierarchy_done", T::Bool),
+                opt("source", T::String),
+            ],
+            unique: vec!["build_id".into()],
+            description:
+                "Provenance and checkpoint of a map build (lets `build --resume` continue).".into(),
         },
     );
     s.relationships.insert(

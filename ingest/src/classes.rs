@@ -24,29 +24,79 @@ pub const CLASSES: [&str; 19] = [
     "traffic-sign",
 ];
 
-/// Texts embedded to assign a class from a caption (one per class, same order as
-/// [`CLASSES`]): the class name in plain words, with the common synonyms a captioner uses.
-pub const CLASS_PROMPTS: [&str; 19] = [
-    "a car",
-    "a bicycle",
-    "a motorcycle",
-    "a truck",
-    "another vehicle such as a bus, tram or trailer",
-    "a person walking",
-    "a cyclist riding a bicycle",
-    "a motorcyclist riding a motorcycle",
-    "the road",
-    "a parking area",
-    "a sidewalk",
-    "other ground such as a traffic island",
-    "a building",
-    "a fence",
-    "vegetation such as bushes and trees",
-    "a tree trunk",
-    "terrain such as grass and soil",
-    "a pole",
-    "a traffic sign",
+/// Texts embedded to assign a class from a caption, per class in the order of [`CLASSES`]:
+/// the class name and the things SemanticKITTI's class definitions put in it. A caption gets
+/// the class of its most similar prompt.
+pub const CLASS_PROMPTS: [&[&str]; 19] = [
+    &["a car", "a van", "a jeep"],
+    &["a bicycle", "a bike"],
+    &["a motorcycle", "a scooter", "a motorbike"],
+    &["a truck", "a lorry"],
+    &["a bus", "a tram", "a trailer", "a caravan"],
+    &["a person", "a pedestrian", "a man", "a woman"],
+    &["a cyclist riding a bicycle", "a person riding a bike"],
+    &[
+        "a motorcyclist riding a motorcycle",
+        "a person riding a motorbike",
+    ],
+    &["a road", "a street", "an asphalt road"],
+    &["a parking area", "a parking lot"],
+    &["a sidewalk", "a pavement", "a footpath"],
+    &["a traffic island", "a median strip", "other ground"],
+    &["a building", "a house", "a wall of a building"],
+    &["a fence", "a railing", "a low garden wall"],
+    &["vegetation", "bushes", "a hedge", "tree crowns"],
+    &["a tree trunk"],
+    &["terrain", "grass", "a lawn", "soil"],
+    &["a pole", "a lamp post"],
+    &["a traffic sign", "a road sign", "a stop sign"],
 ];
+
+/// Every prompt with its class id (1..=19), flattened.
+pub fn prompts() -> Vec<(u8, &'static str)> {
+    CLASS_PROMPTS
+        .iter()
+        .enumerate()
+        .flat_map(|(i, ps)| ps.iter().map(move |p| (i as u8 + 1, *p)))
+        .collect()
+}
+
+/// The part of a caption that names the object, without the context after it: the text
+/// after a leading "Context: " and before the first context preposition or comma, so that
+/// "a grey pole next to the sidewalk" is classified as a pole, not a sidewalk.
+pub fn subject_phrase(caption: &str) -> &str {
+    let s = caption
+        .rsplit_once(':')
+        .map_or(caption, |(_, rest)| rest)
+        .trim();
+    const CUTS: [&str; 16] = [
+        ",",
+        " on ",
+        " next to ",
+        " beside ",
+        " along ",
+        " at ",
+        " by ",
+        " in ",
+        " with ",
+        " around ",
+        " near ",
+        " behind ",
+        " between ",
+        " under ",
+        " parked ",
+        " standing ",
+    ];
+    // never cut inside the first two words
+    let min = s.match_indices(' ').nth(1).map_or(s.len(), |(i, _)| i);
+    let end = CUTS
+        .iter()
+        .filter_map(|c| s[min.min(s.len())..].find(c).map(|i| i + min))
+        .min()
+        .unwrap_or(s.len());
+    let out = s[..end].trim();
+    if out.is_empty() { caption } else { out }
+}
 
 /// Evaluation class id (1..=19) of a raw SemanticKITTI label, 0 for unlabelled/ignored.
 pub fn learning_class(raw: u16) -> u8 {
@@ -98,6 +148,29 @@ pub fn is_background(id: u8) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn subject_phrases() {
+        assert_eq!(
+            subject_phrase("a grey pole next to the sidewalk"),
+            "a grey pole"
+        );
+        assert_eq!(
+            subject_phrase("Next to the sidewalk: a flat green lawn"),
+            "a flat green lawn"
+        );
+        assert_eq!(
+            subject_phrase("a red car, small, parked by the curb"),
+            "a red car"
+        );
+        assert_eq!(subject_phrase("a man in a dark coat"), "a man");
+        assert_eq!(subject_phrase("car"), "car");
+        assert_eq!(subject_phrase(""), "");
+        assert_eq!(
+            subject_phrase("a cyclist riding a bicycle in the bike lane"),
+            "a cyclist riding a bicycle"
+        );
+    }
 
     #[test]
     fn names_and_ids_roundtrip() {

@@ -1,8 +1,10 @@
 #![doc = include_str!("../README.md")]
 
+pub mod build;
 pub mod classes;
 pub mod cluster;
 mod error;
+pub mod eval;
 pub mod hierarchy;
 pub mod mapping;
 pub mod sources;

@@ -95,9 +95,9 @@ impl MapObject {
         for p in pts {
             if self.voxels.insert(voxel_key(*p, voxel_m)) {
                 self.points.push(*p);
-                for i in 0..3 {
-                    self.bbox.min[i] = self.bbox.min[i].min(p[i]);
-                    self.bbox.max[i] = self.bbox.max[i].max(p[i]);
+                for (i, c) in p.iter().enumerate() {
+                    self.bbox.min[i] = self.bbox.min[i].min(*c);
+                    self.bbox.max[i] = self.bbox.max[i].max(*c);
                 }
             }
         }

@@ -16,8 +16,8 @@ pub fn voxel_downsample(points: &[[f32; 3]], voxel_m: f32) -> Vec<[f32; 3]> {
     let mut acc: HashMap<VoxelKey, ([f64; 3], u32)> = HashMap::with_capacity(points.len() / 2);
     for p in points {
         let e = acc.entry(voxel_key(*p, voxel_m)).or_insert(([0.0; 3], 0));
-        for i in 0..3 {
-            e.0[i] += f64::from(p[i]);
+        for (s, c) in e.0.iter_mut().zip(p) {
+            *s += f64::from(*c);
         }
         e.1 += 1;
     }
@@ -134,9 +134,9 @@ impl Aabb {
             max: first,
         };
         for p in &points[1..] {
-            for i in 0..3 {
-                b.min[i] = b.min[i].min(p[i]);
-                b.max[i] = b.max[i].max(p[i]);
+            for (i, c) in p.iter().enumerate() {
+                b.min[i] = b.min[i].min(*c);
+                b.max[i] = b.max[i].max(*c);
             }
         }
         Some(b)

@@ -44,7 +44,8 @@ impl Camera {
         let q = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
         let row = |r: usize| m[r][0] * q[0] + m[r][1] * q[1] + m[r][2] * q[2] + m[r][3];
         let w = row(2);
-        if !(w >= MIN_DEPTH_M) {
+        // also refuses NaN
+        if w.is_nan() || w < MIN_DEPTH_M {
             return None;
         }
         let (u, v) = (row(0) / w, row(1) / w);

@@ -59,6 +59,19 @@ impl Mat34 {
         [0, 1, 2].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
     }
 
+    /// The inverse of a rigid transform (`Rᵀ`, `-Rᵀ·t`).
+    pub fn inverse_rigid(&self) -> Mat34 {
+        let m = &self.0;
+        let mut out = [[0.0; 4]; 3];
+        for r in 0..3 {
+            for c in 0..3 {
+                out[r][c] = m[c][r];
+            }
+            out[r][3] = -(0..3).map(|k| m[k][r] * m[k][3]).sum::<f64>();
+        }
+        Mat34(out)
+    }
+
     /// The 12 row-major values.
     pub fn to_row_major(&self) -> Vec<f64> {
         self.0.iter().flat_map(|r| r.iter().copied()).collect()
@@ -110,6 +123,39 @@ pub fn read_poses(path: &Path) -> Result<Vec<Mat34>> {
         });
     }
     Ok(poses)
+}
+
+/// Reads `times.txt`: one timestamp in seconds per non-empty line.
+pub fn read_times(path: &Path) -> Result<Vec<f64>> {
+    let text = read_text(path)?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        out.push(parse_floats(path, i + 1, line, 1)?[0]);
+    }
+    Ok(out)
+}
+
+/// Width and height of a PNG, from its header (the pixels are not decoded).
+pub fn png_size(path: &Path) -> Result<(u32, u32)> {
+    use std::io::Read;
+    let mut head = [0u8; 24];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .map_err(|error| Error::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+    if &head[..8] != b"\x89PNG\r\n\x1a\n" || &head[12..16] != b"IHDR" {
+        return Err(Error::File {
+            path: path.to_path_buf(),
+            detail: "not a PNG image".into(),
+        });
+    }
+    let be = |o: usize| u32::from_be_bytes([head[o], head[o + 1], head[o + 2], head[o + 3]]);
+    Ok((be(16), be(20)))
 }
 
 /// KITTI odometry calibration.

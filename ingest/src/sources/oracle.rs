@@ -147,8 +147,8 @@ pub fn oracle_detections(
         n_points[id as usize] += 1;
         let q = points[p.point as usize];
         let e = centroid_of.entry(*k).or_insert(([0.0; 3], 0));
-        for i in 0..3 {
-            e.0[i] += f64::from(q[i]);
+        for (s, c) in e.0.iter_mut().zip(q) {
+            *s += f64::from(c);
         }
         e.1 += 1;
         let (x0, y0) = ((p.pixel as usize / h) as i64, (p.pixel as usize % h) as i64);
@@ -303,7 +303,7 @@ fn bank(class: u8) -> Bank {
             &["parked on the street", "unloading at the curb"],
         ),
         5 => b(
-            &["bus", "tram", "trailer", "van"],
+            &["bus", "tram", "trailer", "caravan"],
             COLOURS,
             &["large", "long", "small"],
             &["standing on the road", "parked at the roadside"],
@@ -375,13 +375,13 @@ fn bank(class: u8) -> Bank {
             &["along the street", "with many windows", "with a flat roof"],
         ),
         14 => b(
-            &["fence", "railing", "wall"],
+            &["fence", "railing", "fence panel"],
             &["metal", "wooden", "wire", "low stone"],
             &["long", "short", "low", "high"],
             &["along the sidewalk", "around a garden"],
         ),
         15 => b(
-            &["vegetation", "bushes", "trees", "hedge"],
+            &["bushes", "hedge", "shrubs", "tree crowns"],
             &["green", "leafy", "dense"],
             &["tall", "low", "overgrown"],
             &["along the road", "in a garden", "beside the sidewalk"],
