@@ -41,7 +41,12 @@ impl BuildConfig {
         let text = crate::error::read_text(path)?;
         let cfg: BuildConfig = toml::from_str(&text).map_err(|e| {
             let line = e.span().map_or(0, |s| {
-                text[..s.start.min(text.len())].lines().count().max(1)
+                // 1-based: newlines before the error, plus one
+                text.as_bytes()[..s.start.min(text.len())]
+                    .iter()
+                    .filter(|b| **b == b'\n')
+                    .count()
+                    + 1
             });
             Error::Parse {
                 path: path.to_path_buf(),
