@@ -26,9 +26,11 @@ fn seq00() -> Option<PathBuf> {
 
 /// The embedder the tests use: MiniLM when installed, else the hash embedder.
 fn embedder() -> &'static str {
-    let dir = std::env::var("OPENGRAPH_MODELS").map(PathBuf::from).unwrap_or_else(|_| {
-        PathBuf::from(std::env::var("HOME").unwrap()).join(".cache/opengraph/models")
-    });
+    let dir = std::env::var("OPENGRAPH_MODELS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| {
+            PathBuf::from(std::env::var("HOME").unwrap()).join(".cache/opengraph/models")
+        });
     if dir.join("all-MiniLM-L6-v2.int8.onnx").exists() {
         "minilm"
     } else {
@@ -78,14 +80,24 @@ fn oracle_build_on_real_scans_then_eval() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("map.og");
     let r = json(&og(&[
-        "build", "--kitti", s(&seq), "--oracle-labels", "--db", s(&db), "--embedder",
-        embedder(), "--json",
+        "build",
+        "--kitti",
+        s(&seq),
+        "--oracle-labels",
+        "--db",
+        s(&db),
+        "--embedder",
+        embedder(),
+        "--json",
     ]));
     assert_eq!(r["frames_total"], 3);
     assert_eq!(r["source"], "oracle");
     let classes = r["instances_per_class"].as_object().unwrap();
     for c in ["car", "road", "building", "vegetation", "sidewalk"] {
-        assert!(classes.get(c).is_some_and(|n| n.as_u64() > Some(0)), "{c}: {r}");
+        assert!(
+            classes.get(c).is_some_and(|n| n.as_u64() > Some(0)),
+            "{c}: {r}"
+        );
     }
     assert!(r["hierarchy"]["lane_edges"].as_u64() > Some(10), "{r}");
     for stage in ["project", "denoise", "associate", "fuse", "embed"] {
@@ -94,10 +106,22 @@ fn oracle_build_on_real_scans_then_eval() {
     let info = json(&og(&["info", "--db", s(&db), "--json"]));
     assert_eq!(info["nodes"]["Frame"], 3);
     assert_eq!(info["nodes"]["Build"], 1);
-    assert!(info["relationships"]["OBSERVED_IN"].as_u64() > Some(20), "{info}");
-    assert!(info["relationships"]["IN_SEGMENT"].as_u64() > Some(20), "{info}");
+    assert!(
+        info["relationships"]["OBSERVED_IN"].as_u64() > Some(20),
+        "{info}"
+    );
+    assert!(
+        info["relationships"]["IN_SEGMENT"].as_u64() > Some(20),
+        "{info}"
+    );
     let e = json(&og(&[
-        "eval", "semseg", "--db", s(&db), "--kitti", s(&seq), "--json",
+        "eval",
+        "semseg",
+        "--db",
+        s(&db),
+        "--kitti",
+        s(&seq),
+        "--json",
     ]));
     assert_eq!(e["source"], "oracle");
     assert_eq!(e["scans"], 3);
@@ -112,7 +136,13 @@ fn oracle_build_on_real_scans_then_eval() {
     assert!(e["per_class"]["car"]["iou"].as_f64() > Some(0.2), "{e}");
     // a second build into the same store is refused without --resume
     let out = og(&[
-        "build", "--kitti", s(&seq), "--oracle-labels", "--db", s(&db), "--embedder",
+        "build",
+        "--kitti",
+        s(&seq),
+        "--oracle-labels",
+        "--db",
+        s(&db),
+        "--embedder",
         embedder(),
     ]);
     assert_eq!(out.status.code(), Some(2));
@@ -128,12 +158,27 @@ fn detections_files_give_the_same_map_as_the_oracle() {
     assert!(dets.join("000002.json").exists());
     let (a, b) = (dir.path().join("a.og"), dir.path().join("b.og"));
     let ra = json(&og(&[
-        "build", "--kitti", s(&seq), "--oracle-labels", "--db", s(&a), "--embedder", "hash",
+        "build",
+        "--kitti",
+        s(&seq),
+        "--oracle-labels",
+        "--db",
+        s(&a),
+        "--embedder",
+        "hash",
         "--json",
     ]));
     let rb = json(&og(&[
-        "build", "--kitti", s(&seq), "--detections", s(&dets), "--db", s(&b), "--embedder",
-        "hash", "--json",
+        "build",
+        "--kitti",
+        s(&seq),
+        "--detections",
+        s(&dets),
+        "--db",
+        s(&b),
+        "--embedder",
+        "hash",
+        "--json",
     ]));
     assert_eq!(rb["source"], "detections");
     assert_eq!(ra["instances_per_class"], rb["instances_per_class"]);
@@ -142,7 +187,13 @@ fn detections_files_give_the_same_map_as_the_oracle() {
 
 fn export(db: &Path, out: &Path) -> serde_json::Value {
     ok(&og(&[
-        "export", "--db", s(db), "--format", "node-link", "--out", s(out),
+        "export",
+        "--db",
+        s(db),
+        "--format",
+        "node-link",
+        "--out",
+        s(out),
     ]));
     serde_json::from_slice(&std::fs::read(out).unwrap()).unwrap()
 }
@@ -156,7 +207,12 @@ fn point_clouds(db: &Path) -> Vec<(i64, Vec<[f32; 3]>)> {
         .unwrap()
         .into_iter()
         .map(|n| {
-            let id = r.node_prop(n, "instance_id").unwrap().unwrap().as_int().unwrap();
+            let id = r
+                .node_prop(n, "instance_id")
+                .unwrap()
+                .unwrap()
+                .as_int()
+                .unwrap();
             (id, r.point_cloud(n, "points").unwrap().unwrap().xyz)
         })
         .collect();
@@ -173,14 +229,27 @@ fn kill_and_resume(seq: &Path, kill_after: u32) {
     let (whole, killed) = (dir.path().join("whole.og"), dir.path().join("killed.og"));
     let base = |db: &Path| -> Vec<String> {
         [
-            "build", "--kitti", s(seq), "--oracle-labels", "--frames", "0..3", "--config",
-            s(&cfg), "--embedder", "hash", "--db", s(db),
+            "build",
+            "--kitti",
+            s(seq),
+            "--oracle-labels",
+            "--frames",
+            "0..3",
+            "--config",
+            s(&cfg),
+            "--embedder",
+            "hash",
+            "--db",
+            s(db),
         ]
         .iter()
         .map(|x| x.to_string())
         .collect()
     };
-    ok(&og(&base(&whole).iter().map(String::as_str).collect::<Vec<_>>()));
+    ok(&og(&base(&whole)
+        .iter()
+        .map(String::as_str)
+        .collect::<Vec<_>>()));
 
     let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
         .args(base(&killed))
@@ -192,7 +261,10 @@ fn kill_and_resume(seq: &Path, kill_after: u32) {
     let stderr = child.stderr.take().unwrap();
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
-        for line in std::io::BufReader::new(stderr).lines().map_while(Result::ok) {
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(Result::ok)
+        {
             if tx.send(line).is_err() {
                 break;
             }
@@ -254,7 +326,12 @@ fn bad_input_is_a_clear_error_naming_the_file() {
     };
     let build = |d: &Path, db: &str, extra: &[&str]| -> Vec<String> {
         let mut v: Vec<String> = [
-            "build", "--kitti", s(d), "--embedder", "hash", "--db",
+            "build",
+            "--kitti",
+            s(d),
+            "--embedder",
+            "hash",
+            "--db",
             s(&dir.path().join(db)),
         ]
         .iter()
@@ -271,28 +348,47 @@ fn bad_input_is_a_clear_error_naming_the_file() {
     let scan = d.join("velodyne/000001.bin");
     let bytes = std::fs::read(&scan).unwrap();
     std::fs::write(&scan, &bytes[..bytes.len() - 7]).unwrap();
-    run(build(&d, "t.og", &["--oracle-labels"]), &["000001.bin", "not a multiple of 16"]);
+    run(
+        build(&d, "t.og", &["--oracle-labels"]),
+        &["000001.bin", "not a multiple of 16"],
+    );
     // a label count that does not match the scan
     let d = mk("labels");
     let lab = d.join("labels/000002.label");
     let bytes = std::fs::read(&lab).unwrap();
     std::fs::write(&lab, &bytes[..bytes.len() - 8]).unwrap();
-    run(build(&d, "l.og", &["--oracle-labels"]), &["000002.label", "labels for a scan"]);
+    run(
+        build(&d, "l.og", &["--oracle-labels"]),
+        &["000002.label", "labels for a scan"],
+    );
     // a calib without Tr
     let d = mk("calib");
     let text = std::fs::read_to_string(d.join("calib.txt")).unwrap();
-    let no_tr: String = text.lines().filter(|l| !l.starts_with("Tr")).map(|l| format!("{l}\n")).collect();
+    let no_tr: String = text
+        .lines()
+        .filter(|l| !l.starts_with("Tr"))
+        .map(|l| format!("{l}\n"))
+        .collect();
     std::fs::write(d.join("calib.txt"), no_tr).unwrap();
-    run(build(&d, "c.og", &["--oracle-labels"]), &["calib.txt", "no Tr"]);
+    run(
+        build(&d, "c.og", &["--oracle-labels"]),
+        &["calib.txt", "no Tr"],
+    );
     // fewer poses than scans
     let d = mk("poses");
     let text = std::fs::read_to_string(d.join("poses.txt")).unwrap();
     let two: String = text.lines().take(2).map(|l| format!("{l}\n")).collect();
     std::fs::write(d.join("poses.txt"), two).unwrap();
-    run(build(&d, "p.og", &["--oracle-labels"]), &["poses.txt", "fewer poses than scans"]);
+    run(
+        build(&d, "p.og", &["--oracle-labels"]),
+        &["poses.txt", "fewer poses than scans"],
+    );
     // bad --frames and a config with an unknown key
     let d = mk("ok");
-    run(build(&d, "f.og", &["--oracle-labels", "--frames", "0..9"]), &["000003.bin", "missing"]);
+    run(
+        build(&d, "f.og", &["--oracle-labels", "--frames", "0..9"]),
+        &["000003.bin", "missing"],
+    );
     let cfg = dir.path().join("bad.toml");
     std::fs::write(&cfg, "[mapping]\nvoxel_m = 0.1\nsim_treshold = 0.5\n").unwrap();
     run(
@@ -306,7 +402,10 @@ fn bad_input_is_a_clear_error_naming_the_file() {
     let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&f1).unwrap()).unwrap();
     v["detections"][0]["mask"]["counts"] = serde_json::json!([5, 3]);
     std::fs::write(&f1, serde_json::to_vec(&v).unwrap()).unwrap();
-    run(build(&d, "r.og", &["--detections", s(&dets)]), &["000001.json", "invalid RLE"]);
+    run(
+        build(&d, "r.og", &["--detections", s(&dets)]),
+        &["000001.json", "invalid RLE"],
+    );
     let f0 = dets.join("000000.json");
     let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&f0).unwrap()).unwrap();
     v["image"]["width"] = serde_json::json!(1241);
@@ -329,7 +428,14 @@ fn bad_input_is_a_clear_error_naming_the_file() {
     std::fs::write(&scan, bytes).unwrap();
     let db = dir.path().join("n.og");
     let r = json(&og(&[
-        "build", "--kitti", s(&d), "--oracle-labels", "--embedder", "hash", "--db", s(&db),
+        "build",
+        "--kitti",
+        s(&d),
+        "--oracle-labels",
+        "--embedder",
+        "hash",
+        "--db",
+        s(&db),
         "--json",
     ]));
     assert_eq!(r["nonfinite_points"], 11);

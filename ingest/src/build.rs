@@ -1036,3 +1036,48 @@ pub fn build(
     }
     Ok(report)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// docs/build.md shows the default configuration; it must parse to exactly the defaults.
+    #[test]
+    fn documented_defaults_are_the_defaults() {
+        let doc =
+            std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/build.md"))
+                .unwrap();
+        let start = doc.find("```toml\n").expect("a toml block") + 8;
+        let end = start + doc[start..].find("```").unwrap();
+        // every key is shown, with its default value
+        fn keys(t: &toml::Table, prefix: &str, out: &mut Vec<String>) {
+            for (k, v) in t {
+                match v {
+                    toml::Value::Table(sub) => keys(sub, &format!("{prefix}{k}."), out),
+                    _ => out.push(format!("{prefix}{k}")),
+                }
+            }
+            out.sort();
+        }
+        let text = &doc[start..end];
+        let shown: toml::Table = toml::from_str(text).unwrap();
+        let defaults = toml::Table::try_from(BuildConfig::default()).unwrap();
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        keys(&shown, "", &mut a);
+        keys(&defaults, "", &mut b);
+        let parsed: BuildConfig = toml::from_str(text).unwrap();
+        if a != b || parsed != BuildConfig::default() {
+            panic!(
+                "docs/build.md is out of date; the defaults are:\n{}",
+                toml::to_string(&BuildConfig::default()).unwrap()
+            );
+        }
+    }
+
+    #[test]
+    fn frame_numbers() {
+        assert_eq!(frame_number(Path::new("a/000012.bin"), ".bin"), Some(12));
+        assert_eq!(frame_number(Path::new("a/12.bin"), ".bin"), None);
+        assert_eq!(frame_number(Path::new("a/000012.label"), ".bin"), None);
+    }
+}

@@ -21,7 +21,6 @@ pub struct Confusion {
     pub m: [[u64; 20]; 20],
 }
 
-
 /// Scores of one class.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ClassScore {
