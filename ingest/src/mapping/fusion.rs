@@ -1,7 +1,7 @@
 //! Map objects, per-frame integration (projection → denoise → world → associate → fuse) and
 //! post-processing.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::time::Instant;
 
 use super::MappingConfig;
@@ -240,6 +240,60 @@ pub struct PostReport {
     pub merged: Vec<(u64, u64)>,
 }
 
+/// Object boxes on a uniform 3D grid, for candidate look-ups. Boxes only grow between
+/// rebuilds, so an object is only ever added to more cells.
+#[derive(Debug, Clone, Default)]
+struct BoxGrid {
+    cells: HashMap<[i32; 3], Vec<u64>>,
+    ranges: HashMap<u64, ([i32; 3], [i32; 3])>,
+}
+
+const GRID_CELL_M: f32 = 8.0;
+
+fn cell_range(b: &Aabb) -> ([i32; 3], [i32; 3]) {
+    let c = |v: f32| (v / GRID_CELL_M).floor() as i32;
+    (b.min.map(c), b.max.map(c))
+}
+
+impl BoxGrid {
+    fn update(&mut self, id: u64, b: &Aabb) {
+        let (lo, hi) = cell_range(b);
+        let old = self.ranges.insert(id, (lo, hi));
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    let inside_old = old.is_some_and(|(a, b)| {
+                        (a[0]..=b[0]).contains(&x)
+                            && (a[1]..=b[1]).contains(&y)
+                            && (a[2]..=b[2]).contains(&z)
+                    });
+                    if !inside_old {
+                        self.cells.entry([x, y, z]).or_default().push(id);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Ids of objects whose cells overlap the box's cells, ascending.
+    fn candidates(&self, b: &Aabb) -> Vec<u64> {
+        let (lo, hi) = cell_range(b);
+        let mut out = Vec::new();
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    if let Some(v) = self.cells.get(&[x, y, z]) {
+                        out.extend_from_slice(v);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+}
+
 /// The object map under construction.
 #[derive(Debug, Clone)]
 pub struct Mapper {
@@ -249,6 +303,7 @@ pub struct Mapper {
     tiles: BTreeMap<(u8, [i64; 2]), u64>,
     tfidf: TfIdf,
     next_id: u64,
+    grid: BoxGrid,
 }
 
 fn elapsed_ms(t: Instant) -> f64 {
@@ -275,6 +330,7 @@ impl Mapper {
             tiles: BTreeMap::new(),
             tfidf: TfIdf::default(),
             next_id,
+            grid: BoxGrid::default(),
         };
         for o in objects {
             for c in &o.captions {
@@ -284,6 +340,9 @@ impl Mapper {
                 m.tiles.insert(t, o.instance_id);
             }
             m.next_id = m.next_id.max(o.instance_id + 1);
+            if o.tile.is_none() && !o.points.is_empty() {
+                m.grid.update(o.instance_id, &o.bbox);
+            }
             m.objects.insert(o.instance_id, o);
         }
         m
@@ -365,14 +424,19 @@ impl Mapper {
         };
         let mut pairs = Vec::new();
         let mut det_box: Vec<Option<Aabb>> = Vec::with_capacity(n);
-        let ids: Vec<u64> = self
-            .objects
-            .values()
-            .filter(|o| o.tile.is_none())
-            .map(|o| o.instance_id)
-            .collect();
-        let object_docs: BTreeMap<u64, Vec<(String, f64)>> = BTreeMap::new();
-        let mut object_docs = object_docs;
+        // With no box overlap φ ≤ w_cap + w_fea; when that cannot pass δ_sim (the defaults:
+        // 0.6 ≤ 0.6) only objects near the detection's box are candidates.
+        let need_overlap = cfg.w_cap + cfg.w_fea <= cfg.sim_threshold;
+        let all_ids: Vec<u64> = if need_overlap {
+            Vec::new()
+        } else {
+            self.objects
+                .values()
+                .filter(|o| o.tile.is_none())
+                .map(|o| o.instance_id)
+                .collect()
+        };
+        let mut object_docs: BTreeMap<u64, Vec<(String, f64)>> = BTreeMap::new();
         for (i, pts) in det_points.iter().enumerate() {
             let b = Aabb::of(pts);
             det_box.push(b);
@@ -380,15 +444,21 @@ impl Mapper {
                 continue;
             };
             let caption = self.tfidf.vector(&f.detections.detections[i].caption);
-            for (k, id) in ids.iter().enumerate() {
-                let o = &self.objects[id];
-                // with no overlap φ ≤ w_cap + w_fea; skip when that cannot pass δ_sim
+            let candidates = if need_overlap {
+                self.grid.candidates(&b)
+            } else {
+                all_ids.clone()
+            };
+            for id in &candidates {
+                let Some(o) = self.objects.get(id) else {
+                    continue;
+                };
                 let iou = if o.bbox.intersects(&b) {
                     o.bbox.iou(&b)
                 } else {
                     0.0
                 };
-                if iou <= 0.0 && cfg.w_cap + cfg.w_fea <= cfg.sim_threshold {
+                if iou <= 0.0 && need_overlap {
                     continue;
                 }
                 let doc = object_docs.entry(*id).or_insert_with(|| {
@@ -397,7 +467,7 @@ impl Mapper {
                 });
                 let c = super::associate::sparse_dot(&caption, doc);
                 let fc = cosine(&f.features[i], &o.feature);
-                pairs.push((i, k, phi(w, iou, c, fc)));
+                pairs.push((i, *id as usize, phi(w, iou, c, fc)));
             }
         }
         let assignment = greedy_assign(n, pairs, cfg.sim_threshold);
@@ -435,9 +505,9 @@ impl Mapper {
                 continue;
             }
             let id = match assignment[i] {
-                Some(k) => {
+                Some(id) => {
                     st.matched += 1;
-                    ids[k]
+                    id as u64
                 }
                 None => {
                     st.created += 1;
@@ -479,6 +549,9 @@ impl Mapper {
         o.last_frame = o.last_frame.max(frame);
         *o.observations.entry(frame).or_insert(0) += 1;
         o.dirty = true;
+        if o.tile.is_none() {
+            self.grid.update(id, &o.bbox);
+        }
         self.tfidf.add(caption);
     }
 
@@ -515,15 +588,27 @@ impl Mapper {
             .filter(|o| o.tile.is_none())
             .map(|o| o.instance_id)
             .collect();
+        // boxes shrank with denoising: rebuild the grid
+        self.grid = BoxGrid::default();
+        for id in &ids {
+            self.grid.update(*id, &self.objects[id].bbox);
+        }
         let mut gone: HashSet<u64> = HashSet::new();
-        for (a_i, a) in ids.iter().enumerate() {
+        for a in &ids {
             if gone.contains(a) {
                 continue;
             }
-            for b in &ids[a_i + 1..] {
-                if gone.contains(b) {
-                    continue;
-                }
+            // candidates are looked up again after each merge, as the box grows
+            let mut checked: HashSet<u64> = HashSet::new();
+            loop {
+                let next = self
+                    .grid
+                    .candidates(&self.objects[a].bbox)
+                    .into_iter()
+                    .find(|b| b > a && !gone.contains(b) && !checked.contains(b));
+                let Some(b) = next else { break };
+                let b = &b;
+                checked.insert(*b);
                 let (oa, ob) = (&self.objects[a], &self.objects[b]);
                 if !oa.bbox.intersects(&ob.bbox) {
                     continue;
@@ -560,6 +645,8 @@ impl Mapper {
                         *keep.observations.entry(fr).or_insert(0) += n;
                     }
                     keep.dirty = true;
+                    let grown = keep.bbox;
+                    self.grid.update(*a, &grown);
                     gone.insert(*b);
                     report.merged.push((*a, *b));
                 }
@@ -574,6 +661,43 @@ mod tests {
     use super::*;
     use crate::sources::detections::{Detection, Producer};
     use crate::sources::rle::Rle;
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Every box that intersects the query is among the grid's candidates, also after
+        /// boxes grow.
+        #[test]
+        fn grid_candidates_cover_intersecting_boxes(
+            boxes in proptest::collection::vec(
+                (-40i32..40, -40i32..40, -5i32..5, 1i32..30, 1i32..30, 1i32..10), 1..40),
+            grow in proptest::collection::vec((0usize..40, 0i32..20), 0..10),
+            q in (-50i32..50, -50i32..50, -6i32..6, 0i32..20, 0i32..20, 0i32..10),
+        ) {
+            let mk = |(x, y, z, w, h, d): (i32, i32, i32, i32, i32, i32)| Aabb {
+                min: [x as f32 * 0.7, y as f32 * 0.7, z as f32],
+                max: [(x + w) as f32 * 0.7, (y + h) as f32 * 0.7, (z + d) as f32],
+            };
+            let mut grid = BoxGrid::default();
+            let mut all: Vec<Aabb> = boxes.iter().map(|b| mk(*b)).collect();
+            for (i, b) in all.iter().enumerate() {
+                grid.update(i as u64, b);
+            }
+            for (i, g) in grow {
+                if let Some(b) = all.get_mut(i) {
+                    b.max[0] += g as f32;
+                    b.min[1] -= g as f32;
+                    grid.update(i as u64, b);
+                }
+            }
+            let query = mk(q);
+            let cands = grid.candidates(&query);
+            for (i, b) in all.iter().enumerate() {
+                if b.intersects(&query) {
+                    proptest::prop_assert!(cands.contains(&(i as u64)), "box {i} missing");
+                }
+            }
+        }
+    }
 
     #[test]
     fn medoid_merge_picks_the_consensus_caption() {
