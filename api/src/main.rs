@@ -544,25 +544,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
             let cfg = ingest::sources::oracle::OracleConfig::default();
             let mut n = 0;
+            let image_size = ingest::mapping::MappingConfig::default().image_size;
             for i in &list {
                 let scan = ingest::sources::kitti::read_scan(&seq.scan_path(*i))?;
-                let labels =
-                    ingest::sources::kitti::read_labels(&seq.label_path(*i), scan.points.len())?;
-                let image = seq.image_path(*i);
-                let (w, h) = if image.exists() {
-                    ingest::sources::kitti::png_size(&image)?
-                } else {
-                    (1242, 375)
-                };
-                let cam = ingest::mapping::project::Camera::kitti_p2(&seq.calib, w, h);
-                let (d, _) = ingest::sources::oracle::oracle_detections(
-                    *i,
-                    &scan.points,
-                    &labels,
-                    &cam,
-                    Some(&seq.world_from_velo(*i)),
-                    &cfg,
-                )?;
+                let cam = seq.camera(*i, image_size)?;
+                let d = seq.oracle(*i, &scan, &cam, &cfg)?;
                 n += d.detections.len();
                 ingest::sources::detections::write_detections(
                     &out.join(format!("{i:06}.json")),

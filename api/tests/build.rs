@@ -305,6 +305,19 @@ fn a_killed_build_resumes_to_the_same_graph() {
     kill_and_resume(&seq, 1);
 }
 
+/// Cuts the last `n` bytes off a file.
+fn chop(path: &Path, n: usize) {
+    let bytes = std::fs::read(path).unwrap();
+    std::fs::write(path, &bytes[..bytes.len() - n]).unwrap();
+}
+
+/// Rewrites a JSON file through `f`.
+fn edit_json(path: &Path, f: impl FnOnce(&mut serde_json::Value)) {
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    f(&mut v);
+    std::fs::write(path, serde_json::to_vec(&v).unwrap()).unwrap();
+}
+
 fn expect_input_error(args: &[&str], needles: &[&str]) {
     let out = og(args);
     let err = String::from_utf8_lossy(&out.stderr);
@@ -345,18 +358,14 @@ fn bad_input_is_a_clear_error_naming_the_file() {
     };
     // a scan whose size is not a multiple of 16 bytes
     let d = mk("truncated");
-    let scan = d.join("velodyne/000001.bin");
-    let bytes = std::fs::read(&scan).unwrap();
-    std::fs::write(&scan, &bytes[..bytes.len() - 7]).unwrap();
+    chop(&d.join("velodyne/000001.bin"), 7);
     run(
         build(&d, "t.og", &["--oracle-labels"]),
         &["000001.bin", "not a multiple of 16"],
     );
     // a label count that does not match the scan
     let d = mk("labels");
-    let lab = d.join("labels/000002.label");
-    let bytes = std::fs::read(&lab).unwrap();
-    std::fs::write(&lab, &bytes[..bytes.len() - 8]).unwrap();
+    chop(&d.join("labels/000002.label"), 8);
     run(
         build(&d, "l.og", &["--oracle-labels"]),
         &["000002.label", "labels for a scan"],
@@ -398,21 +407,19 @@ fn bad_input_is_a_clear_error_naming_the_file() {
     // detections: an invalid RLE, and masks whose size differs from the image
     let dets = dir.path().join("dets");
     ok(&og(&["oracle", "--kitti", s(&d), "--out", s(&dets)]));
-    let f1 = dets.join("000001.json");
-    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&f1).unwrap()).unwrap();
-    v["detections"][0]["mask"]["counts"] = serde_json::json!([5, 3]);
-    std::fs::write(&f1, serde_json::to_vec(&v).unwrap()).unwrap();
+    edit_json(&dets.join("000001.json"), |v| {
+        v["detections"][0]["mask"]["counts"] = serde_json::json!([5, 3]);
+    });
     run(
         build(&d, "r.og", &["--detections", s(&dets)]),
         &["000001.json", "invalid RLE"],
     );
-    let f0 = dets.join("000000.json");
-    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&f0).unwrap()).unwrap();
-    v["image"]["width"] = serde_json::json!(1241);
-    for det in v["detections"].as_array_mut().unwrap() {
-        det["mask"] = serde_json::json!({"size": [375, 1241], "counts": [375 * 1241]});
-    }
-    std::fs::write(&f0, serde_json::to_vec(&v).unwrap()).unwrap();
+    edit_json(&dets.join("000000.json"), |v| {
+        v["image"]["width"] = serde_json::json!(1241);
+        for det in v["detections"].as_array_mut().unwrap() {
+            det["mask"] = serde_json::json!({"size": [375, 1241], "counts": [375 * 1241]});
+        }
+    });
     run(
         build(&d, "m.og", &["--detections", s(&dets), "--frames", "0..1"]),
         &["000000.json", "1241x375", "1242x375"],

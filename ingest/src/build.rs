@@ -19,8 +19,8 @@ use crate::mapping::project::Camera;
 use crate::mapping::{
     CaptionMerger, FrameInput, MapObject, Mapper, MappingConfig, PostReport, StageTimes,
 };
-use crate::sources::detections::read_detections;
-use crate::sources::kitti::{self, Calib, Mat34};
+use crate::sources::detections::{DetectionFrame, read_detections};
+use crate::sources::kitti::{self, Calib, Mat34, Scan};
 use crate::sources::oracle::{OracleConfig, oracle_detections};
 
 /// All build parameters: the `[mapping]`, `[oracle]` and `[hierarchy]` tables of a TOML file.
@@ -184,6 +184,39 @@ impl Sequence {
     /// `image_2/NNNNNN.png`.
     pub fn image_path(&self, i: u32) -> PathBuf {
         self.dir.join("image_2").join(format!("{i:06}.png"))
+    }
+
+    /// The camera of frame `i`: P2 with the size of `image_2/NNNNNN.png`, or `default_size`
+    /// (`[width, height]`) when there is no image.
+    pub fn camera(&self, i: u32, default_size: [u32; 2]) -> Result<Camera> {
+        let image = self.image_path(i);
+        let (w, h) = if image.exists() {
+            kitti::png_size(&image)?
+        } else {
+            (default_size[0], default_size[1])
+        };
+        Ok(Camera::kitti_p2(&self.calib, w, h))
+    }
+
+    /// The label oracle's detections for frame `i`, whose scan is `scan`.
+    pub fn oracle(
+        &self,
+        i: u32,
+        scan: &Scan,
+        camera: &Camera,
+        cfg: &OracleConfig,
+    ) -> Result<DetectionFrame> {
+        let labels = kitti::read_labels(&self.label_path(i), scan.points.len())?;
+        let world_from_velo = self.world_from_velo(i);
+        let (d, _) = oracle_detections(
+            i,
+            &scan.points,
+            &labels,
+            camera,
+            Some(&world_from_velo),
+            cfg,
+        )?;
+        Ok(d)
     }
 
     /// `world_from_velo = pose × Tr`.
@@ -596,7 +629,7 @@ impl Run<'_> {
             writes.push((o.instance_id, props, bytes, decoded, obs));
         }
         let next_id = self.mapper.next_id();
-        let known = self.nodes.clone();
+        let known = &self.nodes;
         let deleted_nodes: Vec<u64> = deleted
             .iter()
             .filter_map(|i| known.get(i).copied())
@@ -725,16 +758,17 @@ impl Run<'_> {
     }
 }
 
-/// Loads a scan, drops non-finite points (counted), and accumulates the `accumulate - 1`
+/// The key frame's points (`scan`, already read) with non-finite points dropped (counted), and
+/// accumulates the `accumulate - 1`
 /// previous scans moved into this scan's velodyne frame.
 fn load_points(
     seq: &Sequence,
     i: u32,
+    scan: &Scan,
     accumulate: usize,
     nonfinite: &mut u64,
 ) -> Result<Vec<[f32; 4]>> {
-    let scan = kitti::read_scan(&seq.scan_path(i))?;
-    let mut pts = scan.points;
+    let mut pts = scan.points.clone();
     if accumulate > 1 {
         let velo_from_world = seq.world_from_velo(i).inverse_rigid();
         for j in (i.saturating_sub(accumulate as u32 - 1)..i).rev() {
@@ -861,19 +895,18 @@ pub fn build(
         producer,
         checkpoint_node,
     };
-    let todo: Vec<u32> = frames
-        .iter()
-        .copied()
-        .filter(|f| i64::from(*f) >= start_frame)
-        .collect();
+    // frames are ascending: the ones still to do are a suffix
+    let first = frames.partition_point(|f| i64::from(*f) < start_frame);
     let mut report = BuildReport {
         source: args.source.kind().into(),
         frames_total: frames.len(),
-        resumed_at: (resume && todo.len() < frames.len() && !todo.is_empty()).then(|| todo[0]),
+        resumed_at: (resume && first > 0)
+            .then(|| frames.get(first).copied())
+            .flatten(),
         ..BuildReport::default()
     };
     progress(Progress::Start {
-        done: frames.len() - todo.len(),
+        done: first,
         total: frames.len(),
     });
     let mut times = StageTimes::default();
@@ -881,23 +914,19 @@ pub fn build(
     let mut pending: Vec<FrameRecord> = Vec::new();
     let since = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
     // commits fall on the same frames whether or not the build was interrupted
-    let position = |f: u32| frames.iter().position(|x| *x == f).unwrap_or(0);
-    for &i in &todo {
+    for (pos, &i) in frames.iter().enumerate().skip(first) {
         let t = Instant::now();
+        let scan = kitti::read_scan(&seq.scan_path(i))?;
         let points = load_points(
             &seq,
             i,
+            &scan,
             cfg.mapping.accumulate,
             &mut report.nonfinite_points,
         )?;
         let world_from_velo = seq.world_from_velo(i);
-        let image = seq.image_path(i);
-        let (w, h) = if image.exists() {
-            kitti::png_size(&image)?
-        } else {
-            (cfg.mapping.image_size[0], cfg.mapping.image_size[1])
-        };
-        let camera = Camera::kitti_p2(&seq.calib, w, h);
+        let camera = seq.camera(i, cfg.mapping.image_size)?;
+        let (w, h) = (camera.width, camera.height);
         let (dets, load_ms) = match &args.source {
             Source::Detections(dir) => {
                 let p = dir.join(format!("{i:06}.json"));
@@ -909,8 +938,8 @@ pub fn build(
                             "masks are {}x{} (width x height) but the camera image is {w}x{h}{}",
                             d.width,
                             d.height,
-                            if image.exists() {
-                                format!(" ({})", image.display())
+                            if seq.image_path(i).exists() {
+                                format!(" ({})", seq.image_path(i).display())
                             } else {
                                 " (mapping.image_size)".into()
                             }
@@ -926,18 +955,10 @@ pub fn build(
                 (d, since(t))
             }
             Source::Oracle => {
-                let scan = kitti::read_scan(&seq.scan_path(i))?;
-                let labels = kitti::read_labels(&seq.label_path(i), scan.points.len())?;
                 let load = since(t);
                 let t = Instant::now();
-                let (d, _) = oracle_detections(
-                    i,
-                    &scan.points,
-                    &labels,
-                    &camera,
-                    Some(&world_from_velo),
-                    &cfg.oracle,
-                )?;
+                // label reading counts as oracle time
+                let d = seq.oracle(i, &scan, &camera, &cfg.oracle)?;
                 t_oracle += since(t);
                 (d, load)
             }
@@ -976,7 +997,6 @@ pub fn build(
             timestamp_secs: seq.times.as_ref().and_then(|t| t.get(i as usize).copied()),
         });
         progress(Progress::Frame { frame: i });
-        let pos = position(i);
         if (pos + 1) % cfg.mapping.commit_every == 0 || pos + 1 == frames.len() {
             let t = Instant::now();
             let next = frames

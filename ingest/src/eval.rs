@@ -12,6 +12,7 @@ use graphstore::{GraphRead, Store, Value};
 use crate::build::Sequence;
 use crate::classes::{self, CLASSES};
 use crate::error::{Error, Result};
+use crate::mapping::geometry::voxel_key;
 use crate::sources::kitti;
 
 /// Counts: `m[gt][pred]` with gt in 1..=19 and pred in 0..=19 (0 = no map point near).
@@ -123,7 +124,7 @@ impl MapIndex {
             if let Some(pc) = r.point_cloud(id, "points")? {
                 for p in pc.xyz {
                     cells
-                        .entry(p.map(|c| (c / cell_m).floor() as i32))
+                        .entry(voxel_key(p, cell_m))
                         .or_default()
                         .push((p, class));
                 }
@@ -133,7 +134,7 @@ impl MapIndex {
     }
 
     fn nearest_class(&self, p: [f32; 3], max_m: f32) -> u8 {
-        let k = p.map(|c| (c / self.cell_m).floor() as i32);
+        let k = voxel_key(p, self.cell_m);
         let mut best = (max_m * max_m, 0u8);
         for dx in -1..=1 {
             for dy in -1..=1 {
@@ -194,13 +195,7 @@ pub fn eval_semseg(
         let scan = kitti::read_scan(&seq.scan_path(i))?;
         let labels = kitti::read_labels(&lp, scan.points.len())?;
         let m = seq.world_from_velo(i);
-        let image = seq.image_path(i);
-        let (w, h) = if image.exists() {
-            kitti::png_size(&image)?
-        } else {
-            (image_size[0], image_size[1])
-        };
-        let camera = crate::mapping::project::Camera::kitti_p2(&seq.calib, w, h);
+        let camera = seq.camera(i, image_size)?;
         for (p, l) in scan.points.iter().zip(&labels) {
             let gt = classes::learning_class(l.semantic);
             if gt == 0 || !p[..3].iter().all(|c| c.is_finite()) {

@@ -103,6 +103,8 @@ impl MapObject {
         }
     }
 
+    /// Folds `f`, worth `weight` detections, into the mean of `detection_count` detections
+    /// (call before adding `weight` to the count). Features of another dimension are ignored.
     fn add_feature(&mut self, f: &[f32], weight: u32) {
         if self.feature.len() != f.len() {
             if self.feature.is_empty() {
@@ -114,7 +116,7 @@ impl MapObject {
         let n = self.detection_count as f32;
         let w = weight as f32;
         for (a, b) in self.feature.iter_mut().zip(f) {
-            *a = (*a * n + b * w) / (n + w);
+            *a = (*a * n + b * w) / (n + w).max(1.0);
         }
     }
 }
@@ -251,8 +253,7 @@ struct BoxGrid {
 const GRID_CELL_M: f32 = 8.0;
 
 fn cell_range(b: &Aabb) -> ([i32; 3], [i32; 3]) {
-    let c = |v: f32| (v / GRID_CELL_M).floor() as i32;
-    (b.min.map(c), b.max.map(c))
+    (voxel_key(b.min, GRID_CELL_M), voxel_key(b.max, GRID_CELL_M))
 }
 
 impl BoxGrid {
@@ -363,6 +364,15 @@ impl Mapper {
         &mut self.objects
     }
 
+    /// Ids of the objects that are not background tiles, ascending.
+    fn object_ids(&self) -> Vec<u64> {
+        self.objects
+            .values()
+            .filter(|o| o.tile.is_none())
+            .map(|o| o.instance_id)
+            .collect()
+    }
+
     /// The id the next new object gets.
     pub fn next_id(&self) -> u64 {
         self.next_id
@@ -423,24 +433,17 @@ impl Mapper {
             fea: cfg.w_fea,
         };
         let mut pairs = Vec::new();
-        let mut det_box: Vec<Option<Aabb>> = Vec::with_capacity(n);
         // With no box overlap φ ≤ w_cap + w_fea; when that cannot pass δ_sim (the defaults:
         // 0.6 ≤ 0.6) only objects near the detection's box are candidates.
         let need_overlap = cfg.w_cap + cfg.w_fea <= cfg.sim_threshold;
         let all_ids: Vec<u64> = if need_overlap {
             Vec::new()
         } else {
-            self.objects
-                .values()
-                .filter(|o| o.tile.is_none())
-                .map(|o| o.instance_id)
-                .collect()
+            self.object_ids()
         };
         let mut object_docs: BTreeMap<u64, Vec<(String, f64)>> = BTreeMap::new();
         for (i, pts) in det_points.iter().enumerate() {
-            let b = Aabb::of(pts);
-            det_box.push(b);
-            let (Some(b), false) = (b, classes::is_background(f.classes[i])) else {
+            let (Some(b), false) = (Aabb::of(pts), classes::is_background(f.classes[i])) else {
                 continue;
             };
             let caption = self.tfidf.vector(&f.detections.detections[i].caption);
@@ -476,7 +479,7 @@ impl Mapper {
         let t = Instant::now();
         for (i, pts) in det_points.into_iter().enumerate() {
             let d = &f.detections.detections[i];
-            if pts.is_empty() || det_box[i].is_none() {
+            if pts.is_empty() {
                 st.dropped += 1;
                 continue;
             }
@@ -562,12 +565,7 @@ impl Mapper {
     pub fn post_process(&mut self) -> PostReport {
         let cfg = self.cfg.clone();
         let mut report = PostReport::default();
-        let ids: Vec<u64> = self
-            .objects
-            .values()
-            .filter(|o| o.tile.is_none())
-            .map(|o| o.instance_id)
-            .collect();
+        let mut ids = self.object_ids();
         for id in &ids {
             let o = self.objects.get_mut(id).expect("listed");
             let kept = largest_cluster(&o.points, cfg.dbscan_eps_m, cfg.dbscan_min_points);
@@ -582,12 +580,7 @@ impl Mapper {
             }
         }
         // merging, in id order; a merged object can absorb more afterwards
-        let ids: Vec<u64> = self
-            .objects
-            .values()
-            .filter(|o| o.tile.is_none())
-            .map(|o| o.instance_id)
-            .collect();
+        ids.retain(|id| self.objects.contains_key(id));
         // boxes shrank with denoising: rebuild the grid
         self.grid = BoxGrid::default();
         for id in &ids {
@@ -630,13 +623,7 @@ impl Mapper {
                     let absorbed = self.objects.remove(b).expect("present");
                     let keep = self.objects.get_mut(a).expect("present");
                     keep.absorb_points(&absorbed.points, cfg.voxel_m);
-                    if keep.feature.len() == absorbed.feature.len() {
-                        let (na, nb) =
-                            (keep.detection_count as f32, absorbed.detection_count as f32);
-                        for (x, y) in keep.feature.iter_mut().zip(&absorbed.feature) {
-                            *x = (*x * na + y * nb) / (na + nb).max(1.0);
-                        }
-                    }
+                    keep.add_feature(&absorbed.feature, absorbed.detection_count);
                     keep.captions.extend(absorbed.captions);
                     keep.detection_count += absorbed.detection_count;
                     keep.first_frame = keep.first_frame.min(absorbed.first_frame);
@@ -659,6 +646,7 @@ impl Mapper {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mapping::project::test_camera;
     use crate::sources::detections::{Detection, Producer};
     use crate::sources::rle::Rle;
 
@@ -714,18 +702,6 @@ mod tests {
         assert_eq!(MedoidMerger.merge(&caps[2..3]), "a blue bench");
     }
 
-    fn camera() -> Camera {
-        Camera {
-            image_from_velo: Mat34([
-                [50.0, -100.0, 0.0, 0.0],
-                [25.0, 0.0, -100.0, 0.0],
-                [1.0, 0.0, 0.0, 0.0],
-            ]),
-            width: 100,
-            height: 50,
-        }
-    }
-
     /// A 1 m cube of points 10 m in front of the sensor, plus a few stray points.
     fn cube(offset_y: f32) -> Vec<[f32; 4]> {
         let mut pts = Vec::new();
@@ -769,7 +745,7 @@ mod tests {
     #[test]
     fn the_same_object_seen_twice_is_one_object() {
         let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
-        let cam = camera();
+        let cam = test_camera();
         let pts = cube(0.0);
         let dets = frame_of(vec![full_mask_detection("a red car")]);
         let feats = vec![vec![1.0, 0.0, 0.0]];
@@ -818,7 +794,7 @@ mod tests {
     #[test]
     fn background_is_fused_per_class_and_tile() {
         let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
-        let cam = camera();
+        let cam = test_camera();
         // a wide wall 10..50 m ahead spanning several 20 m tiles along KITTI z (velo x here,
         // with an identity pose the world is the velodyne frame: ground = (x, z))
         let mut pts = Vec::new();

@@ -92,29 +92,29 @@ pub fn points_in_mask(by_pixel: &[Projected], counts: &[u32]) -> Vec<u32> {
     out
 }
 
+/// A 100×50 camera looking along velodyne x (fx = fy = 100, cx = 50, cy = 25; KITTI axes:
+/// cam x = -velo y, cam y = -velo z, cam z = velo x), for tests.
+#[cfg(test)]
+pub(crate) fn test_camera() -> Camera {
+    Camera {
+        image_from_velo: Mat34([
+            [50.0, -100.0, 0.0, 0.0],
+            [25.0, 0.0, -100.0, 0.0],
+            [1.0, 0.0, 0.0, 0.0],
+        ]),
+        width: 100,
+        height: 50,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::sources::rle::Rle;
 
-    fn simple_camera() -> Camera {
-        // fx = fy = 100, cx = 50, cy = 25; camera looks along velodyne x (KITTI axes:
-        // cam x = -velo y, cam y = -velo z, cam z = velo x).
-        let k_t = Mat34([
-            [50.0, -100.0, 0.0, 0.0],
-            [25.0, 0.0, -100.0, 0.0],
-            [1.0, 0.0, 0.0, 0.0],
-        ]);
-        Camera {
-            image_from_velo: k_t,
-            width: 100,
-            height: 50,
-        }
-    }
-
     #[test]
     fn projection_drops_points_behind_and_outside() {
-        let cam = simple_camera();
+        let cam = test_camera();
         let (x, y, d) = cam.project([10.0, 0.0, 0.0]).unwrap();
         assert_eq!((x, y), (50, 25));
         assert!((d - 10.0).abs() < 1e-6);
@@ -127,7 +127,7 @@ mod tests {
 
     #[test]
     fn mask_lookup_matches_a_dense_check() {
-        let cam = simple_camera();
+        let cam = test_camera();
         let pts: Vec<[f32; 4]> = (0..400)
             .map(|i| {
                 [

@@ -109,16 +109,11 @@ pub fn oracle_detections(
     // connected components of poles, trunks and signs (per class)
     let mut centroid_of: std::collections::BTreeMap<Key, ([f64; 3], usize)> = Default::default();
     for class in [16u8, 18, 19] {
-        let idx: Vec<usize> = split
+        let (idx, xy): (Vec<usize>, Vec<[f64; 2]>) = split
             .iter()
             .filter(|(j, _)| keys[*j].is_some_and(|k| k.class == class))
-            .map(|(j, _)| *j)
-            .collect();
-        let xy: Vec<[f64; 2]> = split
-            .iter()
-            .filter(|(j, _)| keys[*j].is_some_and(|k| k.class == class))
-            .map(|(_, p)| *p)
-            .collect();
+            .copied()
+            .unzip();
         let comp = dbscan(&xy, cfg.component_eps_m, 1);
         for (j, c) in idx.iter().zip(comp) {
             keys[*j] = c.map(|c| Key {
@@ -446,6 +441,7 @@ fn capitalise(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mapping::project::test_camera;
 
     #[test]
     fn captions_are_deterministic_and_varied() {
@@ -464,18 +460,6 @@ mod tests {
         assert_eq!(words(&a), words(&b), "{a} / {b}");
         for class in 1..=19 {
             assert!(!caption(class, 1, 1).is_empty());
-        }
-    }
-
-    fn cam() -> Camera {
-        Camera {
-            image_from_velo: Mat34([
-                [50.0, -100.0, 0.0, 0.0],
-                [25.0, 0.0, -100.0, 0.0],
-                [1.0, 0.0, 0.0, 0.0],
-            ]),
-            width: 100,
-            height: 50,
         }
     }
 
@@ -503,8 +487,15 @@ mod tests {
                 });
             }
         }
-        let (f, truth) =
-            oracle_detections(4, &pts, &labels, &cam(), None, &OracleConfig::default()).unwrap();
+        let (f, truth) = oracle_detections(
+            4,
+            &pts,
+            &labels,
+            &test_camera(),
+            None,
+            &OracleConfig::default(),
+        )
+        .unwrap();
         assert_eq!(f.producer, Producer::Oracle);
         assert_eq!(
             truth.iter().map(|t| t.class).collect::<Vec<_>>(),
@@ -526,7 +517,7 @@ mod tests {
             4,
             &pts,
             &labels[1..],
-            &cam(),
+            &test_camera(),
             None,
             &OracleConfig::default(),
         )

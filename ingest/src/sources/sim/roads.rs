@@ -5,6 +5,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde_json::{Value as Json, json};
 
+use crate::hierarchy::lanes::{dist, polyline_length};
 use crate::sources::kitti::Mat34;
 
 /// How big a city to generate.
@@ -102,11 +103,6 @@ fn norm(a: [f64; 2]) -> f64 {
 fn unit(a: [f64; 2]) -> [f64; 2] {
     let n = norm(a).max(1e-12);
     [a[0] / n, a[1] / n]
-}
-
-/// Length of a polyline.
-pub fn polyline_length(p: &[[f64; 2]]) -> f64 {
-    p.windows(2).map(|w| norm(sub(w[1], w[0]))).sum()
 }
 
 impl RoadNetwork {
@@ -434,7 +430,7 @@ fn smooth(p: &[[f64; 2]], half: usize) -> Vec<[f64; 2]> {
     // drop repeated points first
     let mut q: Vec<[f64; 2]> = Vec::with_capacity(p.len());
     for x in p {
-        if q.last().is_none_or(|l| norm(sub(*x, *l)) > 0.05) {
+        if q.last().is_none_or(|l| dist(*x, *l) > 0.05) {
             q.push(*x);
         }
     }
@@ -462,7 +458,7 @@ pub fn sample_path(path: &[[f64; 2]], step_m: f64) -> Vec<([f64; 2], [f64; 2])> 
     let mut next = 0.0;
     while seg + 1 < path.len() {
         let (a, b) = (path[seg], path[seg + 1]);
-        let l = norm(sub(b, a));
+        let l = dist(a, b);
         if l < 1e-9 {
             seg += 1;
             continue;
