@@ -4,7 +4,7 @@
 
 use parry2d::math::{Pose, Vector};
 use parry2d::query::PointQuery;
-use parry2d::shape::{Ball, Polyline};
+use parry2d::shape::Ball;
 
 use super::lanes::{LaneGraph, LaneNodeKind, dist, polyline_length};
 
@@ -76,6 +76,17 @@ fn v(p: [f64; 2]) -> Vector {
     Vector::new(p[0] as f32, p[1] as f32)
 }
 
+fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l2 = d[0] * d[0] + d[1] * d[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - d[0] * t).hypot(p[1] - a[1] - d[1] * t)
+}
+
 impl SegmentArea {
     /// Distance from `p` to the area (0 inside), computed with parry2d.
     pub fn distance(&self, p: [f64; 2]) -> f64 {
@@ -88,12 +99,16 @@ impl SegmentArea {
                 centreline,
                 half_width_m,
             } => {
+                // a direct scan over the segments: building a parry Polyline (and its BVH)
+                // per query cost far more than the scan, and this is called per instance
                 let d = if centreline.len() < 2 {
                     let c = centreline.first().copied().unwrap_or([0.0, 0.0]);
                     ((c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2)).sqrt()
                 } else {
-                    let line = Polyline::new(centreline.iter().map(|q| v(*q)).collect(), None);
-                    f64::from(line.distance_to_local_point(v(p), false))
+                    centreline
+                        .windows(2)
+                        .map(|w| point_segment_distance(p, w[0], w[1]))
+                        .fold(f64::INFINITY, f64::min)
                 };
                 (d - half_width_m).max(0.0)
             }
