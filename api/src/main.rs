@@ -109,7 +109,8 @@ enum Command {
         /// Print `{"route": {...}, "path": {...}}` as JSON.
         #[arg(long)]
         json: bool,
-        /// Draw the lane graph, the route and the path.
+        /// Draw the map (instances in SemanticKITTI class colours), the lane graph, the route,
+        /// the path and the boxes that block it.
         #[arg(long)]
         png: Option<PathBuf>,
     },
@@ -215,6 +216,30 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Open-vocabulary retrieval: rank instances by the cosine between the embedded text
+    /// and their fused feature.
+    Find {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// What to look for, in words.
+        text: String,
+        /// How many results.
+        #[arg(short, long, default_value_t = 10)]
+        k: usize,
+        /// Only this class.
+        #[arg(long)]
+        class: Option<String>,
+        /// Only within R metres of ground point X,Y (KITTI x and z): `--near X,Y,R`.
+        #[arg(long, value_parser = parse_near)]
+        near: Option<([f64; 2], f64)>,
+        /// Sentence embedder; default: the one the map was built with.
+        #[arg(long, value_parser = ["minilm", "hash"])]
+        embedder: Option<String>,
+        /// Print a JSON array of {"id", "caption", "class", "score", "centroid"}.
+        #[arg(long)]
+        json: bool,
+    },
     /// Evaluate a map.
     Eval {
         #[command(subcommand)]
@@ -252,6 +277,28 @@ enum EvalCommand {
         #[arg(long)]
         json: bool,
     },
+}
+
+fn parse_near(s: &str) -> Result<([f64; 2], f64), String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("expected X,Y,R in metres: {e}"))?;
+    match v[..] {
+        [x, y, r] if v.iter().all(|a| a.is_finite()) && r >= 0.0 => Ok(([x, y], r)),
+        _ => Err("expected X,Y,R: three finite numbers, R >= 0".into()),
+    }
+}
+
+fn make_embedder(name: &str) -> anyhow::Result<Box<dyn llm_tools::Embedder>> {
+    Ok(match name {
+        "hash" => Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+        _ => Box::new(
+            llm_tools::MiniLm::from_dir(&llm_tools::embed::default_models_dir())
+                .context("loading the sentence embedder")?,
+        ),
+    })
 }
 
 fn parse_range(s: &str) -> Result<std::ops::Range<u32>, String> {
@@ -458,7 +505,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 eprintln!("warning: {w}");
             }
             if let Some(p) = &png {
-                planner::render::write_png(p, &g, &route, &path, &obstacles)?;
+                let all = planner::render::instance_footprints(&r, ground)?;
+                planner::render::write_map_png(p, &g, &route, &path, &obstacles, &all)?;
             }
             if json {
                 let v = serde_json::json!({
@@ -513,13 +561,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     .into());
                 }
             };
-            let mut emb: Box<dyn llm_tools::Embedder> = match embedder.as_str() {
-                "hash" => Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-                _ => Box::new(
-                    llm_tools::MiniLm::from_dir(&llm_tools::embed::default_models_dir())
-                        .context("loading the sentence embedder")?,
-                ),
-            };
+            let mut emb = make_embedder(&embedder)?;
             let store = graphstore::Store::create(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let args = BuildArgs {
@@ -637,6 +679,47 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&r)?);
             } else {
                 print!("{}", sim_summary(&r));
+            }
+        }
+        Command::Find {
+            db,
+            text,
+            k,
+            class,
+            near,
+            embedder,
+            json,
+        } => {
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = store.read()?;
+            let name = match embedder {
+                Some(e) => e,
+                None => llm_tools::retrieve::map_embedder(&r)?.unwrap_or_else(|| "minilm".into()),
+            };
+            let mut emb = make_embedder(&name)?;
+            let opts = llm_tools::retrieve::FindOptions { k, class, near };
+            let (hits, t) = llm_tools::retrieve::find(&r, emb.as_mut(), &text, &opts)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&hits)?);
+            } else {
+                println!("{:>8}  {:>6}  {:<16} {:>26}  caption", "id", "score", "class", "centroid [x, y, z] m");
+                for h in &hits {
+                    println!(
+                        "{:>8}  {:>6.3}  {:<16} {:>26}  {}",
+                        h.id,
+                        h.score,
+                        h.class,
+                        format!("[{:.1}, {:.1}, {:.1}]", h.centroid[0], h.centroid[1], h.centroid[2]),
+                        h.caption
+                    );
+                }
+                eprintln!(
+                    "{} results; embedding {:.1} ms, ranking {:.1} ms ({name} embedder)",
+                    hits.len(),
+                    t.embed_ms,
+                    t.rank_ms
+                );
             }
         }
         Command::Oracle { kitti, out, frames } => {

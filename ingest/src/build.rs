@@ -812,6 +812,7 @@ pub fn build(
         "frames": frames,
         "config": cfg,
         "environment": args.environment,
+        "embedder": embedder.name(),
     })
     .to_string();
     if store.schema() == graphstore::Schema::default() {

@@ -14,6 +14,8 @@ use crate::wordpiece::WordPiece;
 pub trait Embedder {
     /// Vector dimension.
     fn dim(&self) -> usize;
+    /// Which model this is (stored with a map, so queries embed with the same one).
+    fn name(&self) -> String;
     /// One unit vector per text, in order.
     fn embed(&mut self, texts: &[&str]) -> Result<Vec<Vec<f32>>>;
 }
@@ -112,6 +114,10 @@ impl MiniLm {
 impl Embedder for MiniLm {
     fn dim(&self) -> usize {
         MINILM_DIM
+    }
+
+    fn name(&self) -> String {
+        "minilm".into()
     }
 
     fn embed(&mut self, texts: &[&str]) -> Result<Vec<Vec<f32>>> {

@@ -30,6 +30,9 @@ pub enum Error {
     /// Invalid input.
     #[error("invalid input: {0}")]
     Invalid(String),
+    /// The store failed.
+    #[error(transparent)]
+    Store(#[from] graphstore::Error),
 }
 
 /// Result alias for llm_tools.

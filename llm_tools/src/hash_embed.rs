@@ -52,6 +52,10 @@ impl HashEmbedder {
 }
 
 impl Embedder for HashEmbedder {
+    fn name(&self) -> String {
+        "hash".into()
+    }
+
     fn dim(&self) -> usize {
         self.dim
     }

@@ -3,6 +3,7 @@
 pub mod embed;
 mod error;
 pub mod hash_embed;
+pub mod retrieve;
 pub mod wordpiece;
 
 pub use embed::{Embedder, MiniLm};

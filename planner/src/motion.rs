@@ -373,6 +373,9 @@ pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> R
     })
 }
 
+/// Classes of instances that are ground surfaces; they never block a path.
+pub const GROUND_CLASSES: [&str; 5] = ["road", "parking", "sidewalk", "other-ground", "terrain"];
+
 /// Ground-plane boxes of the store's `Instance` nodes that reach into the corridor of
 /// `half_width_m` around the route (they block the road), sorted by position.
 pub fn blocking_instances(
@@ -384,6 +387,16 @@ pub fn blocking_instances(
     let corridor = Validity::new(&route.polyline, half_width_m, &[], 0.0);
     let mut out = Vec::new();
     for id in r.nodes_with_label("Instance")? {
+        // ground surfaces are driven over, not around; background classes fused per ground
+        // tile (`tile` set) have the box of a 20 m tile's worth of points, not an obstacle's
+        if let Some(graphstore::Value::String(c)) = r.node_prop(id, "class")?
+            && GROUND_CLASSES.contains(&c.as_str())
+        {
+            continue;
+        }
+        if r.node_prop(id, "tile")?.is_some() {
+            continue;
+        }
         let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
             continue;
         };

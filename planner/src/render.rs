@@ -10,6 +10,70 @@ use crate::graph::RoadGraph;
 use crate::motion::{MotionPath, Obstacle};
 use crate::route::Route;
 
+/// An instance's ground footprint to draw, with its class.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Footprint {
+    /// Min corner.
+    pub min: [f64; 2],
+    /// Max corner.
+    pub max: [f64; 2],
+    /// Class name (colours follow SemanticKITTI's colour map).
+    pub class: String,
+}
+
+/// SemanticKITTI's colour (RGB) for a class name; grey for others.
+pub fn class_colour(class: &str) -> (u8, u8, u8) {
+    match class {
+        "car" => (100, 150, 245),
+        "bicycle" => (100, 230, 245),
+        "motorcycle" => (30, 60, 150),
+        "truck" => (80, 30, 180),
+        "other-vehicle" => (100, 80, 250),
+        "person" => (255, 30, 30),
+        "bicyclist" => (255, 40, 200),
+        "motorcyclist" => (150, 30, 90),
+        "road" => (255, 0, 255),
+        "parking" => (255, 150, 255),
+        "sidewalk" => (75, 0, 75),
+        "other-ground" => (175, 0, 75),
+        "building" => (255, 200, 0),
+        "fence" => (255, 120, 50),
+        "vegetation" => (0, 175, 0),
+        "trunk" => (135, 60, 0),
+        "terrain" => (150, 240, 80),
+        "pole" => (255, 240, 150),
+        "traffic-sign" => (255, 0, 0),
+        _ => (128, 128, 128),
+    }
+}
+
+/// Every instance of the store that is not a ground surface, as footprints, by id.
+pub fn instance_footprints(
+    r: &impl graphstore::GraphRead,
+    ground: crate::Ground,
+) -> Result<Vec<Footprint>> {
+    let mut out = Vec::new();
+    for id in r.nodes_with_label("Instance")? {
+        let class = match r.node_prop(id, "class")? {
+            Some(graphstore::Value::String(c)) => c,
+            _ => String::new(),
+        };
+        if crate::motion::GROUND_CLASSES.contains(&class.as_str()) {
+            continue;
+        }
+        let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
+            continue;
+        };
+        let (a, b) = (ground.of(lo), ground.of(hi));
+        out.push(Footprint {
+            min: [a[0].min(b[0]), a[1].min(b[1])],
+            max: [a[0].max(b[0]), a[1].max(b[1])],
+            class,
+        });
+    }
+    Ok(out)
+}
+
 /// Draws and writes the PNG, fitting the whole graph.
 pub fn write_png(
     path: &Path,
@@ -18,11 +82,24 @@ pub fn write_png(
     motion: &MotionPath,
     obstacles: &[Obstacle],
 ) -> Result<()> {
+    write_map_png(path, g, route, motion, obstacles, &[])
+}
+
+/// [`write_png`] with the map's instances drawn underneath, filled in their class colour.
+pub fn write_map_png(
+    path: &Path,
+    g: &RoadGraph,
+    route: &Route,
+    motion: &MotionPath,
+    obstacles: &[Obstacle],
+    instances: &[Footprint],
+) -> Result<()> {
     let pts: Vec<[f64; 2]> = g
         .edges
         .iter()
         .flat_map(|e| e.polyline.iter().copied())
         .chain(route.polyline.iter().copied())
+        .chain(instances.iter().flat_map(|f| [f.min, f.max]))
         .collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for p in &pts {
@@ -46,6 +123,18 @@ pub fn write_png(
             (f64::from(h) - 30.0 - (p[1] - lo[1]) * scale) as f32,
         )
     };
+    for f in instances {
+        let (x0, y0) = px([f.min[0], f.max[1]]);
+        let (x1, y1) = px([f.max[0], f.min[1]]);
+        if let Some(rect) =
+            tiny_skia::Rect::from_ltrb(x0, y0, x1.max(x0 + 1.0), y1.max(y0 + 1.0))
+        {
+            let (r, gr, b) = class_colour(&f.class);
+            let mut paint = Paint::default();
+            paint.set_color(Color::from_rgba8(r, gr, b, 170));
+            pm.fill_rect(rect, &paint, Transform::identity(), None);
+        }
+    }
     let mut line = |pts: &[[f64; 2]], width: f32, rgba: (u8, u8, u8, u8)| {
         if pts.len() < 2 {
             return;

@@ -94,6 +94,10 @@ impl MapObject {
     fn absorb_points(&mut self, pts: &[[f32; 3]], voxel_m: f32) {
         for p in pts {
             if self.voxels.insert(voxel_key(*p, voxel_m)) {
+                if self.points.is_empty() {
+                    // an empty object's box is a placeholder at the origin: start afresh
+                    self.bbox = Aabb { min: *p, max: *p };
+                }
                 self.points.push(*p);
                 for (i, c) in p.iter().enumerate() {
                     self.bbox.min[i] = self.bbox.min[i].min(*c);
@@ -818,6 +822,15 @@ mod tests {
         assert_eq!(tiles, vec![(13, [0, 0]), (13, [1, 0]), (13, [2, 0])]);
         let total: usize = m.objects().values().map(|o| o.points.len()).sum();
         assert_eq!(total, 2000);
+        // each tile's box is that of its own points (regression: it used to include the
+        // origin, the placeholder box of an empty object)
+        for o in m.objects().values() {
+            let want = Aabb::of(&o.points).unwrap();
+            for k in 0..3 {
+                assert!((o.bbox.min[k] - want.min[k]).abs() < 1e-6, "{:?} {:?}", o.bbox, want);
+                assert!((o.bbox.max[k] - want.max[k]).abs() < 1e-6, "{:?} {:?}", o.bbox, want);
+            }
+        }
     }
 
     #[test]
