@@ -693,9 +693,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let store = graphstore::Store::open(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
-            let name = match embedder {
-                Some(e) => e,
-                None => llm_tools::retrieve::map_embedder(&r)?.unwrap_or_else(|| "minilm".into()),
+            let built = llm_tools::retrieve::map_embedder(&r)?;
+            let name = match (embedder, built) {
+                (Some(e), Some(b)) if e != b => {
+                    return Err(UsageError(format!(
+                        "the map was built with the {b} embedder; query it with the same one (--embedder {b})"
+                    ))
+                    .into());
+                }
+                (Some(e), _) => e,
+                (None, b) => b.unwrap_or_else(|| "minilm".into()),
             };
             let mut emb = make_embedder(&name)?;
             let opts = llm_tools::retrieve::FindOptions { k, class, near };
