@@ -635,7 +635,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             threads,
             json,
         } => {
-            use ingest::sources::sim::{SimConfig, generate, roads::SimSize, sensors::DetectionNoise};
+            use ingest::sources::sim::{
+                SimConfig, generate, roads::SimSize, sensors::DetectionNoise,
+            };
             let size = match size.as_str() {
                 "medium" => SimSize::Medium,
                 "city" => SimSize::City,
@@ -710,14 +712,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if json {
                 println!("{}", serde_json::to_string_pretty(&hits)?);
             } else {
-                println!("{:>8}  {:>6}  {:<16} {:>26}  caption", "id", "score", "class", "centroid [x, y, z] m");
+                println!(
+                    "{:>8}  {:>6}  {:<16} {:>26}  caption",
+                    "id", "score", "class", "centroid [x, y, z] m"
+                );
                 for h in &hits {
                     println!(
                         "{:>8}  {:>6.3}  {:<16} {:>26}  {}",
                         h.id,
                         h.score,
                         h.class,
-                        format!("[{:.1}, {:.1}, {:.1}]", h.centroid[0], h.centroid[1], h.centroid[2]),
+                        format!(
+                            "[{:.1}, {:.1}, {:.1}]",
+                            h.centroid[0], h.centroid[1], h.centroid[2]
+                        ),
                         h.caption
                     );
                 }

@@ -33,7 +33,14 @@ fn sim_build_find_plan_eval() {
     let sim = dir.path().join("sim");
     let db = dir.path().join("city.og");
     let r = json(&og(&[
-        "sim", "--out", s(&sim), "--seed", "3", "--frames", "24", "--json",
+        "sim",
+        "--out",
+        s(&sim),
+        "--seed",
+        "3",
+        "--frames",
+        "24",
+        "--json",
     ]));
     assert_eq!(r["frames"], 24);
     assert!(r["object_count"].as_u64().unwrap() > 400);
@@ -101,7 +108,13 @@ fn sim_build_find_plan_eval() {
     assert!(std::fs::metadata(&png).unwrap().len() > 1000);
     // the simulator's labels score the map
     let e = json(&og(&[
-        "eval", "semseg", "--db", s(&db), "--kitti", s(&sim), "--json",
+        "eval",
+        "semseg",
+        "--db",
+        s(&db),
+        "--kitti",
+        s(&sim),
+        "--json",
     ]));
     // 24 frames 100 m apart: most LiDAR points are never in the camera's view, so the score
     // that measures the mapping is the in-view one (measured 0.517 with the hash embedder,
@@ -125,5 +138,8 @@ fn bad_sim_arguments_are_clear_errors() {
     let o = og(&["sim", "--out", s(&out), "--frames", "1"]);
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("already holds a sequence") && !err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("already holds a sequence") && !err.contains("panicked"),
+        "{err}"
+    );
 }

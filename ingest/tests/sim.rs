@@ -54,10 +54,7 @@ fn output_is_byte_identical_for_a_seed_whatever_the_thread_count() {
     sim(b.path(), 4, 2, DetectionNoise::default());
     let (fa, fb) = (files(a.path()), files(b.path()));
     assert!(fa.len() >= 4 * 3 + 7, "{:?}", fa.keys().collect::<Vec<_>>());
-    assert_eq!(
-        fa.keys().collect::<Vec<_>>(),
-        fb.keys().collect::<Vec<_>>()
-    );
+    assert_eq!(fa.keys().collect::<Vec<_>>(), fb.keys().collect::<Vec<_>>());
     for (k, v) in &fa {
         assert!(v == &fb[k], "{k} differs");
     }
@@ -74,7 +71,10 @@ fn output_is_byte_identical_for_a_seed_whatever_the_thread_count() {
     );
     // generating into a directory that already holds a sequence is refused
     let err = generate(a.path(), &cfg, &|_, _| {}).unwrap_err();
-    assert!(err.to_string().contains("already holds a sequence"), "{err}");
+    assert!(
+        err.to_string().contains("already holds a sequence"),
+        "{err}"
+    );
 }
 
 struct GtBox {
@@ -175,8 +175,14 @@ fn lidar_scans_look_like_an_hdl64_and_labels_match_what_each_ray_hit() {
                 }
             }
         }
-        assert!(ground > n / 5 && obj > n / 10, "{ground} ground, {obj} object points");
-        assert!(ground_ok as f64 > 0.99 * ground as f64, "{ground_ok}/{ground}");
+        assert!(
+            ground > n / 5 && obj > n / 10,
+            "{ground} ground, {obj} object points"
+        );
+        assert!(
+            ground_ok as f64 > 0.99 * ground as f64,
+            "{ground_ok}/{ground}"
+        );
         assert!(obj_ok as f64 > 0.99 * obj as f64, "{obj_ok}/{obj}");
     }
     // every ground-truth class of the 19 that the city has shows up in the labels
@@ -188,11 +194,12 @@ fn camera_masks_agree_with_lidar_labels() {
     let dir = tempfile::tempdir().unwrap();
     sim(dir.path(), 3, 2, DetectionNoise::none());
     let seq = Sequence::open(dir.path(), None).unwrap();
-    let truth: Vec<Json> = std::fs::read_to_string(dir.path().join("ground_truth/detections.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let truth: Vec<Json> =
+        std::fs::read_to_string(dir.path().join("ground_truth/detections.jsonl"))
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
     let (mut inside, mut agree, mut objects_checked, mut objects_ok) = (0u64, 0u64, 0, 0);
     for (k, &f) in seq.scans.iter().enumerate() {
         let det = read_detections(&dir.path().join(format!("detections/{f:06}.json"))).unwrap();
@@ -226,7 +233,10 @@ fn camera_masks_agree_with_lidar_labels() {
             if l.instance != 0 {
                 let e = per_object.entry(u64::from(l.instance)).or_default();
                 e.0 += 1;
-                if masks.iter().any(|(o, m)| *o == Some(u64::from(l.instance)) && m[px]) {
+                if masks
+                    .iter()
+                    .any(|(o, m)| *o == Some(u64::from(l.instance)) && m[px])
+                {
                     e.1 += 1;
                 }
             }
@@ -286,5 +296,8 @@ fn lane_extraction_on_the_written_poses_finds_the_true_junctions() {
         }
     }
     eprintln!("junction agreement on the written poses: {agree}/{total}");
-    assert!(total >= 8 && agree as f64 >= 0.75 * total as f64, "{agree}/{total}");
+    assert!(
+        total >= 8 && agree as f64 >= 0.75 * total as f64,
+        "{agree}/{total}"
+    );
 }

@@ -67,6 +67,9 @@ pub fn map_embedder<R: GraphRead>(r: &R) -> Result<Option<String>> {
     Ok(None)
 }
 
+/// A node's properties.
+type Props = Vec<(PropKey, Value)>;
+
 fn cosine(a: &[f32], b: &[f32]) -> f64 {
     let (mut ab, mut aa, mut bb) = (0.0f64, 0.0f64, 0.0f64);
     for (x, y) in a.iter().zip(b) {
@@ -108,12 +111,20 @@ pub fn find<R: GraphRead>(
     let embed_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = std::time::Instant::now();
     let key = |k: &str| r.prop_key(k);
-    let keys = [key("feature"), key("class"), key("centroid"), key("caption")];
+    let keys = [
+        key("feature"),
+        key("class"),
+        key("centroid"),
+        key("caption"),
+    ];
     let lookup = |props: &[(PropKey, Value)], k: usize| -> Option<Value> {
         let want = keys[k]?;
-        props.iter().find(|(n, _)| *n == want).map(|(_, v)| v.clone())
+        props
+            .iter()
+            .find(|(n, _)| *n == want)
+            .map(|(_, v)| v.clone())
     };
-    let mut scored: Vec<(f64, u64, Vec<(PropKey, Value)>)> = Vec::new();
+    let mut scored: Vec<(f64, u64, Props)> = Vec::new();
     for id in r.nodes_with_label("Instance")? {
         let Some(node) = r.node(id)? else { continue };
         let props = node.props;
@@ -210,9 +221,17 @@ mod tests {
     #[test]
     fn ranks_by_cosine_and_filters() {
         let (_d, store) = store_with(&[
-            ("a green wooden bench on the sidewalk", "bench", [0.0, 0.0, 0.0]),
+            (
+                "a green wooden bench on the sidewalk",
+                "bench",
+                [0.0, 0.0, 0.0],
+            ),
             ("a red car parked by the curb", "car", [5.0, 0.0, 0.0]),
-            ("a long bench facing the street", "bench", [100.0, 0.0, 100.0]),
+            (
+                "a long bench facing the street",
+                "bench",
+                [100.0, 0.0, 100.0],
+            ),
         ]);
         let r = store.read().unwrap();
         let mut e = HashEmbedder::new(64);

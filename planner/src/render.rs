@@ -126,9 +126,7 @@ pub fn write_map_png(
     for f in instances {
         let (x0, y0) = px([f.min[0], f.max[1]]);
         let (x1, y1) = px([f.max[0], f.min[1]]);
-        if let Some(rect) =
-            tiny_skia::Rect::from_ltrb(x0, y0, x1.max(x0 + 1.0), y1.max(y0 + 1.0))
-        {
+        if let Some(rect) = tiny_skia::Rect::from_ltrb(x0, y0, x1.max(x0 + 1.0), y1.max(y0 + 1.0)) {
             let (r, gr, b) = class_colour(&f.class);
             let mut paint = Paint::default();
             paint.set_color(Color::from_rgba8(r, gr, b, 170));

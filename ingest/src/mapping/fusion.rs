@@ -827,8 +827,18 @@ mod tests {
         for o in m.objects().values() {
             let want = Aabb::of(&o.points).unwrap();
             for k in 0..3 {
-                assert!((o.bbox.min[k] - want.min[k]).abs() < 1e-6, "{:?} {:?}", o.bbox, want);
-                assert!((o.bbox.max[k] - want.max[k]).abs() < 1e-6, "{:?} {:?}", o.bbox, want);
+                assert!(
+                    (o.bbox.min[k] - want.min[k]).abs() < 1e-6,
+                    "{:?} {:?}",
+                    o.bbox,
+                    want
+                );
+                assert!(
+                    (o.bbox.max[k] - want.max[k]).abs() < 1e-6,
+                    "{:?} {:?}",
+                    o.bbox,
+                    want
+                );
             }
         }
     }

@@ -1,4 +1,4 @@
-//! The synthetic city (issue 6): a procedural road network with every junction type, objects
+//! The synthetic city (issue 6, see `docs/sim.md`): a procedural road network with every junction type, objects
 //! along the roads, a drive over it, and a simulated HDL-64E and camera that write a
 //! KITTI-layout sequence plus detections and ground truth.
 //!
@@ -147,7 +147,9 @@ pub fn generate(
         });
     }
     if cfg.camera.width == 0 || cfg.camera.height == 0 || cfg.lidar.beams == 0 {
-        return Err(Error::Invalid("camera size and beam count must be positive".into()));
+        return Err(Error::Invalid(
+            "camera size and beam count must be positive".into(),
+        ));
     }
     for (name, p) in [
         ("miss rate", cfg.noise.miss_rate),
@@ -186,7 +188,11 @@ pub fn generate(
     let mut ptxt = String::new();
     let mut ttxt = String::new();
     for (i, p) in poses.iter().enumerate() {
-        let row: Vec<String> = p.to_row_major().iter().map(|v| format!("{v:.9e}")).collect();
+        let row: Vec<String> = p
+            .to_row_major()
+            .iter()
+            .map(|v| format!("{v:.9e}"))
+            .collect();
         ptxt.push_str(&row.join(" "));
         ptxt.push('\n');
         ttxt.push_str(&format!("{:.6e}\n", i as f64 / POSE_HZ));
@@ -202,7 +208,10 @@ pub fn generate(
         &json_bytes(&scene.net.to_json())?,
     )?;
 
-    let n = cfg.frames.unwrap_or_else(|| default_frames(cfg.size)).max(1);
+    let n = cfg
+        .frames
+        .unwrap_or_else(|| default_frames(cfg.size))
+        .max(1);
     let frames = sensor_frames(poses.len(), n);
     let t1 = std::time::Instant::now();
     let done = AtomicUsize::new(0);
@@ -251,9 +260,8 @@ pub fn generate(
     for n in &scene.net.nodes {
         *junctions.entry(n.kind.as_str()).or_insert(0) += 1;
     }
-    let drive_length_m = crate::hierarchy::lanes::polyline_length(
-        &samples.iter().map(|s| s.0).collect::<Vec<_>>(),
-    );
+    let drive_length_m =
+        crate::hierarchy::lanes::polyline_length(&samples.iter().map(|s| s.0).collect::<Vec<_>>());
     let report = SimReport {
         out: out.to_path_buf(),
         road_length_m: scene.road_length_m(),

@@ -82,11 +82,7 @@ impl Surface {
                 "the paved sidewalk along the street",
                 "a pavement for pedestrians",
             ],
-            Surface::Terrain => &[
-                "a strip of grass",
-                "grass and bare soil",
-                "a patch of lawn",
-            ],
+            Surface::Terrain => &["a strip of grass", "grass and bare soil", "a patch of lawn"],
         }
     }
 }
@@ -235,7 +231,15 @@ impl Kind {
 
     fn bank(self) -> Bank {
         const PAINT: &[&str] = &[
-            "red", "blue", "white", "black", "silver", "grey", "green", "yellow", "dark blue",
+            "red",
+            "blue",
+            "white",
+            "black",
+            "silver",
+            "grey",
+            "green",
+            "yellow",
+            "dark blue",
         ];
         let b = |nouns, colours, sizes, materials, states| Bank {
             nouns,
@@ -250,7 +254,11 @@ impl Kind {
                 PAINT,
                 &["small", "compact", "mid-size", "large"],
                 &[],
-                &["parked by the curb", "parked in the parking lane", "with dusty windows"],
+                &[
+                    "parked by the curb",
+                    "parked in the parking lane",
+                    "with dusty windows",
+                ],
             ),
             Kind::Truck => b(
                 &["truck", "delivery truck", "box truck"],
@@ -271,7 +279,11 @@ impl Kind {
                 PAINT,
                 &["small", "old", "new"],
                 &["steel", "aluminium"],
-                &["leaning on its stand", "locked to a rack", "parked on the sidewalk"],
+                &[
+                    "leaning on its stand",
+                    "locked to a rack",
+                    "parked on the sidewalk",
+                ],
             ),
             Kind::Motorcycle => b(
                 &["motorcycle", "motorbike", "scooter"],
@@ -282,17 +294,30 @@ impl Kind {
             ),
             Kind::Person => b(
                 &["person", "pedestrian", "man", "woman"],
-                &["in a red jacket", "in a dark coat", "in a yellow raincoat", "in a white shirt"],
+                &[
+                    "in a red jacket",
+                    "in a dark coat",
+                    "in a yellow raincoat",
+                    "in a white shirt",
+                ],
                 &["tall", "short", "young", "elderly"],
                 &[],
-                &["walking on the sidewalk", "standing on the sidewalk", "waiting at the curb"],
+                &[
+                    "walking on the sidewalk",
+                    "standing on the sidewalk",
+                    "waiting at the curb",
+                ],
             ),
             Kind::Building => b(
                 &["building", "house", "apartment block", "office building"],
                 &["white", "grey", "beige", "red-brick", "yellow"],
                 &["low", "two-storey", "tall", "wide"],
                 &["brick", "concrete", "glass", "plaster"],
-                &["with many windows", "with a flat roof", "with shops on the ground floor"],
+                &[
+                    "with many windows",
+                    "with a flat roof",
+                    "with shops on the ground floor",
+                ],
             ),
             Kind::Fence => b(
                 &["fence", "railing", "garden fence"],
@@ -437,7 +462,8 @@ impl Attributes {
     /// Draws attributes from the kind's caption bank.
     pub fn draw(kind: Kind, rng: &mut ChaCha8Rng) -> Attributes {
         let b = kind.bank();
-        let pick = |rng: &mut ChaCha8Rng, v: &'static [&'static str]| v[rng.random_range(0..v.len())];
+        let pick =
+            |rng: &mut ChaCha8Rng, v: &'static [&'static str]| v[rng.random_range(0..v.len())];
         Attributes {
             noun: pick(rng, b.nouns),
             colour: pick(rng, b.colours),
@@ -466,7 +492,12 @@ impl Attributes {
             ),
             (0, true) => format!("a {} {} {colour} {}", self.size, self.noun, self.state),
             (1, true) => format!("a {} {colour}, {}", self.noun, self.state),
-            (_, true) => format!("{}: a {} {} {colour}", capitalise(self.state), self.size, self.noun),
+            (_, true) => format!(
+                "{}: a {} {} {colour}",
+                capitalise(self.state),
+                self.size,
+                self.noun
+            ),
         }
     }
 }
@@ -664,7 +695,7 @@ impl Footprint {
         ([c, -s], [s, c])
     }
 
-    fn to_world(&self, lx: f64, lz: f64) -> [f64; 2] {
+    fn at_local(self, lx: f64, lz: f64) -> [f64; 2] {
         let (ax, az) = self.axes();
         [
             self.c[0] + ax[0] * lx + az[0] * lz,
@@ -681,7 +712,7 @@ impl Footprint {
             for j in 0..=nz {
                 let lx = -self.half[0] + 2.0 * self.half[0] * i as f64 / nx as f64;
                 let lz = -self.half[1] + 2.0 * self.half[1] * j as f64 / nz as f64;
-                v.push(self.to_world(lx, lz));
+                v.push(self.at_local(lx, lz));
             }
         }
         v
@@ -801,7 +832,10 @@ fn parts(kind: Kind, rng: &mut ChaCha8Rng) -> (Parts, [f64; 2]) {
             let (w, l, h) = (2.4, r(rng, 6.5, 9.0), r(rng, 3.0, 3.6));
             (
                 vec![
-                    (cuboid(w, h - 0.5, l - 2.2), [0.0, -(0.5 + (h - 0.5) / 2.0), -1.1]),
+                    (
+                        cuboid(w, h - 0.5, l - 2.2),
+                        [0.0, -(0.5 + (h - 0.5) / 2.0), -1.1],
+                    ),
                     (cuboid(w, 2.4, 2.0), [0.0, -(0.5 + 1.2), l / 2.0 - 1.0]),
                 ],
                 [w, l],
@@ -809,13 +843,22 @@ fn parts(kind: Kind, rng: &mut ChaCha8Rng) -> (Parts, [f64; 2]) {
         }
         Kind::OtherVehicle => {
             let (w, l, h) = (2.0, r(rng, 5.0, 6.2), r(rng, 2.1, 2.7));
-            (vec![(cuboid(w, h - 0.25, l), [0.0, -(0.25 + (h - 0.25) / 2.0), 0.0])], [w, l])
+            (
+                vec![(
+                    cuboid(w, h - 0.25, l),
+                    [0.0, -(0.25 + (h - 0.25) / 2.0), 0.0],
+                )],
+                [w, l],
+            )
         }
         Kind::ParkedTrailer => {
             let (w, l, h) = (r(rng, 1.6, 2.1), r(rng, 2.5, 4.5), r(rng, 1.2, 2.4));
             (
                 vec![
-                    (cuboid(w, h - 0.45, l), [0.0, -(0.45 + (h - 0.45) / 2.0), 0.0]),
+                    (
+                        cuboid(w, h - 0.45, l),
+                        [0.0, -(0.45 + (h - 0.45) / 2.0), 0.0],
+                    ),
                     (cuboid(0.15, 0.15, 1.2), [0.0, -0.5, l / 2.0 + 0.6]),
                 ],
                 [w, l + 1.2],
@@ -885,7 +928,10 @@ fn parts(kind: Kind, rng: &mut ChaCha8Rng) -> (Parts, [f64; 2]) {
         }
         Kind::TrafficSign => {
             // normally placed on its post, see `place_sign`
-            (vec![(cuboid(0.65, 0.65, 0.04), [0.0, -0.33, 0.0])], [0.65, 0.1])
+            (
+                vec![(cuboid(0.65, 0.65, 0.04), [0.0, -0.33, 0.0])],
+                [0.65, 0.1],
+            )
         }
         Kind::StreetLamp => {
             let h = r(rng, 6.5, 9.0);
@@ -1037,7 +1083,12 @@ impl Placer<'_> {
             half: [fp[0] / 2.0, fp[1] / 2.0],
             yaw,
         };
-        if !on.is_empty() && !print.samples().iter().all(|p| on.contains(&self.surface(*p))) {
+        if !on.is_empty()
+            && !print
+                .samples()
+                .iter()
+                .all(|p| on.contains(&self.surface(*p)))
+        {
             return None;
         }
         // things lifted off the ground (tree crowns) may overhang others
@@ -1084,7 +1135,11 @@ impl Placer<'_> {
             kind,
             caption,
             attributes,
-            center: [c[0] + co * mid[0] + s * mid[2], mid[1], c[1] - s * mid[0] + co * mid[2]],
+            center: [
+                c[0] + co * mid[0] + s * mid[2],
+                mid[1],
+                c[1] - s * mid[0] + co * mid[2],
+            ],
             size: [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]],
             yaw_rad: yaw,
         });
@@ -1099,18 +1154,33 @@ impl Placer<'_> {
             _ => 3.0,
         };
         let yaw = rng.random_range(0.0..std::f64::consts::TAU);
-        if self.place_parts(Kind::Trunk, c, yaw, on, trunk, fp, 0.0, rng).is_none() {
+        if self
+            .place_parts(Kind::Trunk, c, yaw, on, trunk, fp, 0.0, rng)
+            .is_none()
+        {
             return;
         }
         let rad = rng.random_range(1.4..2.8);
         let crown = vec![(ball(rad), [0.0, -rad * 0.8, 0.0])];
-        self.place_parts(Kind::TreeCrown, c, yaw, &[], crown, [2.0 * rad, 2.0 * rad], h, rng);
+        self.place_parts(
+            Kind::TreeCrown,
+            c,
+            yaw,
+            &[],
+            crown,
+            [2.0 * rad, 2.0 * rad],
+            h,
+            rng,
+        );
     }
 
     /// A traffic sign: its post (a pole) and the plate on top, facing `yaw`.
     fn place_sign(&mut self, c: [f64; 2], yaw: f64, on: &[Surface], rng: &mut ChaCha8Rng) {
         let post = vec![(cylinder(0.05, 2.4), [0.0, -1.2, 0.0])];
-        if self.place_parts(Kind::Pole, c, yaw, on, post, [0.3, 0.3], 0.0, rng).is_none() {
+        if self
+            .place_parts(Kind::Pole, c, yaw, on, post, [0.3, 0.3], 0.0, rng)
+            .is_none()
+        {
             return;
         }
         let plate = vec![(cuboid(0.65, 0.65, 0.04), [0.0, -0.33, 0.0])];
@@ -1151,12 +1221,15 @@ fn surface_at(grid: &SegmentGrid, net: &RoadNetwork, sides: &[RoadSides], p: [f6
 impl Scene {
     /// Places objects along every road of `net`. Deterministic for a seed.
     pub fn generate(net: RoadNetwork, seed: u64, cfg: &SceneConfig) -> Scene {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0B1E_C75);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x00B1_EC75);
         let sides: Vec<RoadSides> = net
             .roads
             .iter()
             .map(|_| RoadSides {
-                parking: [rng.random_range(0.0..1.0) < 0.5, rng.random_range(0.0..1.0) < 0.3],
+                parking: [
+                    rng.random_range(0.0..1.0) < 0.5,
+                    rng.random_range(0.0..1.0) < 0.3,
+                ],
             })
             .collect();
         let grid = SegmentGrid::new(&net);
@@ -1206,10 +1279,7 @@ impl Scene {
             if t < limit {
                 let x = origin[0] + dir[0] * t;
                 let z = origin[2] + dir[2] * t;
-                best = Some((
-                    t,
-                    Hit::Ground(self.surface([f64::from(x), f64::from(z)])),
-                ));
+                best = Some((t, Hit::Ground(self.surface([f64::from(x), f64::from(z)]))));
                 limit = t;
             }
         }
@@ -1263,7 +1333,11 @@ impl Scene {
 
     /// Total road length.
     pub fn road_length_m(&self) -> f64 {
-        self.net.roads.iter().map(|r| polyline_length(&r.centerline)).sum()
+        self.net
+            .roads
+            .iter()
+            .map(|r| polyline_length(&r.centerline))
+            .sum()
     }
 
     /// The axis-aligned bounds of every object, `None` without objects.
@@ -1337,7 +1411,8 @@ fn place_along_road(p: &mut Placer<'_>, ri: usize, rng: &mut ChaCha8Rng) {
                 let fwd = if side == 0 { d } else { [-d[0], -d[1]] };
                 let mut step = 7.0;
                 if let Some(k) = kind
-                    && p.try_place(k, q, yaw_of(fwd), &[Surface::Parking], rng).is_some()
+                    && p.try_place(k, q, yaw_of(fwd), &[Surface::Parking], rng)
+                        .is_some()
                 {
                     step = p.objects.last().map_or(7.0, |o| o.size[2]) + rng.random_range(0.8..3.0);
                 }
@@ -1391,10 +1466,20 @@ fn place_along_road(p: &mut Placer<'_>, ri: usize, rng: &mut ChaCha8Rng) {
             } else if roll < 0.30 {
                 p.try_place(Kind::Bench, q, facing_road, &on, rng);
             } else if roll < 0.50 {
-                p.try_place(Kind::Bicycle, q, yaw_of(d) + rng.random_range(-0.3..0.3), &on, rng);
+                p.try_place(
+                    Kind::Bicycle,
+                    q,
+                    yaw_of(d) + rng.random_range(-0.3..0.3),
+                    &on,
+                    rng,
+                );
             } else if roll < 0.85 {
                 let (q, _, _) = at(t, curb + rng.random_range(0.8..2.4));
-                let dir = if rng.random_range(0..2) == 0 { d } else { [-d[0], -d[1]] };
+                let dir = if rng.random_range(0..2) == 0 {
+                    d
+                } else {
+                    [-d[0], -d[1]]
+                };
                 p.try_place(Kind::Person, q, yaw_of(dir), &on, rng);
             }
             t += rng.random_range(6.0..16.0);
@@ -1408,9 +1493,21 @@ fn place_along_road(p: &mut Placer<'_>, ri: usize, rng: &mut ChaCha8Rng) {
             let roll = rng.random_range(0.0..1.0);
             if roll < 0.3 {
                 // fence parallel to the road: its length is local x, so yaw = road heading
-                p.try_place(Kind::Fence, q, yaw_of(d) + std::f64::consts::FRAC_PI_2, &[Surface::Terrain], rng);
+                p.try_place(
+                    Kind::Fence,
+                    q,
+                    yaw_of(d) + std::f64::consts::FRAC_PI_2,
+                    &[Surface::Terrain],
+                    rng,
+                );
             } else if roll < 0.5 {
-                p.try_place(Kind::Hedge, q, yaw_of(d) + std::f64::consts::FRAC_PI_2, &[Surface::Terrain], rng);
+                p.try_place(
+                    Kind::Hedge,
+                    q,
+                    yaw_of(d) + std::f64::consts::FRAC_PI_2,
+                    &[Surface::Terrain],
+                    rng,
+                );
             }
             t += rng.random_range(10.0..22.0);
         }
@@ -1437,9 +1534,22 @@ fn place_along_road(p: &mut Placer<'_>, ri: usize, rng: &mut ChaCha8Rng) {
             let facing_road = yaw_of([-right[0], -right[1]]);
             // the front (local +z) faces the road; width runs along it
             let placed = p
-                .place_parts(kind, q, facing_road, &[Surface::Terrain], parts_v, fp, 0.0, rng)
+                .place_parts(
+                    kind,
+                    q,
+                    facing_road,
+                    &[Surface::Terrain],
+                    parts_v,
+                    fp,
+                    0.0,
+                    rng,
+                )
                 .is_some();
-            t += if placed { fp[0] + rng.random_range(1.0..6.0) } else { 4.0 };
+            t += if placed {
+                fp[0] + rng.random_range(1.0..6.0)
+            } else {
+                4.0
+            };
         }
     }
 }
@@ -1488,7 +1598,11 @@ mod tests {
     use crate::sources::sim::roads::SimSize;
 
     fn small() -> Scene {
-        Scene::generate(RoadNetwork::generate(1, SimSize::Small), 1, &SceneConfig::default())
+        Scene::generate(
+            RoadNetwork::generate(1, SimSize::Small),
+            1,
+            &SceneConfig::default(),
+        )
     }
 
     #[test]
@@ -1501,9 +1615,18 @@ mod tests {
         for o in &s.objects {
             let g = [o.center[0], o.center[2]];
             if o.kind != Kind::TreeCrown && o.kind != Kind::StreetLamp {
-                assert_ne!(s.surface(g), Surface::Road, "{:?} {} on the road", o.kind, o.id);
+                assert_ne!(
+                    s.surface(g),
+                    Surface::Road,
+                    "{:?} {} on the road",
+                    o.kind,
+                    o.id
+                );
             }
-            assert_eq!(o.id as usize, s.objects.iter().position(|x| x.id == o.id).unwrap() + 1);
+            assert_eq!(
+                o.id as usize,
+                s.objects.iter().position(|x| x.id == o.id).unwrap() + 1
+            );
         }
         assert!(s.objects.len() > 400, "{}", s.objects.len());
     }
@@ -1532,11 +1655,16 @@ mod tests {
         assert!(matches!(hit, Hit::Object(i) if s.objects[i as usize].kind == Kind::Building));
         assert!(t < 60.0 && t > 30.0, "{t}");
         // straight down over open ground far away: the ground at the right distance
-        let (t, hit) = s.cast([5000.0, -1.73, 5000.0], [0.0, 1.0, 0.0], 120.0).unwrap();
+        let (t, hit) = s
+            .cast([5000.0, -1.73, 5000.0], [0.0, 1.0, 0.0], 120.0)
+            .unwrap();
         assert!((t - 1.73).abs() < 1e-4, "{t}");
         assert_eq!(hit, Hit::Ground(Surface::Terrain));
         // upwards: nothing
-        assert!(s.cast([5000.0, -1.73, 5000.0], [0.0, -1.0, 0.0], 120.0).is_none());
+        assert!(
+            s.cast([5000.0, -1.73, 5000.0], [0.0, -1.0, 0.0], 120.0)
+                .is_none()
+        );
     }
 
     #[test]

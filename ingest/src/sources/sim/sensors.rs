@@ -177,7 +177,7 @@ fn remission(label: u16) -> f64 {
         48 => 0.3,
         72 => 0.35,
         70 | 71 => 0.2,
-        50 | 51 | 52 => 0.3,
+        50..=52 => 0.3,
         80 => 0.4,
         81 => 0.9,
         10 | 18 | 20 => 0.5,
@@ -273,11 +273,7 @@ pub fn render(
     let (fx, fy, cx, cy) = (p[0][0], p[1][1], p[0][2], p[1][2]);
     // P2 = K [I | t]: the camera centre in cam0 is -K⁻¹ p4
     let tz = p[2][3];
-    let k_inv_p4 = [
-        (p[0][3] - cx * tz) / fx,
-        (p[1][3] - cy * tz) / fy,
-        tz,
-    ];
+    let k_inv_p4 = [(p[0][3] - cx * tz) / fx, (p[1][3] - cy * tz) / fy, tz];
     let centre_cam0 = [-k_inv_p4[0], -k_inv_p4[1], -k_inv_p4[2]];
     let origin = f32x3(world_from_cam0.apply(centre_cam0));
     let ds = cfg.downsample.max(1);
@@ -354,9 +350,13 @@ pub fn morph(mask: &[bool], width: usize, height: usize, r: i32) -> Vec<bool> {
         for y in 0..height {
             for x in 0..width {
                 let (lo, hi, at): (usize, usize, &dyn Fn(usize) -> usize) = if horizontal {
-                    (x.saturating_sub(k), (x + k).min(width - 1), &|i| y * width + i)
+                    (x.saturating_sub(k), (x + k).min(width - 1), &|i| {
+                        y * width + i
+                    })
                 } else {
-                    (y.saturating_sub(k), (y + k).min(height - 1), &|i| i * width + x)
+                    (y.saturating_sub(k), (y + k).min(height - 1), &|i| {
+                        i * width + x
+                    })
                 };
                 let any = (lo..=hi).any(|i| src[at(i)] == dilate);
                 out[y * width + x] = if any { dilate } else { !dilate };
@@ -410,7 +410,12 @@ pub fn detect(
     let mut truth = Vec::new();
     let mut missed = Vec::new();
     let min_low = cfg.min_pixels.div_ceil(ds * ds).max(1);
-    let mut push = |mask: Vec<bool>, caption: String, tags: Vec<String>, score: f64, t: DetectionTruth| -> crate::error::Result<()> {
+    let mut push = |mask: Vec<bool>,
+                    caption: String,
+                    tags: Vec<String>,
+                    score: f64,
+                    t: DetectionTruth|
+     -> crate::error::Result<()> {
         let rle = Rle::from_mask(fh, fw, &mask)?;
         let Some(bbox) = rle.bbox() else {
             return Ok(());
