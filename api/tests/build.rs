@@ -4,15 +4,11 @@
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
-fn og(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_opengraph"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod common;
+use common::{json, og, ok, s};
 
 fn seq00() -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/kitti/sequences/00");
@@ -53,25 +49,6 @@ fn copy_seq(src: &Path, dst: &Path) {
     for f in ["calib.txt", "poses.txt", "times.txt"] {
         std::fs::copy(src.join(f), dst.join(f)).unwrap();
     }
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    ok(out);
-    serde_json::from_slice(&out.stdout).unwrap()
 }
 
 #[test]

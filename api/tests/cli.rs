@@ -1,13 +1,7 @@
 //! The `opengraph` binary: demo, info, export and its exit codes.
 
-use std::process::Command;
-
-fn og(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_opengraph"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod common;
+use common::og;
 
 #[test]
 fn demo_info_export_roundtrip() {

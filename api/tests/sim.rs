@@ -2,30 +2,8 @@
 //! `plan` to the answer, `eval semseg` against its labels; and clear errors for bad `sim`
 //! arguments. Needs no data beside the checkout.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn og(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_opengraph"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
-}
+mod common;
+use common::{json, og, s};
 
 #[test]
 fn sim_build_find_plan_eval() {

@@ -20,6 +20,25 @@ pub trait Embedder {
     fn embed(&mut self, texts: &[&str]) -> Result<Vec<Vec<f32>>>;
 }
 
+/// Cosine of two dense vectors (0 when either is zero or the lengths differ).
+pub fn cosine(a: &[f32], b: &[f32]) -> f64 {
+    if a.len() != b.len() {
+        return 0.0;
+    }
+    let (mut ab, mut aa, mut bb) = (0f64, 0f64, 0f64);
+    for (x, y) in a.iter().zip(b) {
+        let (x, y) = (f64::from(*x), f64::from(*y));
+        ab += x * y;
+        aa += x * x;
+        bb += y * y;
+    }
+    if aa > 0.0 && bb > 0.0 {
+        ab / (aa.sqrt() * bb.sqrt())
+    } else {
+        0.0
+    }
+}
+
 /// Longest token sequence fed to the model (sentence-transformers' setting for this model).
 pub const MAX_TOKENS: usize = 256;
 /// Output dimension of all-MiniLM-L6-v2.

@@ -4,7 +4,7 @@
 
 use graphstore::{GraphRead, PropKey, Value};
 
-use crate::embed::Embedder;
+use crate::embed::{Embedder, cosine};
 use crate::error::{Error, Result};
 
 /// Filters and size of a query.
@@ -67,24 +67,6 @@ pub fn map_embedder<R: GraphRead>(r: &R) -> Result<Option<String>> {
     Ok(None)
 }
 
-/// A node's properties.
-type Props = Vec<(PropKey, Value)>;
-
-fn cosine(a: &[f32], b: &[f32]) -> f64 {
-    let (mut ab, mut aa, mut bb) = (0.0f64, 0.0f64, 0.0f64);
-    for (x, y) in a.iter().zip(b) {
-        let (x, y) = (f64::from(*x), f64::from(*y));
-        ab += x * y;
-        aa += x * x;
-        bb += y * y;
-    }
-    if aa <= 0.0 || bb <= 0.0 {
-        0.0
-    } else {
-        ab / (aa.sqrt() * bb.sqrt())
-    }
-}
-
 /// Ranks the instances for `text`, best first (ties by id). Fails when the map was built
 /// with another embedder than `embedder`.
 pub fn find<R: GraphRead>(
@@ -110,31 +92,20 @@ pub fn find<R: GraphRead>(
         .ok_or_else(|| Error::Invalid("the embedder returned nothing".into()))?;
     let embed_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = std::time::Instant::now();
-    let key = |k: &str| r.prop_key(k);
-    let keys = [
-        key("feature"),
-        key("class"),
-        key("centroid"),
-        key("caption"),
-    ];
-    let lookup = |props: &[(PropKey, Value)], k: usize| -> Option<Value> {
-        let want = keys[k]?;
-        props
-            .iter()
-            .find(|(n, _)| *n == want)
-            .map(|(_, v)| v.clone())
-    };
-    let mut scored: Vec<(f64, u64, Props)> = Vec::new();
+    let (k_feature, k_class, k_centroid) = (
+        r.prop_key("feature"),
+        r.prop_key("class"),
+        r.prop_key("centroid"),
+    );
+    // only the scores are kept while scanning; the k winners are read again afterwards
+    let mut scored: Vec<(f64, u64)> = Vec::new();
     for id in r.nodes_with_label("Instance")? {
         let Some(node) = r.node(id)? else { continue };
-        let props = node.props;
-        let get = |k: &str| {
-            let i = ["feature", "class", "centroid", "caption"]
-                .iter()
-                .position(|x| *x == k)?;
-            lookup(&props, i)
+        let get = |k: Option<PropKey>| {
+            let k = k?;
+            node.props.iter().find(|(n, _)| *n == k).map(|(_, v)| v)
         };
-        let Some(Value::Vector(f)) = get("feature") else {
+        let Some(Value::Vector(f)) = get(k_feature) else {
             continue;
         };
         if f.len() != q.len() {
@@ -145,45 +116,43 @@ pub fn find<R: GraphRead>(
             )));
         }
         if let Some(c) = &opts.class
-            && get("class").as_ref().and_then(Value::as_str) != Some(c.as_str())
+            && get(k_class).and_then(Value::as_str) != Some(c.as_str())
         {
             continue;
         }
         if let Some((g, radius_m)) = opts.near {
-            let Some(p) = get("centroid").as_ref().and_then(Value::as_point3) else {
+            let Some(p) = get(k_centroid).and_then(Value::as_point3) else {
                 continue;
             };
             if (p[0] - g[0]).hypot(p[2] - g[1]) > radius_m {
                 continue;
             }
         }
-        let s = cosine(&q, &f);
-        scored.push((s, id, props));
+        scored.push((cosine(&q, f), id));
     }
     scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     scored.truncate(opts.k);
-    let out = scored
-        .into_iter()
-        .map(|(score, id, props)| {
-            let text = |i: usize| {
-                lookup(&props, i)
-                    .as_ref()
-                    .and_then(Value::as_str)
-                    .unwrap_or_default()
-                    .to_string()
-            };
-            Found {
-                id,
-                caption: text(3),
-                class: text(1),
-                score,
-                centroid: lookup(&props, 2)
-                    .as_ref()
-                    .and_then(Value::as_point3)
-                    .unwrap_or([f64::NAN; 3]),
-            }
-        })
-        .collect();
+    let mut out = Vec::with_capacity(scored.len());
+    for (score, id) in scored {
+        let text = |k: &str| -> Result<String> {
+            Ok(r.node_prop(id, k)?
+                .as_ref()
+                .and_then(Value::as_str)
+                .unwrap_or_default()
+                .to_string())
+        };
+        out.push(Found {
+            id,
+            caption: text("caption")?,
+            class: text("class")?,
+            score,
+            centroid: r
+                .node_prop(id, "centroid")?
+                .as_ref()
+                .and_then(Value::as_point3)
+                .unwrap_or([f64::NAN; 3]),
+        });
+    }
     let rank_ms = t1.elapsed().as_secs_f64() * 1e3;
     Ok((out, FindTimings { embed_ms, rank_ms }))
 }

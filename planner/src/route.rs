@@ -87,25 +87,31 @@ pub struct Route {
     pub length_m: f64,
 }
 
+/// The point of segment `ab` nearest to `p`: (its parameter `t` in [0, 1], the point).
+pub fn closest_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, [f64; 2]) {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l2 = d[0] * d[0] + d[1] * d[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (t, [a[0] + t * d[0], a[1] + t * d[1]])
+}
+
 /// Projection of `p` on a polyline: (arc length, point, distance).
 fn project(poly: &[[f64; 2]], p: [f64; 2]) -> (f64, [f64; 2], f64) {
     let mut best = (0.0, poly[0], f64::INFINITY);
     let mut acc = 0.0;
     for w in poly.windows(2) {
         let (a, b) = (w[0], w[1]);
-        let d = [b[0] - a[0], b[1] - a[1]];
-        let l2 = d[0] * d[0] + d[1] * d[1];
-        let t = if l2 > 0.0 {
-            (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let q = [a[0] + t * d[0], a[1] + t * d[1]];
+        let len = dist(a, b);
+        let (t, q) = closest_on_segment(p, a, b);
         let dq = dist(p, q);
         if dq < best.2 {
-            best = (acc + t * l2.sqrt(), q, dq);
+            best = (acc + t * len, q, dq);
         }
-        acc += l2.sqrt();
+        acc += len;
     }
     best
 }

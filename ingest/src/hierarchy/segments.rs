@@ -76,17 +76,6 @@ fn v(p: [f64; 2]) -> Vector {
     Vector::new(p[0] as f32, p[1] as f32)
 }
 
-fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - d[0] * t).hypot(p[1] - a[1] - d[1] * t)
-}
-
 impl SegmentArea {
     /// Distance from `p` to the area (0 inside), computed with parry2d.
     pub fn distance(&self, p: [f64; 2]) -> f64 {
@@ -107,7 +96,10 @@ impl SegmentArea {
                 } else {
                     centreline
                         .windows(2)
-                        .map(|w| point_segment_distance(p, w[0], w[1]))
+                        .map(|w| {
+                            let (_, q) = planner::closest_on_segment(p, w[0], w[1]);
+                            (p[0] - q[0]).hypot(p[1] - q[1])
+                        })
                         .fold(f64::INFINITY, f64::min)
                 };
                 (d - half_width_m).max(0.0)

@@ -80,24 +80,7 @@ pub fn sparse_dot(a: &[(String, f64)], b: &[(String, f64)]) -> f64 {
     s
 }
 
-/// Cosine of two dense vectors (0 when either is zero or the lengths differ).
-pub fn cosine(a: &[f32], b: &[f32]) -> f64 {
-    if a.len() != b.len() {
-        return 0.0;
-    }
-    let (mut ab, mut aa, mut bb) = (0f64, 0f64, 0f64);
-    for (x, y) in a.iter().zip(b) {
-        let (x, y) = (f64::from(*x), f64::from(*y));
-        ab += x * y;
-        aa += x * x;
-        bb += y * y;
-    }
-    if aa > 0.0 && bb > 0.0 {
-        ab / (aa.sqrt() * bb.sqrt())
-    } else {
-        0.0
-    }
-}
+pub use llm_tools::embed::cosine;
 
 /// The weights of φ.
 #[derive(Debug, Clone, Copy, PartialEq)]

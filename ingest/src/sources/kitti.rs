@@ -59,6 +59,12 @@ impl Mat34 {
         [0, 1, 2].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
     }
 
+    /// Applies the rotation part only (to a direction).
+    pub fn rotate(&self, v: [f64; 3]) -> [f64; 3] {
+        let m = &self.0;
+        [0, 1, 2].map(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])
+    }
+
     /// The inverse of a rigid transform (`Rᵀ`, `-Rᵀ·t`).
     pub fn inverse_rigid(&self) -> Mat34 {
         let m = &self.0;

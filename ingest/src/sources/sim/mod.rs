@@ -264,7 +264,7 @@ pub fn generate(
         crate::hierarchy::lanes::polyline_length(&samples.iter().map(|s| s.0).collect::<Vec<_>>());
     let report = SimReport {
         out: out.to_path_buf(),
-        road_length_m: scene.road_length_m(),
+        road_length_m: scene.net.length_m(),
         junctions,
         objects: scene.class_counts(),
         object_count: scene.objects.len(),

@@ -16,7 +16,8 @@ use rand_chacha::ChaCha8Rng;
 use serde_json::{Value as Json, json};
 
 use super::roads::RoadNetwork;
-use crate::hierarchy::lanes::polyline_length;
+use crate::hierarchy::lanes::dist;
+use crate::sources::oracle::capitalise;
 
 /// Width of the sidewalk beside every road.
 pub const SIDEWALK_M: f64 = 3.0;
@@ -502,13 +503,6 @@ impl Attributes {
     }
 }
 
-fn capitalise(s: &str) -> String {
-    let mut c = s.chars();
-    c.next()
-        .map(|f| f.to_uppercase().chain(c).collect())
-        .unwrap_or_default()
-}
-
 /// A primitive shape of an object.
 #[derive(Debug, Clone, Copy)]
 pub enum PrimShape {
@@ -667,14 +661,8 @@ impl SegmentGrid {
 
 /// Distance from `p` to segment `ab` and which side of `a → b` it is on (0 right, 1 left).
 fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, usize) {
+    let (_, q) = planner::closest_on_segment(p, a, b);
     let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let q = [a[0] + d[0] * t, a[1] + d[1] * t];
     // right of d in KITTI's ground plane is (d.z, -d.x)
     let right = (p[0] - a[0]) * d[1] - (p[1] - a[1]) * d[0];
     ((p[0] - q[0]).hypot(p[1] - q[1]), usize::from(right < 0.0))
@@ -1056,9 +1044,6 @@ impl Placer<'_> {
         on: &[Surface],
         rng: &mut ChaCha8Rng,
     ) -> Option<usize> {
-        if self.objects.len() >= self.max_objects {
-            return None;
-        }
         let (parts, fp) = parts(kind, rng);
         self.place_parts(kind, c, yaw, on, parts, fp, 0.0, rng)
     }
@@ -1331,19 +1316,22 @@ impl Scene {
         })
     }
 
-    /// Total road length.
-    pub fn road_length_m(&self) -> f64 {
-        self.net
-            .roads
-            .iter()
-            .map(|r| polyline_length(&r.centerline))
-            .sum()
-    }
-
     /// The axis-aligned bounds of every object, `None` without objects.
     pub fn bounds(&self) -> Option<Aabb> {
         (!self.bvh.is_empty()).then(|| self.bvh.root_aabb())
     }
+}
+
+/// Arc length at every vertex of a polyline.
+fn cumulative_lengths(c: &[[f64; 2]]) -> Vec<f64> {
+    let mut cum = Vec::with_capacity(c.len());
+    let mut acc = 0.0;
+    cum.push(acc);
+    for w in c.windows(2) {
+        acc += dist(w[0], w[1]);
+        cum.push(acc);
+    }
+    cum
 }
 
 /// Position and unit direction at arc length `t` along a polyline with cumulative lengths.
@@ -1365,11 +1353,8 @@ fn yaw_of(d: [f64; 2]) -> f64 {
 fn place_along_road(p: &mut Placer<'_>, ri: usize, rng: &mut ChaCha8Rng) {
     let road = p.net.roads[ri].clone();
     let c = &road.centerline;
-    let mut cum = vec![0.0];
-    for w in c.windows(2) {
-        cum.push(cum.last().unwrap() + (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]));
-    }
-    let len = *cum.last().unwrap();
+    let cum = cumulative_lengths(c);
+    let len = *cum.last().unwrap_or(&0.0);
     let half = road.width_m / 2.0;
     let margin = 12.0;
     if len < 2.0 * margin {
@@ -1561,11 +1546,8 @@ fn place_traffic_lights(p: &mut Placer<'_>, rng: &mut ChaCha8Rng) {
     for ri in 0..p.net.roads.len() {
         let road = p.net.roads[ri].clone();
         let c = &road.centerline;
-        let mut cum = vec![0.0];
-        for w in c.windows(2) {
-            cum.push(cum.last().unwrap() + (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]));
-        }
-        let len = *cum.last().unwrap();
+        let cum = cumulative_lengths(c);
+        let len = *cum.last().unwrap_or(&0.0);
         for (node, toward_b) in [(road.b, true), (road.a, false)] {
             if !matches!(
                 p.net.nodes[node].kind,

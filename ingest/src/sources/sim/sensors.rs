@@ -150,15 +150,6 @@ pub fn calib_text(c: &Calib) -> String {
     )
 }
 
-fn rotate(m: &Mat34, v: [f64; 3]) -> [f64; 3] {
-    let r = &m.0;
-    [
-        r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2],
-        r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2],
-        r[2][0] * v[0] + r[2][1] * v[1] + r[2][2] * v[2],
-    ]
-}
-
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
     [v[0] as f32, v[1] as f32, v[2] as f32]
 }
@@ -218,7 +209,7 @@ pub fn lidar_scan(
             let az = (f64::from(c) * cfg.azimuth_step_deg).to_radians();
             let (sa, ca) = az.sin_cos();
             let d_velo = [ce * ca, ce * sa, se];
-            let d_world = f32x3(rotate(world_from_velo, d_velo));
+            let d_world = f32x3(world_from_velo.rotate(d_velo));
             let Some((t, hit)) = scene.cast(origin, d_world, cfg.max_range_m as f32) else {
                 continue;
             };
@@ -288,7 +279,7 @@ pub fn render(
             );
             let d = [(fu - cx) / fx, (fv - cy) / fy, 1.0];
             let n = (d[0] * d[0] + d[1] * d[1] + 1.0).sqrt();
-            let dw = f32x3(rotate(world_from_cam0, [d[0] / n, d[1] / n, 1.0 / n]));
+            let dw = f32x3(world_from_cam0.rotate([d[0] / n, d[1] / n, 1.0 / n]));
             if let Some((t, hit)) = scene.cast(origin, dw, 150.0) {
                 let i = (v * w + u) as usize;
                 ids[i] = match hit {
