@@ -91,6 +91,9 @@ pub enum Error {
     /// A transaction was rolled back on request.
     #[error("transaction rolled back")]
     RolledBack,
+    /// A Cypher query failed to parse, check or run.
+    #[error("{0}")]
+    Query(#[from] crate::cypher::QueryError),
     /// An I/O error outside redb (export files and the like).
     #[error("i/o error on {path}: {error}")]
     Io {

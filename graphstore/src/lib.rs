@@ -3,6 +3,7 @@
 
 mod codec;
 mod compiled;
+pub mod cypher;
 mod error;
 pub mod export;
 mod index;

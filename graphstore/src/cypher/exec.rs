@@ -1,0 +1,1763 @@
+//! Clause execution: pattern matching, projection, aggregation, writes and procedures.
+
+use std::cell::Cell;
+use std::collections::{BTreeMap, HashSet};
+use std::rc::Rc;
+use std::time::Instant;
+
+use super::ast::*;
+use super::eval::{arg_err, dir_of, sort_key_cmp, type_err};
+use super::plan::{Anchor, Source, choose_anchor, conjuncts};
+use super::value::{Key, Val, equals};
+use super::{ErrorKind, QueryError, R, Stats};
+use crate::{GraphRead, ReadTxn, Value, WriteTxn};
+
+/// A row of named values.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Row(pub Vec<(Rc<str>, Val)>);
+
+impl Row {
+    pub fn get(&self, n: &str) -> Option<&Val> {
+        self.0.iter().rev().find(|(k, _)| &**k == n).map(|(_, v)| v)
+    }
+    pub fn set(&mut self, n: &str, v: Val) {
+        if let Some(slot) = self.0.iter_mut().find(|(k, _)| &**k == n) {
+            slot.1 = v;
+        } else {
+            self.0.push((Rc::from(n), v));
+        }
+    }
+}
+
+pub(crate) enum Tx<'a, 'b> {
+    Read(&'a ReadTxn),
+    Write(&'a mut WriteTxn<'b>),
+}
+
+pub(crate) struct Ctx<'a, 'b> {
+    tx: Tx<'a, 'b>,
+    pub params: &'a BTreeMap<String, Val>,
+    deadline: Option<Instant>,
+    ticks: Cell<u64>,
+    rng: Cell<u64>,
+    deleted_nodes: HashSet<u64>,
+    deleted_rels: HashSet<u64>,
+    deleted_rel_types: BTreeMap<u64, String>,
+    pub stats: Stats,
+}
+
+fn sem(code: &'static str, msg: impl Into<String>) -> QueryError {
+    QueryError::new(ErrorKind::Semantic, code, msg, None)
+}
+
+impl<'a, 'b> Ctx<'a, 'b> {
+    pub fn new(
+        tx: Tx<'a, 'b>,
+        params: &'a BTreeMap<String, Val>,
+        deadline: Option<Instant>,
+        seed: u64,
+    ) -> Self {
+        Ctx {
+            tx,
+            params,
+            deadline,
+            ticks: Cell::new(0),
+            rng: Cell::new(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1),
+            deleted_nodes: HashSet::new(),
+            deleted_rels: HashSet::new(),
+            deleted_rel_types: BTreeMap::new(),
+            stats: Stats::default(),
+        }
+    }
+
+    pub fn g(&self) -> &dyn GraphRead {
+        match &self.tx {
+            Tx::Read(r) => *r,
+            Tx::Write(w) => &**w,
+        }
+    }
+
+    fn w(&mut self) -> R<&mut WriteTxn<'b>> {
+        match &mut self.tx {
+            Tx::Write(w) => Ok(w),
+            Tx::Read(_) => Err(QueryError::new(
+                ErrorKind::ReadOnly,
+                "ReadOnly",
+                "this query runs read-only and cannot write",
+                None,
+            )),
+        }
+    }
+
+    pub fn tick(&self) -> R<()> {
+        let t = self.ticks.get().wrapping_add(1);
+        self.ticks.set(t);
+        if t.is_multiple_of(1024)
+            && let Some(d) = self.deadline
+            && Instant::now() > d
+        {
+            return Err(QueryError::new(
+                ErrorKind::Timeout,
+                "Timeout",
+                "the query ran past its time limit",
+                None,
+            ));
+        }
+        Ok(())
+    }
+
+    pub fn rand(&self) -> f64 {
+        // xorshift64*
+        let mut x = self.rng.get();
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        self.rng.set(x);
+        (x.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn remember_type(&mut self, rel: u64) -> R<()> {
+        let g = self.g();
+        if let Some(r) = g.rel(rel)?
+            && let Some(t) = g.name_of(r.ty.0)
+        {
+            self.deleted_rel_types.insert(rel, t);
+        }
+        Ok(())
+    }
+
+    /// The type of a relationship, also after this query deleted it.
+    pub fn rel_type_name(&self, rel: u64) -> R<Option<String>> {
+        if let Some(t) = self.deleted_rel_types.get(&rel) {
+            return Ok(Some(t.clone()));
+        }
+        let g = self.g();
+        Ok(g.rel(rel)?.and_then(|r| g.name_of(r.ty.0)))
+    }
+
+    pub fn deleted_node(&self, id: u64) -> bool {
+        self.deleted_nodes.contains(&id)
+    }
+    pub fn deleted_rel(&self, id: u64) -> bool {
+        self.deleted_rels.contains(&id)
+    }
+
+    // ---------------------------------------------------------------- queries
+
+    /// Runs one single query; returns the column names and rows of its RETURN (if any).
+    pub fn run_single(&mut self, q: &SingleQuery) -> R<(Vec<String>, Vec<Vec<Val>>)> {
+        let mut rows = vec![Row::default()];
+        let mut scope: Vec<String> = Vec::new();
+        for clause in &q.clauses {
+            match clause {
+                Clause::Match {
+                    optional,
+                    patterns,
+                    where_,
+                    ..
+                } => {
+                    let mut new_vars = Vec::new();
+                    for p in patterns {
+                        for (v, _, _) in p.vars() {
+                            if !scope.iter().any(|s| s == v) && !new_vars.contains(&v.to_string()) {
+                                new_vars.push(v.to_string());
+                            }
+                        }
+                    }
+                    let mut out = Vec::new();
+                    for row in &rows {
+                        let m = self.match_paths(row, patterns, where_.as_ref(), None)?;
+                        if m.is_empty() && *optional {
+                            let mut r = row.clone();
+                            for v in &new_vars {
+                                r.set(v, Val::Null);
+                            }
+                            out.push(r);
+                        } else {
+                            out.extend(m);
+                        }
+                    }
+                    scope.extend(new_vars);
+                    rows = out;
+                }
+                Clause::Unwind { expr, var } => {
+                    let mut out = Vec::new();
+                    for row in &rows {
+                        match self.eval(expr, row)? {
+                            Val::Null => {}
+                            Val::List(items) => {
+                                for it in items {
+                                    self.tick()?;
+                                    let mut r = row.clone();
+                                    r.set(var, it);
+                                    out.push(r);
+                                }
+                            }
+                            other => {
+                                let mut r = row.clone();
+                                r.set(var, other);
+                                out.push(r);
+                            }
+                        }
+                    }
+                    scope.push(var.clone());
+                    rows = out;
+                }
+                Clause::With(p) => {
+                    let (cols, out) = self.project_rows(p, &rows, &scope)?;
+                    let mut next = Vec::with_capacity(out.len());
+                    for (vals, src) in out {
+                        let mut r = Row::default();
+                        for (c, v) in cols.iter().zip(vals) {
+                            r.set(c, v);
+                        }
+                        if let Some(w) = &p.where_ {
+                            // WHERE also sees the variables from before a non-aggregating WITH
+                            let pass = match src {
+                                Some(i) => {
+                                    let mut merged = rows[i].clone();
+                                    for (k, v) in &r.0 {
+                                        merged.set(k, v.clone());
+                                    }
+                                    self.eval(w, &merged)?
+                                }
+                                None => self.eval(w, &r)?,
+                            };
+                            if !matches!(pass, Val::Bool(true)) {
+                                continue;
+                            }
+                        }
+                        next.push(r);
+                    }
+                    scope = cols;
+                    rows = next;
+                }
+                Clause::Return(p) => {
+                    return self.project(p, &rows, &scope);
+                }
+                Clause::Create(patterns) => {
+                    for row in rows.iter_mut() {
+                        for p in patterns {
+                            self.create_path(row, p)?;
+                        }
+                    }
+                    for p in patterns {
+                        for (v, _, _) in p.vars() {
+                            if !scope.iter().any(|s| s == v) {
+                                scope.push(v.to_string());
+                            }
+                        }
+                    }
+                }
+                Clause::Merge {
+                    pattern,
+                    on_create,
+                    on_match,
+                } => {
+                    let mut out = Vec::new();
+                    for row in &rows {
+                        self.check_merge_props(row, pattern)?;
+                        let found =
+                            self.match_paths(row, std::slice::from_ref(pattern), None, None)?;
+                        if found.is_empty() {
+                            let mut r = row.clone();
+                            self.create_path(&mut r, pattern)?;
+                            for it in on_create {
+                                self.set_item(&mut r, it)?;
+                            }
+                            out.push(r);
+                        } else {
+                            for mut r in found {
+                                for it in on_match {
+                                    self.set_item(&mut r, it)?;
+                                }
+                                out.push(r);
+                            }
+                        }
+                    }
+                    for (v, _, _) in pattern.vars() {
+                        if !scope.iter().any(|s| s == v) {
+                            scope.push(v.to_string());
+                        }
+                    }
+                    rows = out;
+                }
+                Clause::Set(items) => {
+                    for row in rows.iter_mut() {
+                        for it in items {
+                            self.set_item(row, it)?;
+                        }
+                    }
+                }
+                Clause::Remove(items) => {
+                    for row in &rows {
+                        for it in items {
+                            self.remove_item(row, it)?;
+                        }
+                    }
+                }
+                Clause::Delete { detach, exprs } => {
+                    let mut nodes = Vec::new();
+                    let mut rels = Vec::new();
+                    for row in &rows {
+                        for e in exprs {
+                            let v = self.eval(e, row)?;
+                            collect_deletes(&v, &mut nodes, &mut rels)?;
+                        }
+                    }
+                    self.delete(nodes, rels, *detach)?;
+                }
+                Clause::Call {
+                    name,
+                    args,
+                    yields,
+                    where_,
+                    pos,
+                } => {
+                    let mut out = Vec::new();
+                    for row in &rows {
+                        let argv = args
+                            .iter()
+                            .map(|a| self.eval(a, row))
+                            .collect::<R<Vec<_>>>()?;
+                        let (cols, results) = self.procedure(name, argv).map_err(|e| e.at(*pos))?;
+                        let chosen: Vec<(usize, String)> = match yields {
+                            None => cols.iter().enumerate().map(|(i, c)| (i, c.to_string())).collect(),
+                            Some(ys) if ys.len() == 1 && ys[0].0 == "*" => cols.iter().enumerate().map(|(i, c)| (i, c.to_string())).collect(),
+                            Some(ys) => ys
+                                .iter()
+                                .map(|(n, alias)| {
+                                    cols.iter()
+                                        .position(|c| c == n)
+                                        .map(|i| (i, alias.clone()))
+                                        .ok_or_else(|| QueryError::new(ErrorKind::Syntax, "UndefinedVariable", format!("procedure {name} has no output `{n}` (it has {})", cols.join(", ")), Some(*pos)))
+                                })
+                                .collect::<R<_>>()?,
+                        };
+                        for res in results {
+                            let mut r = row.clone();
+                            for (i, alias) in &chosen {
+                                r.set(alias, res[*i].clone());
+                            }
+                            if let Some(w) = where_
+                                && !matches!(self.eval(w, &r)?, Val::Bool(true))
+                            {
+                                continue;
+                            }
+                            out.push(r);
+                        }
+                        if q.clauses.len() == 1 {
+                            let names: Vec<String> =
+                                chosen.iter().map(|(_, a)| a.clone()).collect();
+                            let data = out
+                                .iter()
+                                .map(|r| {
+                                    names
+                                        .iter()
+                                        .map(|n| r.get(n).cloned().unwrap_or_default())
+                                        .collect()
+                                })
+                                .collect();
+                            return Ok((names, data));
+                        }
+                    }
+                    if let Some(ys) = yields {
+                        for (_, a) in ys {
+                            scope.push(a.clone());
+                        }
+                    }
+                    rows = out;
+                }
+            }
+        }
+        Ok((Vec::new(), Vec::new()))
+    }
+
+    // ------------------------------------------------------------- projection
+
+    fn project(
+        &mut self,
+        p: &Projection,
+        rows: &[Row],
+        scope: &[String],
+    ) -> R<(Vec<String>, Vec<Vec<Val>>)> {
+        let (cols, rows) = self.project_rows(p, rows, scope)?;
+        Ok((cols, rows.into_iter().map(|(v, _)| v).collect()))
+    }
+
+    /// Projects rows; each output row comes with the index of its input row when it has exactly
+    /// one (no aggregation).
+    #[allow(clippy::type_complexity)]
+    fn project_rows(
+        &mut self,
+        p: &Projection,
+        rows: &[Row],
+        scope: &[String],
+    ) -> R<(Vec<String>, Vec<(Vec<Val>, Option<usize>)>)> {
+        let mut items: Vec<Item> = Vec::new();
+        if p.star {
+            let mut vars: Vec<String> = scope
+                .iter()
+                .filter(|v| !v.starts_with("  "))
+                .cloned()
+                .collect();
+            vars.sort();
+            vars.dedup();
+            for v in vars {
+                items.push(Item {
+                    expr: Expr::Var(v.clone(), p.pos),
+                    text: v.clone(),
+                    name: v,
+                    aliased: true,
+                    pos: p.pos,
+                });
+            }
+        }
+        items.extend(p.items.iter().cloned());
+        let cols: Vec<String> = items.iter().map(|i| i.name.clone()).collect();
+        let aggregating = items.iter().any(|i| i.expr.has_aggregate());
+
+        // rows of (output values, order keys)
+        let mut out: Vec<(Vec<Val>, Vec<Val>, Option<usize>)> = Vec::new();
+        if aggregating {
+            let mut specs: Vec<(String, bool, Vec<Expr>)> = Vec::new();
+            let rewritten: Vec<Option<Expr>> = items
+                .iter()
+                .map(|i| {
+                    i.expr
+                        .has_aggregate()
+                        .then(|| rewrite_aggs(&i.expr, &mut specs))
+                })
+                .collect();
+            // order keys that are aggregates not among the items get their own slots
+            let order_exprs: Vec<Expr> = p
+                .order
+                .iter()
+                .map(|(e, _, text)| {
+                    match items.iter().find(|i| &i.text == text || &i.name == text) {
+                        Some(i) => Expr::Var(i.name.clone(), p.pos),
+                        None => {
+                            let e = super::check::subst_keys(e, &items);
+                            if e.has_aggregate() {
+                                rewrite_aggs(&e, &mut specs)
+                            } else {
+                                e
+                            }
+                        }
+                    }
+                })
+                .collect();
+            let key_idx: Vec<usize> = (0..items.len())
+                .filter(|i| rewritten[*i].is_none())
+                .collect();
+            let mut groups: BTreeMap<Key, usize> = BTreeMap::new();
+            let mut group_rows: Vec<(Row, Vec<Val>, Vec<Vec<Val>>)> = Vec::new();
+            for row in rows {
+                let key: Vec<Val> = key_idx
+                    .iter()
+                    .map(|i| self.eval(&items[*i].expr, row))
+                    .collect::<R<_>>()?;
+                let gi = *groups.entry(Key(key.clone())).or_insert_with(|| {
+                    group_rows.push((row.clone(), key, vec![Vec::new(); specs.len()]));
+                    group_rows.len() - 1
+                });
+                for (si, (name, _, args)) in specs.iter().enumerate() {
+                    let v = if name == "count*" {
+                        Val::Int(1)
+                    } else {
+                        let vals = args
+                            .iter()
+                            .map(|a| self.eval(a, row))
+                            .collect::<R<Vec<_>>>()?;
+                        if vals.len() == 1 {
+                            vals.into_iter().next().unwrap_or_default()
+                        } else {
+                            Val::List(vals)
+                        }
+                    };
+                    group_rows[gi].2[si].push(v);
+                }
+            }
+            if group_rows.is_empty() && key_idx.is_empty() {
+                group_rows.push((Row::default(), Vec::new(), vec![Vec::new(); specs.len()]));
+            }
+            for (row, key, inputs) in group_rows {
+                let aggs = specs
+                    .iter()
+                    .zip(inputs)
+                    .map(|((name, distinct, _), vals)| aggregate(name, *distinct, vals))
+                    .collect::<R<Vec<_>>>()?;
+                let mut vals = Vec::with_capacity(items.len());
+                let mut ki = key.into_iter();
+                for r in &rewritten {
+                    match r {
+                        None => vals.push(ki.next().unwrap_or_default()),
+                        Some(e) => vals.push(self.eval_in(e, &row, &aggs)?),
+                    }
+                }
+                let mut orow = Row::default();
+                for (c, v) in cols.iter().zip(&vals) {
+                    orow.set(c, v.clone());
+                }
+                let okeys = order_exprs
+                    .iter()
+                    .map(|e| self.eval_in(e, &orow, &aggs))
+                    .collect::<R<Vec<_>>>()?;
+                out.push((vals, okeys, None));
+            }
+        } else {
+            for (ri, row) in rows.iter().enumerate() {
+                self.tick()?;
+                let vals = items
+                    .iter()
+                    .map(|i| self.eval(&i.expr, row))
+                    .collect::<R<Vec<_>>>()?;
+                let okeys = if p.order.is_empty() {
+                    Vec::new()
+                } else {
+                    let mut merged = if p.distinct {
+                        Row::default()
+                    } else {
+                        row.clone()
+                    };
+                    for (c, v) in cols.iter().zip(&vals) {
+                        merged.set(c, v.clone());
+                    }
+                    p.order
+                        .iter()
+                        .map(|(e, _, text)| {
+                            match items.iter().find(|i| &i.text == text || &i.name == text) {
+                                Some(i) => Ok(merged.get(&i.name).cloned().unwrap_or_default()),
+                                None => self.eval(e, &merged),
+                            }
+                        })
+                        .collect::<R<Vec<_>>>()?
+                };
+                out.push((vals, okeys, Some(ri)));
+            }
+        }
+        if p.distinct {
+            let mut seen = std::collections::BTreeSet::new();
+            out.retain(|(v, _, _)| seen.insert(Key(v.clone())));
+        }
+        if !p.order.is_empty() {
+            let asc: Vec<bool> = p.order.iter().map(|(_, a, _)| *a).collect();
+            out.sort_by(|a, b| sort_key_cmp(&a.1, &b.1, &asc));
+        }
+        let skip = self.count_arg(p.skip.as_ref(), "SKIP")?.unwrap_or(0);
+        let limit = self.count_arg(p.limit.as_ref(), "LIMIT")?;
+        let rows: Vec<(Vec<Val>, Option<usize>)> = out
+            .into_iter()
+            .skip(skip)
+            .take(limit.unwrap_or(usize::MAX))
+            .map(|(v, _, src)| (v, src))
+            .collect();
+        Ok((cols, rows))
+    }
+
+    fn count_arg(&self, e: Option<&Expr>, what: &str) -> R<Option<usize>> {
+        let Some(e) = e else { return Ok(None) };
+        match self.eval(e, &Row::default()) {
+            Ok(Val::Int(i)) if i >= 0 => Ok(Some(i as usize)),
+            Ok(Val::Int(_)) => Err(QueryError::new(
+                ErrorKind::Syntax,
+                "NegativeIntegerArgument",
+                format!("{what} must not be negative"),
+                None,
+            )),
+            Ok(other) => Err(QueryError::new(
+                ErrorKind::Syntax,
+                "InvalidArgumentType",
+                format!("{what} takes an integer, got {}", other.type_name()),
+                None,
+            )),
+            Err(e) if e.code == "UndefinedVariable" => Err(QueryError::new(
+                ErrorKind::Syntax,
+                "NonConstantExpression",
+                format!("{what} must be a constant expression"),
+                e.pos,
+            )),
+            Err(e) => Err(e),
+        }
+    }
+
+    // --------------------------------------------------------------- matching
+
+    /// All ways to match `pats` extending `row` (relationships unique across the patterns),
+    /// filtered by `where_`; at most `limit` rows.
+    pub(crate) fn match_paths(
+        &self,
+        row: &Row,
+        pats: &[PathPattern],
+        where_: Option<&Expr>,
+        limit: Option<usize>,
+    ) -> R<Vec<Row>> {
+        let mut out = Vec::new();
+        let mut used = Vec::new();
+        let conj = where_.map(conjuncts).unwrap_or_default();
+        self.match_from(
+            row.clone(),
+            pats,
+            0,
+            where_,
+            &conj,
+            &mut used,
+            &mut out,
+            limit,
+        )?;
+        Ok(out)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn match_from(
+        &self,
+        row: Row,
+        pats: &[PathPattern],
+        i: usize,
+        where_: Option<&Expr>,
+        conj: &[&Expr],
+        used: &mut Vec<u64>,
+        out: &mut Vec<Row>,
+        limit: Option<usize>,
+    ) -> R<bool> {
+        self.tick()?;
+        if i == pats.len() {
+            if let Some(w) = where_
+                && !matches!(self.eval(w, &row)?, Val::Bool(true))
+            {
+                return Ok(false);
+            }
+            out.push(row);
+            return Ok(limit.is_some_and(|l| out.len() >= l));
+        }
+        let p = &pats[i];
+        let g = self.g();
+        let anchor = choose_anchor(
+            p,
+            conj,
+            &|v| row.get(v).is_some(),
+            &|e| expr_bound(e, &row),
+            g,
+        );
+        let candidates = self.candidates(&anchor, &row)?;
+        let k = p.steps.len();
+        let mut moves: Vec<(usize, bool)> = (anchor.index..k).map(|j| (j, true)).collect();
+        moves.extend((0..anchor.index).rev().map(|j| (j, false)));
+        for cand in candidates {
+            self.tick()?;
+            let np = node_pat(p, anchor.index);
+            let mut r = row.clone();
+            if !self.node_ok(cand, np, &mut r)? {
+                continue;
+            }
+            let mut st = PathState {
+                nodes: vec![u64::MAX; k + 1],
+                segs: vec![Vec::new(); k],
+            };
+            st.nodes[anchor.index] = cand;
+            let stop = self.expand(p, &moves, 0, r, &mut st, used, &mut |ctx, row, st, used| {
+                let mut row = row;
+                if let Some(pv) = &p.var {
+                    row.set(pv, st.path(p));
+                }
+                ctx.match_from(row, pats, i + 1, where_, conj, used, out, limit)
+            })?;
+            if stop {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    fn candidates(&self, a: &Anchor<'_>, row: &Row) -> R<Vec<u64>> {
+        let g = self.g();
+        Ok(match &a.source {
+            Source::Bound(v) => match row.get(v) {
+                Some(Val::Node(id)) if !self.deleted_node(*id) => vec![*id],
+                Some(Val::Null) | None => Vec::new(),
+                Some(Val::Node(_)) => Vec::new(),
+                Some(other) => {
+                    return Err(type_err(format!(
+                        "`{v}` is a {}, not a node",
+                        other.type_name()
+                    )));
+                }
+            },
+            Source::IndexEq { label, key, value } => {
+                let v = self.eval(value, row)?;
+                match v.to_value() {
+                    Some(Value::Null) | None => Vec::new(),
+                    Some(val) => g.find_nodes(label, key, &val)?,
+                }
+            }
+            Source::IndexRange {
+                label,
+                key,
+                lower,
+                upper,
+            } => {
+                let b = |x: &Option<(&Expr, bool)>| -> R<Option<crate::ValueBound>> {
+                    Ok(match x {
+                        None => Some(crate::ValueBound::Unbounded),
+                        Some((e, incl)) => match self.eval(e, row)?.to_value() {
+                            Some(Value::Int(i)) => Some(bound(Value::Int(i), *incl)),
+                            Some(Value::Float(f)) if f.is_finite() => {
+                                Some(bound(Value::Float(f), *incl))
+                            }
+                            Some(Value::String(s)) => Some(bound(Value::String(s), *incl)),
+                            _ => None,
+                        },
+                    })
+                };
+                match (b(lower)?, b(upper)?) {
+                    (Some(lo), Some(hi)) => g.find_range(label, key, lo, hi)?,
+                    _ => Vec::new(),
+                }
+            }
+            Source::Label(l) => g.nodes_with_label(l)?,
+            Source::All => g.all_node_ids()?,
+        })
+    }
+
+    /// Whether node `id` fits the node pattern; binds its variable into `row`.
+    fn node_ok(&self, id: u64, np: &NodePat, row: &mut Row) -> R<bool> {
+        if self.deleted_node(id) {
+            return Ok(false);
+        }
+        if let Some(v) = &np.var {
+            match row.get(v) {
+                Some(Val::Node(b)) if *b != id => return Ok(false),
+                Some(Val::Node(_)) => {}
+                Some(Val::Null) => return Ok(false),
+                Some(_) => return Ok(false),
+                None => {}
+            }
+        }
+        if !np.labels.is_empty() || np.props.is_some() {
+            let g = self.g();
+            let Some(node) = g.node(id)? else {
+                return Ok(false);
+            };
+            for l in &np.labels {
+                match g.label(l) {
+                    Some(lid) if node.has_label(lid) => {}
+                    _ => return Ok(false),
+                }
+            }
+            if let Some(pe) = &np.props {
+                let want = self.eval(pe, row)?;
+                if !self.props_match(&want, |k| {
+                    g.prop_key(k).and_then(|pk| node.get(pk).cloned())
+                })? {
+                    return Ok(false);
+                }
+            }
+        }
+        if let Some(v) = &np.var {
+            row.set(v, Val::Node(id));
+        }
+        Ok(true)
+    }
+
+    fn props_match(&self, want: &Val, get: impl Fn(&str) -> Option<Value>) -> R<bool> {
+        match want {
+            Val::Null => Ok(true),
+            Val::Map(m) => {
+                for (k, v) in m {
+                    let have = get(k).map(Val::from).unwrap_or(Val::Null);
+                    if equals(&have, v) != Some(true) {
+                        return Ok(false);
+                    }
+                }
+                Ok(true)
+            }
+            o => Err(type_err(format!(
+                "a pattern's properties must be a map, got {}",
+                o.type_name()
+            ))),
+        }
+    }
+
+    fn rel_ok(&self, rid: u64, rp: &RelPat, row: &Row) -> R<bool> {
+        if self.deleted_rel(rid) {
+            return Ok(false);
+        }
+        if let Some(pe) = &rp.props {
+            let g = self.g();
+            let Some(rel) = g.rel(rid)? else {
+                return Ok(false);
+            };
+            let want = self.eval(pe, row)?;
+            if !self.props_match(&want, |k| g.prop_key(k).and_then(|pk| rel.get(pk).cloned()))? {
+                return Ok(false);
+            }
+        }
+        Ok(true)
+    }
+
+    fn type_filter(&self, rp: &RelPat) -> Option<Vec<crate::RelType>> {
+        let g = self.g();
+        if rp.types.is_empty() {
+            return None;
+        }
+        Some(rp.types.iter().filter_map(|t| g.rel_type(t)).collect())
+    }
+
+    /// Relationships from `from` matching `rp` taken in direction `forward`: (rel, other end).
+    fn hops(
+        &self,
+        from: u64,
+        rp: &RelPat,
+        forward: bool,
+        types: &Option<Vec<crate::RelType>>,
+    ) -> R<Vec<(u64, u64)>> {
+        let dir = match (rp.dir, forward) {
+            (Dir::Out, true) | (Dir::In, false) => Dir::Out,
+            (Dir::In, true) | (Dir::Out, false) => Dir::In,
+            (Dir::Both, _) => Dir::Both,
+        };
+        let g = self.g();
+        let mut out = Vec::new();
+        match types {
+            Some(ts) if ts.is_empty() => {}
+            Some(ts) if ts.len() == 1 => {
+                for a in g.neighbours(from, dir_of(dir), Some(ts[0]))? {
+                    out.push((a.rel, a.other));
+                }
+            }
+            Some(ts) => {
+                for a in g.neighbours(from, dir_of(dir), None)? {
+                    if ts.contains(&a.ty) {
+                        out.push((a.rel, a.other));
+                    }
+                }
+            }
+            None => {
+                for a in g.neighbours(from, dir_of(dir), None)? {
+                    out.push((a.rel, a.other));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn expand(
+        &self,
+        p: &PathPattern,
+        moves: &[(usize, bool)],
+        mi: usize,
+        row: Row,
+        st: &mut PathState,
+        used: &mut Vec<u64>,
+        k: &mut OnMatch<'_, 'a, 'b>,
+    ) -> R<bool> {
+        if mi == moves.len() {
+            return k(self, row, st, used);
+        }
+        let (j, forward) = moves[mi];
+        let (rp, _) = &p.steps[j];
+        let (from, to_idx) = if forward {
+            (st.nodes[j], j + 1)
+        } else {
+            (st.nodes[j + 1], j)
+        };
+        let target = node_pat(p, to_idx);
+        let types = self.type_filter(rp);
+        match rp.range {
+            None => {
+                for (rid, other) in self.hops(from, rp, forward, &types)? {
+                    self.tick()?;
+                    if used.contains(&rid) || !self.rel_ok(rid, rp, &row)? {
+                        continue;
+                    }
+                    let mut r = row.clone();
+                    if let Some(v) = &rp.var {
+                        match r.get(v) {
+                            Some(Val::Rel(b)) if *b != rid => continue,
+                            Some(Val::Rel(_)) | None => r.set(v, Val::Rel(rid)),
+                            Some(_) => continue,
+                        }
+                    }
+                    if !self.node_ok(other, target, &mut r)? {
+                        continue;
+                    }
+                    st.nodes[to_idx] = other;
+                    st.segs[j] = vec![(rid, other)];
+                    if !forward {
+                        st.segs[j] = vec![(rid, from)];
+                    }
+                    used.push(rid);
+                    let stop = self.expand(p, moves, mi + 1, r, st, used, k)?;
+                    used.pop();
+                    if stop {
+                        return Ok(true);
+                    }
+                }
+                Ok(false)
+            }
+            Some((lo, hi)) => {
+                let lo = lo.unwrap_or(1) as usize;
+                let hi = hi.map_or(usize::MAX, |h| h as usize);
+                let mut trail: Vec<(u64, u64)> = Vec::new();
+                self.var_len(
+                    p, moves, mi, &row, st, used, k, from, lo, hi, &types, &mut trail,
+                )
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn var_len(
+        &self,
+        p: &PathPattern,
+        moves: &[(usize, bool)],
+        mi: usize,
+        row: &Row,
+        st: &mut PathState,
+        used: &mut Vec<u64>,
+        k: &mut OnMatch<'_, 'a, 'b>,
+        at: u64,
+        lo: usize,
+        hi: usize,
+        types: &Option<Vec<crate::RelType>>,
+        trail: &mut Vec<(u64, u64)>,
+    ) -> R<bool> {
+        self.tick()?;
+        let (j, forward) = moves[mi];
+        let (rp, _) = &p.steps[j];
+        let to_idx = if forward { j + 1 } else { j };
+        if trail.len() >= lo {
+            let target = node_pat(p, to_idx);
+            let mut r = row.clone();
+            let rels_fwd: Vec<u64> = if forward {
+                trail.iter().map(|(r, _)| *r).collect()
+            } else {
+                trail.iter().rev().map(|(r, _)| *r).collect()
+            };
+            let ok_var = match &rp.var {
+                None => true,
+                Some(v) => match r.get(v) {
+                    None => {
+                        r.set(
+                            v,
+                            Val::List(rels_fwd.iter().map(|x| Val::Rel(*x)).collect()),
+                        );
+                        true
+                    }
+                    Some(Val::List(l)) => {
+                        l.len() == rels_fwd.len()
+                            && l.iter()
+                                .zip(&rels_fwd)
+                                .all(|(a, b)| matches!(a, Val::Rel(x) if x == b))
+                    }
+                    Some(_) => false,
+                },
+            };
+            if ok_var && self.node_ok(at, target, &mut r)? {
+                st.nodes[to_idx] = at;
+                st.segs[j] = if forward {
+                    trail.clone()
+                } else {
+                    // walking back from node j+1 to node j; store hops in forward order
+                    let start = st.nodes[j + 1];
+                    let mut nodes_back: Vec<u64> = trail.iter().map(|(_, n)| *n).collect();
+                    nodes_back.pop();
+                    nodes_back.reverse();
+                    nodes_back.push(start);
+                    trail
+                        .iter()
+                        .rev()
+                        .map(|(r, _)| *r)
+                        .zip(nodes_back)
+                        .collect()
+                };
+                let n_used = trail.len();
+                used.extend(trail.iter().map(|(r, _)| *r));
+                let stop = self.expand(p, moves, mi + 1, r, st, used, k)?;
+                used.truncate(used.len() - n_used);
+                if stop {
+                    return Ok(true);
+                }
+            }
+        }
+        if trail.len() >= hi {
+            return Ok(false);
+        }
+        for (rid, other) in self.hops(at, rp, forward, types)? {
+            if used.contains(&rid)
+                || trail.iter().any(|(r, _)| *r == rid)
+                || !self.rel_ok(rid, rp, row)?
+            {
+                continue;
+            }
+            trail.push((rid, other));
+            let stop = self.var_len(p, moves, mi, row, st, used, k, other, lo, hi, types, trail)?;
+            trail.pop();
+            if stop {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    // ------------------------------------------------------------------ writes
+
+    fn prop_value(v: Val, key: &str) -> R<Value> {
+        let bad = |t: &str| {
+            QueryError::new(
+                ErrorKind::Type,
+                "InvalidPropertyType",
+                format!("property `{key}` cannot hold a {t}"),
+                None,
+            )
+        };
+        match &v {
+            Val::Map(_) => return Err(bad("map")),
+            Val::Node(_) | Val::Rel(_) | Val::Path { .. } => return Err(bad(v.type_name())),
+            Val::List(l)
+                if l.iter().any(|x| {
+                    matches!(
+                        x,
+                        Val::Map(_) | Val::Node(_) | Val::Rel(_) | Val::Path { .. } | Val::List(_)
+                    )
+                }) =>
+            {
+                return Err(bad("list of maps, lists or graph elements"));
+            }
+            Val::Float(f) if !f.is_finite() => {
+                return Err(QueryError::new(
+                    ErrorKind::Argument,
+                    "InvalidArgumentValue",
+                    format!("property `{key}` cannot be {}", super::eval::fmt_float(*f)),
+                    None,
+                ));
+            }
+            _ => {}
+        }
+        v.to_value().ok_or_else(|| bad("value"))
+    }
+
+    fn eval_props(&self, e: &Option<Expr>, row: &Row) -> R<Vec<(String, Value)>> {
+        let Some(e) = e else { return Ok(Vec::new()) };
+        match self.eval(e, row)? {
+            Val::Null => Ok(Vec::new()),
+            Val::Map(m) => {
+                let mut out = Vec::new();
+                for (k, v) in m {
+                    if v.is_null() {
+                        continue;
+                    }
+                    out.push((k.clone(), Self::prop_value(v, &k)?));
+                }
+                Ok(out)
+            }
+            o => Err(type_err(format!(
+                "properties must be a map, got {}",
+                o.type_name()
+            ))),
+        }
+    }
+
+    fn check_merge_props(&self, row: &Row, p: &PathPattern) -> R<()> {
+        let check = |e: &Option<Expr>| -> R<()> {
+            if let Some(e) = e
+                && let Val::Map(m) = self.eval(e, row)?
+                && let Some((k, _)) = m.iter().find(|(_, v)| v.is_null())
+            {
+                return Err(sem(
+                    "MergeReadOwnWrites",
+                    format!("cannot MERGE with a null value for property `{k}`"),
+                ));
+            }
+            Ok(())
+        };
+        check(&p.start.props)?;
+        for (r, n) in &p.steps {
+            check(&r.props)?;
+            check(&n.props)?;
+        }
+        Ok(())
+    }
+
+    fn create_node(&mut self, row: &mut Row, np: &NodePat) -> R<u64> {
+        if let Some(v) = &np.var
+            && let Some(b) = row.get(v)
+        {
+            return match b {
+                Val::Node(id) => Ok(*id),
+                Val::Null => Err(sem(
+                    "CreateNullNode",
+                    format!("cannot create a relationship to `{v}`, which is null"),
+                )),
+                o => Err(type_err(format!(
+                    "`{v}` is a {}, not a node",
+                    o.type_name()
+                ))),
+            };
+        }
+        let props = self.eval_props(&np.props, row)?;
+        let w = self.w()?;
+        let mut labels = Vec::new();
+        for l in &np.labels {
+            labels.push(w.label_id(l)?);
+        }
+        labels.sort();
+        labels.dedup();
+        let mut ps = Vec::new();
+        for (k, v) in props {
+            ps.push((w.prop_key_id(&k)?, v));
+        }
+        let n_props = ps.len();
+        let id = w.create_node(&labels, ps)?;
+        self.stats.nodes_created += 1;
+        self.stats.labels_added += labels.len() as u64;
+        self.stats.properties_set += n_props as u64;
+        if let Some(v) = &np.var {
+            row.set(v, Val::Node(id));
+        }
+        Ok(id)
+    }
+
+    fn create_path(&mut self, row: &mut Row, p: &PathPattern) -> R<()> {
+        let mut prev = self.create_node(row, &p.start)?;
+        let mut nodes = vec![prev];
+        let mut rels = Vec::new();
+        for (rp, np) in &p.steps {
+            let next = self.create_node(row, np)?;
+            if rp.types.len() != 1 {
+                return Err(QueryError::new(
+                    ErrorKind::Syntax,
+                    "NoSingleRelationshipType",
+                    "a created relationship needs exactly one type",
+                    Some(rp.pos),
+                ));
+            }
+            let (s, e) = match rp.dir {
+                // MERGE may leave the direction open; it then creates the relationship left to right
+                Dir::Out | Dir::Both => (prev, next),
+                Dir::In => (next, prev),
+            };
+            let props = self.eval_props(&rp.props, row)?;
+            let w = self.w()?;
+            let ty = w.rel_type_id(&rp.types[0])?;
+            let mut ps = Vec::new();
+            for (k, v) in props {
+                ps.push((w.prop_key_id(&k)?, v));
+            }
+            let n_props = ps.len();
+            let rid = w.create_rel(s, ty, e, ps)?;
+            self.stats.relationships_created += 1;
+            self.stats.properties_set += n_props as u64;
+            if let Some(v) = &rp.var {
+                row.set(v, Val::Rel(rid));
+            }
+            nodes.push(next);
+            rels.push(rid);
+            prev = next;
+        }
+        if let Some(v) = &p.var {
+            row.set(v, Val::Path { nodes, rels });
+        }
+        Ok(())
+    }
+
+    fn set_prop(&mut self, target: &Val, key: &str, v: Val) -> R<()> {
+        let value = if v.is_null() {
+            Value::Null
+        } else {
+            Self::prop_value(v, key)?
+        };
+        let null = value.is_null();
+        match target {
+            Val::Null => return Ok(()),
+            Val::Node(id) => {
+                let id = *id;
+                let w = self.w()?;
+                let k = w.prop_key_id(key)?;
+                w.set_node_prop(id, k, value)?;
+            }
+            Val::Rel(id) => {
+                let id = *id;
+                let w = self.w()?;
+                let k = w.prop_key_id(key)?;
+                w.set_rel_prop(id, k, value)?;
+            }
+            o => {
+                return Err(type_err(format!(
+                    "cannot set property `{key}` on a {}",
+                    o.type_name()
+                )));
+            }
+        }
+        if !null {
+            self.stats.properties_set += 1;
+        }
+        Ok(())
+    }
+
+    fn set_item(&mut self, row: &mut Row, it: &SetItem) -> R<()> {
+        match it {
+            SetItem::Prop { target, key, value } => {
+                let t = self.eval(target, row)?;
+                let v = self.eval(value, row)?;
+                self.set_prop(&t, key, v)
+            }
+            SetItem::Replace { var, value, pos } | SetItem::Merge { var, value, pos } => {
+                let replace = matches!(it, SetItem::Replace { .. });
+                let t = row.get(var).cloned().ok_or_else(|| {
+                    QueryError::new(
+                        ErrorKind::Semantic,
+                        "UndefinedVariable",
+                        format!("variable `{var}` is not defined"),
+                        Some(*pos),
+                    )
+                })?;
+                if t.is_null() {
+                    return Ok(());
+                }
+                let v = self.eval(value, row)?;
+                let map = match &v {
+                    Val::Map(m) => m.clone(),
+                    Val::Node(_) | Val::Rel(_) => match self.properties(&v)? {
+                        Val::Map(m) => m,
+                        _ => BTreeMap::new(),
+                    },
+                    Val::Null if replace => BTreeMap::new(),
+                    o => {
+                        return Err(type_err(format!(
+                            "SET {var} {} needs a map, got {}",
+                            if replace { "=" } else { "+=" },
+                            o.type_name()
+                        )));
+                    }
+                };
+                if replace && let Val::Map(old) = self.properties(&t)? {
+                    for k in old.keys() {
+                        if !map.contains_key(k) {
+                            self.set_prop(&t, k, Val::Null)?;
+                        }
+                    }
+                }
+                for (k, x) in map {
+                    self.set_prop(&t, &k, x)?;
+                }
+                Ok(())
+            }
+            SetItem::Labels { var, labels, pos } => {
+                let t = row.get(var).cloned().ok_or_else(|| {
+                    QueryError::new(
+                        ErrorKind::Semantic,
+                        "UndefinedVariable",
+                        format!("variable `{var}` is not defined"),
+                        Some(*pos),
+                    )
+                })?;
+                match t {
+                    Val::Null => Ok(()),
+                    Val::Node(id) => {
+                        let have = self.labels_of(id)?;
+                        let w = self.w()?;
+                        let mut added = 0;
+                        for l in labels {
+                            if !have.contains(l) {
+                                let lid = w.label_id(l)?;
+                                w.add_label(id, lid)?;
+                                added += 1;
+                            }
+                        }
+                        self.stats.labels_added += added;
+                        Ok(())
+                    }
+                    o => Err(type_err(format!(
+                        "cannot set labels on a {}",
+                        o.type_name()
+                    ))),
+                }
+            }
+        }
+    }
+
+    fn remove_item(&mut self, row: &Row, it: &RemoveItem) -> R<()> {
+        match it {
+            RemoveItem::Prop { target, key } => {
+                let t = self.eval(target, row)?;
+                if t.is_null() {
+                    return Ok(());
+                }
+                let had = !self.property(&t, key)?.is_null();
+                self.set_prop(&t, key, Val::Null)?;
+                if had {
+                    self.stats.properties_removed += 1;
+                }
+                Ok(())
+            }
+            RemoveItem::Labels { var, labels, pos } => {
+                let t = row.get(var).cloned().ok_or_else(|| {
+                    QueryError::new(
+                        ErrorKind::Semantic,
+                        "UndefinedVariable",
+                        format!("variable `{var}` is not defined"),
+                        Some(*pos),
+                    )
+                })?;
+                match t {
+                    Val::Null => Ok(()),
+                    Val::Node(id) => {
+                        let have = self.labels_of(id)?;
+                        let w = self.w()?;
+                        let mut removed = 0;
+                        for l in labels {
+                            if have.contains(l)
+                                && let Some(lid) = GraphRead::label(&*w, l)
+                            {
+                                w.remove_label(id, lid)?;
+                                removed += 1;
+                            }
+                        }
+                        self.stats.labels_removed += removed;
+                        Ok(())
+                    }
+                    o => Err(type_err(format!(
+                        "cannot remove labels from a {}",
+                        o.type_name()
+                    ))),
+                }
+            }
+        }
+    }
+
+    fn delete(&mut self, mut nodes: Vec<u64>, mut rels: Vec<u64>, detach: bool) -> R<()> {
+        rels.sort_unstable();
+        rels.dedup();
+        nodes.sort_unstable();
+        nodes.dedup();
+        for r in rels {
+            if self.deleted_rels.contains(&r) {
+                continue;
+            }
+            self.remember_type(r)?;
+            self.w()?.delete_rel(r)?;
+            self.deleted_rels.insert(r);
+            self.stats.relationships_deleted += 1;
+        }
+        for n in nodes {
+            if self.deleted_nodes.contains(&n) {
+                continue;
+            }
+            if detach {
+                let attached: Vec<u64> = self
+                    .g()
+                    .neighbours(n, crate::Direction::Both, None)?
+                    .into_iter()
+                    .map(|a| a.rel)
+                    .collect();
+                for r in &attached {
+                    self.remember_type(*r)?;
+                    if self.deleted_rels.insert(*r) {
+                        self.stats.relationships_deleted += 1;
+                    }
+                }
+                self.w()?.detach_delete_node(n)?;
+            } else {
+                match self.w()?.delete_node(n) {
+                    Ok(()) => {}
+                    Err(crate::Error::NodeHasRelationships { node, count }) => {
+                        return Err(QueryError::new(
+                            ErrorKind::Constraint,
+                            "DeleteConnectedNode",
+                            format!(
+                                "node {node} still has {count} relationship(s); use DETACH DELETE"
+                            ),
+                            None,
+                        ));
+                    }
+                    Err(e) => return Err(e.into()),
+                }
+            }
+            self.deleted_nodes.insert(n);
+            self.stats.nodes_deleted += 1;
+        }
+        Ok(())
+    }
+
+    // -------------------------------------------------------------- procedures
+
+    fn procedure(&self, name: &str, a: Vec<Val>) -> R<(Vec<&'static str>, Vec<Vec<Val>>)> {
+        let g = self.g();
+        let s = |v: &Val, what: &str| -> R<String> {
+            match v {
+                Val::Str(s) => Ok(s.clone()),
+                o => Err(type_err(format!(
+                    "{name}: {what} must be a string, got {}",
+                    o.type_name()
+                ))),
+            }
+        };
+        let int = |v: &Val, what: &str| -> R<usize> {
+            match v {
+                Val::Int(i) if *i >= 0 => Ok(*i as usize),
+                o => Err(type_err(format!(
+                    "{name}: {what} must be a non-negative integer, got {}",
+                    o.type_name()
+                ))),
+            }
+        };
+        let pt = |v: &Val, what: &str| -> R<[f64; 3]> {
+            match v {
+                Val::Point2D([x, y]) => Ok([*x, *y, 0.0]),
+                Val::Point3D(p) => Ok(*p),
+                Val::List(l) if l.len() == 3 || l.len() == 2 => {
+                    let c: Option<Vec<f64>> = l.iter().map(Val::as_f64).collect();
+                    let c = c.ok_or_else(|| type_err(format!("{name}: {what} must be a point")))?;
+                    Ok([c[0], c[1], c.get(2).copied().unwrap_or(0.0)])
+                }
+                o => Err(type_err(format!(
+                    "{name}: {what} must be a point, got {}",
+                    o.type_name()
+                ))),
+            }
+        };
+        let arity = |n: usize, sig: &str| -> R<()> {
+            if a.len() == n {
+                Ok(())
+            } else {
+                Err(QueryError::new(
+                    ErrorKind::Syntax,
+                    "InvalidNumberOfArguments",
+                    format!("{name} takes {n} argument(s): {sig}"),
+                    None,
+                ))
+            }
+        };
+        match name.to_ascii_lowercase().as_str() {
+            "db.index.vector.querynodes" => {
+                arity(3, "(indexName, k, vector)")?;
+                let idx = s(&a[0], "indexName")?;
+                let k = int(&a[1], "k")?;
+                let q = a[2]
+                    .as_f32s()
+                    .ok_or_else(|| type_err(format!("{name}: vector must be a list of numbers")))?;
+                let hits = g.vector_top_k(&idx, &q, k)?;
+                // Neo4j reports cosine similarity as (1 + cos) / 2
+                Ok((
+                    vec!["node", "score"],
+                    hits.into_iter()
+                        .map(|h| vec![Val::Node(h.node), Val::Float((1.0 + h.score) / 2.0)])
+                        .collect(),
+                ))
+            }
+            "db.index.fulltext.querynodes" => {
+                if a.len() != 2 && a.len() != 3 {
+                    arity(2, "(indexName, queryString[, k])")?;
+                }
+                let idx = s(&a[0], "indexName")?;
+                let q = s(&a[1], "queryString")?;
+                let k = if a.len() == 3 { int(&a[2], "k")? } else { 100 };
+                let hits = g.text_search(&idx, &q, k)?;
+                Ok((
+                    vec!["node", "score"],
+                    hits.into_iter()
+                        .map(|h| vec![Val::Node(h.node), Val::Float(h.score)])
+                        .collect(),
+                ))
+            }
+            "db.index.spatial.withindistance" => {
+                arity(3, "(indexName, point, radiusMetres)")?;
+                let idx = s(&a[0], "indexName")?;
+                let c = pt(&a[1], "point")?;
+                let r = a[2]
+                    .as_f64()
+                    .ok_or_else(|| type_err(format!("{name}: radius must be a number")))?;
+                let hits = g.spatial_within(&idx, c, r)?;
+                Ok((
+                    vec!["node", "distance"],
+                    hits.into_iter()
+                        .map(|h| vec![Val::Node(h.node), Val::Float(h.score)])
+                        .collect(),
+                ))
+            }
+            "db.index.spatial.nearest" => {
+                arity(3, "(indexName, point, k)")?;
+                let idx = s(&a[0], "indexName")?;
+                let c = pt(&a[1], "point")?;
+                let k = int(&a[2], "k")?;
+                let hits = g.spatial_nearest(&idx, c, k)?;
+                Ok((
+                    vec!["node", "distance"],
+                    hits.into_iter()
+                        .map(|h| vec![Val::Node(h.node), Val::Float(h.score)])
+                        .collect(),
+                ))
+            }
+            "db.index.spatial.inbox" => {
+                arity(3, "(indexName, minPoint, maxPoint)")?;
+                let idx = s(&a[0], "indexName")?;
+                let lo = pt(&a[1], "minPoint")?;
+                let hi = pt(&a[2], "maxPoint")?;
+                let ids = g.spatial_in_box(&idx, lo, hi)?;
+                Ok((
+                    vec!["node"],
+                    ids.into_iter().map(|n| vec![Val::Node(n)]).collect(),
+                ))
+            }
+            "db.labels" | "db.relationshiptypes" => {
+                arity(0, "()")?;
+                let c = g.counts()?;
+                let labels = name.eq_ignore_ascii_case("db.labels");
+                let m = if labels { c.nodes } else { c.relationships };
+                let col = if labels { "label" } else { "relationshipType" };
+                Ok((
+                    vec![col, "count"],
+                    m.into_iter()
+                        .filter(|(_, n)| *n > 0)
+                        .map(|(l, n)| vec![Val::Str(l), Val::Int(n as i64)])
+                        .collect(),
+                ))
+            }
+            _ => Err(QueryError::new(
+                ErrorKind::Procedure,
+                "ProcedureNotFound",
+                format!(
+                    "unknown procedure {name}; known: db.index.vector.queryNodes, db.index.fulltext.queryNodes, \
+                     db.index.spatial.withinDistance, db.index.spatial.nearest, db.index.spatial.inBox, db.labels, \
+                     db.relationshipTypes"
+                ),
+                None,
+            )),
+        }
+    }
+}
+
+fn bound(v: Value, inclusive: bool) -> crate::ValueBound {
+    if inclusive {
+        crate::ValueBound::Inclusive(v)
+    } else {
+        crate::ValueBound::Exclusive(v)
+    }
+}
+
+/// Whether every variable `e` reads is bound in `row` (so it can be evaluated before matching).
+fn expr_bound(e: &Expr, row: &Row) -> bool {
+    let mut ok = true;
+    e.walk(&mut |x| match x {
+        Expr::Var(v, _) if row.get(v).is_none() => ok = false,
+        Expr::Pattern(_)
+        | Expr::PatternComp { .. }
+        | Expr::ListComp { .. }
+        | Expr::Quantified { .. }
+        | Expr::Reduce { .. }
+        | Expr::CountStar
+        | Expr::AggRef(_) => ok = false,
+        Expr::Func { name, .. }
+            if super::ast::AGGREGATES.contains(&name.to_ascii_lowercase().as_str())
+                || name.eq_ignore_ascii_case("rand") =>
+        {
+            ok = false
+        }
+        _ => {}
+    });
+    ok
+}
+
+pub(crate) fn node_pat(p: &PathPattern, i: usize) -> &NodePat {
+    if i == 0 { &p.start } else { &p.steps[i - 1].1 }
+}
+
+/// What to do with each complete match of a path pattern; true stops the search.
+type OnMatch<'k, 'a, 'b> = dyn FnMut(&Ctx<'a, 'b>, Row, &PathState, &mut Vec<u64>) -> R<bool> + 'k;
+
+pub(crate) struct PathState {
+    nodes: Vec<u64>,
+    /// Per relationship pattern, the hops `(rel, node after)` in the pattern's left-to-right order.
+    segs: Vec<Vec<(u64, u64)>>,
+}
+
+impl PathState {
+    fn path(&self, _p: &PathPattern) -> Val {
+        let mut nodes = vec![self.nodes[0]];
+        let mut rels = Vec::new();
+        for seg in &self.segs {
+            for (r, n) in seg {
+                rels.push(*r);
+                nodes.push(*n);
+            }
+        }
+        Val::Path { nodes, rels }
+    }
+}
+
+fn collect_deletes(v: &Val, nodes: &mut Vec<u64>, rels: &mut Vec<u64>) -> R<()> {
+    match v {
+        Val::Null => Ok(()),
+        Val::Node(n) => {
+            nodes.push(*n);
+            Ok(())
+        }
+        Val::Rel(r) => {
+            rels.push(*r);
+            Ok(())
+        }
+        Val::Path {
+            nodes: ns,
+            rels: rs,
+        } => {
+            nodes.extend(ns);
+            rels.extend(rs);
+            Ok(())
+        }
+        Val::List(l) => l.iter().try_for_each(|x| collect_deletes(x, nodes, rels)),
+        o => Err(type_err(format!(
+            "DELETE takes nodes, relationships or paths, got {}",
+            o.type_name()
+        ))),
+    }
+}
+
+/// Replaces aggregate calls by slots, recording `(name, distinct, args)` for each.
+fn rewrite_aggs(e: &Expr, specs: &mut Vec<(String, bool, Vec<Expr>)>) -> Expr {
+    match e {
+        Expr::CountStar => {
+            specs.push(("count*".into(), false, Vec::new()));
+            Expr::AggRef(specs.len() - 1)
+        }
+        Expr::Func {
+            name,
+            distinct,
+            args,
+            ..
+        } if super::ast::AGGREGATES.contains(&name.to_ascii_lowercase().as_str()) => {
+            specs.push((name.to_ascii_lowercase(), *distinct, args.clone()));
+            Expr::AggRef(specs.len() - 1)
+        }
+        other => other.map_children(&mut |c| rewrite_aggs(c, specs)),
+    }
+}
+
+fn aggregate(name: &str, distinct: bool, mut vals: Vec<Val>) -> R<Val> {
+    if name == "count*" {
+        return Ok(Val::Int(vals.len() as i64));
+    }
+    // percentiles carry (value, percentile) pairs
+    let (vals, pct) = if name.starts_with("percentile") {
+        let mut p = None;
+        let mut v = Vec::new();
+        for x in vals.drain(..) {
+            if let Val::List(mut pair) = x
+                && pair.len() == 2
+            {
+                let q = pair.pop().unwrap_or_default();
+                p = Some(q);
+                v.push(pair.pop().unwrap_or_default());
+            }
+        }
+        (v, p)
+    } else {
+        (vals, None)
+    };
+    let mut vals: Vec<Val> = vals.into_iter().filter(|v| !v.is_null()).collect();
+    if distinct {
+        let mut seen = std::collections::BTreeSet::new();
+        vals.retain(|v| seen.insert(Key(vec![v.clone()])));
+    }
+    let nums = |vals: &[Val]| -> R<Vec<f64>> {
+        vals.iter()
+            .map(|v| {
+                v.as_f64().ok_or_else(|| {
+                    type_err(format!("{name}() needs numbers, got {}", v.type_name()))
+                })
+            })
+            .collect()
+    };
+    Ok(match name {
+        "count" => Val::Int(vals.len() as i64),
+        "collect" => Val::List(vals),
+        "sum" => {
+            if vals.iter().all(|v| matches!(v, Val::Int(_))) {
+                let mut s: i64 = 0;
+                for v in &vals {
+                    if let Val::Int(i) = v {
+                        s = s
+                            .checked_add(*i)
+                            .ok_or_else(|| arg_err("NumberOutOfRange", "sum() overflowed"))?;
+                    }
+                }
+                Val::Int(s)
+            } else {
+                Val::Float(nums(&vals)?.iter().sum())
+            }
+        }
+        "avg" => {
+            if vals.is_empty() {
+                Val::Null
+            } else {
+                let n = nums(&vals)?;
+                Val::Float(n.iter().sum::<f64>() / n.len() as f64)
+            }
+        }
+        "min" | "max" => {
+            let mut best: Option<Val> = None;
+            for v in vals {
+                best = Some(match best {
+                    None => v,
+                    Some(b) => {
+                        let o = super::value::order(&v, &b);
+                        if (name == "min" && o.is_lt()) || (name == "max" && o.is_gt()) {
+                            v
+                        } else {
+                            b
+                        }
+                    }
+                });
+            }
+            best.unwrap_or(Val::Null)
+        }
+        "stdev" | "stdevp" => {
+            let n = nums(&vals)?;
+            let k = n.len() as f64;
+            if n.len() < 2 && name == "stdev" || n.is_empty() {
+                Val::Float(0.0)
+            } else {
+                let mean = n.iter().sum::<f64>() / k;
+                let ss: f64 = n.iter().map(|x| (x - mean).powi(2)).sum();
+                Val::Float((ss / if name == "stdev" { k - 1.0 } else { k }).sqrt())
+            }
+        }
+        "percentiledisc" | "percentilecont" => {
+            let p = pct.and_then(|p| p.as_f64()).unwrap_or(0.5);
+            if !(0.0..=1.0).contains(&p) {
+                return Err(arg_err(
+                    "NumberOutOfRange",
+                    format!("percentile {p} is not between 0 and 1"),
+                ));
+            }
+            let mut n = nums(&vals)?;
+            if n.is_empty() {
+                return Ok(Val::Null);
+            }
+            n.sort_by(|a, b| a.total_cmp(b));
+            if name == "percentiledisc" {
+                let idx = ((p * n.len() as f64).ceil() as usize)
+                    .saturating_sub(1)
+                    .min(n.len() - 1);
+                let x = n[idx];
+                if vals.iter().all(|v| matches!(v, Val::Int(_))) {
+                    Val::Int(x as i64)
+                } else {
+                    Val::Float(x)
+                }
+            } else {
+                let pos = p * (n.len() - 1) as f64;
+                let lo = pos.floor() as usize;
+                let hi = pos.ceil() as usize;
+                Val::Float(n[lo] + (n[hi] - n[lo]) * (pos - lo as f64))
+            }
+        }
+        _ => {
+            return Err(sem(
+                "UnknownFunction",
+                format!("unknown aggregate {name}()"),
+            ));
+        }
+    })
+}

@@ -1,0 +1,618 @@
+//! An openCypher engine over the store.
+//!
+//! [`Store::query`] parses a statement, checks it, and runs it in one transaction: a read
+//! transaction when it only reads, one write transaction when it writes (all or nothing).
+//!
+//! ```
+//! use graphstore::{Store, cypher::{QueryOptions, Val}};
+//! let dir = tempfile::tempdir().unwrap();
+//! let store = Store::create(dir.path().join("g.og")).unwrap();
+//! store.query("CREATE (:Lane {id: 1})-[:NEXT]->(:Lane {id: 2})", &QueryOptions::default()).unwrap();
+//! let r = store
+//!     .query("MATCH (a:Lane)-[:NEXT]->(b) RETURN a.id AS from, b.id AS to", &QueryOptions::default())
+//!     .unwrap();
+//! assert_eq!(r.columns, ["from", "to"]);
+//! assert_eq!(r.rows, vec![vec![Val::Int(1), Val::Int(2)]]);
+//! ```
+
+mod ast;
+mod check;
+mod eval;
+mod exec;
+mod lexer;
+mod parser;
+mod plan;
+mod value;
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+pub use value::Val;
+
+use crate::{GraphRead, Store};
+
+/// A place in the query text (1-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pos {
+    /// Line, from 1.
+    pub line: u32,
+    /// Column in characters, from 1.
+    pub col: u32,
+}
+
+/// The class of a query error, following the openCypher TCK's error types.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// The text is not valid Cypher, or is invalid before running (unknown function, ...).
+    Syntax,
+    /// A semantic error found while checking or running (undefined variable, ...).
+    Semantic,
+    /// A value of the wrong type.
+    Type,
+    /// A value out of range.
+    Argument,
+    /// A deleted node or relationship was used.
+    EntityNotFound,
+    /// A constraint would be violated (deleting a connected node, a schema rule).
+    Constraint,
+    /// A parameter was not given.
+    Parameter,
+    /// An unknown procedure or a failing procedure call.
+    Procedure,
+    /// The query ran past its time limit.
+    Timeout,
+    /// The result has more rows than allowed.
+    RowLimit,
+    /// A write in read-only mode.
+    ReadOnly,
+}
+
+impl ErrorKind {
+    /// The TCK's name for this class (`SyntaxError`, `TypeError`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            ErrorKind::Syntax => "SyntaxError",
+            ErrorKind::Semantic => "SemanticError",
+            ErrorKind::Type => "TypeError",
+            ErrorKind::Argument => "ArgumentError",
+            ErrorKind::EntityNotFound => "EntityNotFound",
+            ErrorKind::Constraint => "ConstraintVerificationFailed",
+            ErrorKind::Parameter => "ParameterMissing",
+            ErrorKind::Procedure => "ProcedureError",
+            ErrorKind::Timeout => "Timeout",
+            ErrorKind::RowLimit => "RowLimit",
+            ErrorKind::ReadOnly => "ReadOnly",
+        }
+    }
+}
+
+/// A query that could not be parsed, checked or run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QueryError {
+    /// Its class.
+    pub kind: ErrorKind,
+    /// A short code (`UnexpectedSyntax`, `UndefinedVariable`, `InvalidArgumentType`, ...).
+    pub code: &'static str,
+    /// What went wrong.
+    pub message: String,
+    /// Where in the query, when known.
+    pub pos: Option<Pos>,
+}
+
+impl QueryError {
+    pub(crate) fn new(
+        kind: ErrorKind,
+        code: &'static str,
+        message: impl Into<String>,
+        pos: Option<Pos>,
+    ) -> Self {
+        QueryError {
+            kind,
+            code,
+            message: message.into(),
+            pos,
+        }
+    }
+    pub(crate) fn syntax(code: &'static str, message: impl Into<String>, pos: Option<Pos>) -> Self {
+        Self::new(ErrorKind::Syntax, code, message, pos)
+    }
+    /// Fills in the position if it is not known yet.
+    pub(crate) fn at(mut self, pos: Pos) -> Self {
+        if self.pos.is_none() {
+            self.pos = Some(pos);
+        }
+        self
+    }
+}
+
+impl std::fmt::Display for QueryError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({})", self.kind.name(), self.code)?;
+        if let Some(p) = self.pos {
+            write!(f, " at line {}, column {}", p.line, p.col)?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for QueryError {}
+
+impl From<crate::Error> for QueryError {
+    fn from(e: crate::Error) -> Self {
+        match e {
+            crate::Error::Query(q) => q,
+            crate::Error::Constraint { .. } => QueryError::new(
+                ErrorKind::Constraint,
+                "ConstraintViolation",
+                e.to_string(),
+                None,
+            ),
+            crate::Error::InvalidValue(_) => QueryError::new(
+                ErrorKind::Argument,
+                "InvalidArgumentValue",
+                e.to_string(),
+                None,
+            ),
+            crate::Error::NoSuchIndex { .. } => {
+                QueryError::new(ErrorKind::Procedure, "NoSuchIndex", e.to_string(), None)
+            }
+            other => QueryError::new(ErrorKind::Semantic, "StoreError", other.to_string(), None),
+        }
+    }
+}
+
+pub(crate) type R<T> = Result<T, QueryError>;
+
+/// How to run a query.
+#[derive(Debug, Clone)]
+pub struct QueryOptions {
+    /// Values for `$name` parameters.
+    pub params: BTreeMap<String, Val>,
+    /// Stop with [`ErrorKind::Timeout`] after this long (the transaction is rolled back).
+    pub timeout: Option<Duration>,
+    /// Fail with [`ErrorKind::RowLimit`] when the result would have more rows.
+    pub row_limit: Option<usize>,
+    /// Refuse statements that write.
+    pub read_only: bool,
+    /// Seed of `rand()`.
+    pub seed: u64,
+}
+
+impl Default for QueryOptions {
+    fn default() -> Self {
+        QueryOptions {
+            params: BTreeMap::new(),
+            timeout: Some(Duration::from_secs(60)),
+            row_limit: None,
+            read_only: false,
+            seed: 0,
+        }
+    }
+}
+
+/// What a write did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Nodes created.
+    pub nodes_created: u64,
+    /// Nodes deleted.
+    pub nodes_deleted: u64,
+    /// Relationships created.
+    pub relationships_created: u64,
+    /// Relationships deleted (DETACH DELETE included).
+    pub relationships_deleted: u64,
+    /// Properties set to a non-null value.
+    pub properties_set: u64,
+    /// Properties removed with REMOVE.
+    pub properties_removed: u64,
+    /// Labels added.
+    pub labels_added: u64,
+    /// Labels removed.
+    pub labels_removed: u64,
+}
+
+/// A node referenced by a result, read in the query's transaction.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeData {
+    /// Label names, sorted.
+    pub labels: Vec<String>,
+    /// Properties by name.
+    pub props: BTreeMap<String, Val>,
+}
+
+/// A relationship referenced by a result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RelData {
+    /// Its type.
+    pub ty: String,
+    /// Start node id.
+    pub start: u64,
+    /// End node id.
+    pub end: u64,
+    /// Properties by name.
+    pub props: BTreeMap<String, Val>,
+}
+
+/// The result of a query.
+#[derive(Debug, Clone, Default)]
+pub struct QueryResult {
+    /// Column names, in order.
+    pub columns: Vec<String>,
+    /// Rows of values, one per column.
+    pub rows: Vec<Vec<Val>>,
+    /// The nodes the rows mention (deleted ones are absent).
+    pub nodes: BTreeMap<u64, NodeData>,
+    /// The relationships the rows mention.
+    pub rels: BTreeMap<u64, RelData>,
+    /// What the statement wrote.
+    pub stats: Stats,
+    /// For `EXPLAIN`: the plan; no rows are produced.
+    pub plan: Option<String>,
+}
+
+impl QueryResult {
+    /// A value as Cypher literal text: `(:Lane {id: 1})`, `[:NEXT]`, `'text'`, `[1, 2]`.
+    pub fn render(&self, v: &Val) -> String {
+        let map = |m: &BTreeMap<String, Val>| -> String {
+            let parts: Vec<String> = m
+                .iter()
+                .map(|(k, v)| format!("{k}: {}", self.render(v)))
+                .collect();
+            format!("{{{}}}", parts.join(", "))
+        };
+        let node = |id: &u64| match self.nodes.get(id) {
+            Some(n) => {
+                let mut s = String::from("(");
+                for l in &n.labels {
+                    s.push(':');
+                    s.push_str(l);
+                }
+                if !n.props.is_empty() {
+                    if !n.labels.is_empty() {
+                        s.push(' ');
+                    }
+                    s.push_str(&map(&n.props));
+                }
+                s.push(')');
+                s
+            }
+            None => format!("(deleted node {id})"),
+        };
+        let rel = |id: &u64| match self.rels.get(id) {
+            Some(r) => {
+                let mut s = format!("[:{}", r.ty);
+                if !r.props.is_empty() {
+                    s.push(' ');
+                    s.push_str(&map(&r.props));
+                }
+                s.push(']');
+                s
+            }
+            None => format!("[deleted relationship {id}]"),
+        };
+        match v {
+            Val::Null => "null".into(),
+            Val::Str(s) => format!("'{}'", s.replace('\\', "\\\\").replace('\'', "\\'")),
+            Val::List(l) => format!(
+                "[{}]",
+                l.iter()
+                    .map(|x| self.render(x))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Val::Vector(l) => format!(
+                "[{}]",
+                l.iter()
+                    .map(|x| eval::fmt_float(f64::from(*x)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Val::Map(m) => map(m),
+            Val::Node(id) => node(id),
+            Val::Rel(id) => rel(id),
+            Val::Path { nodes, rels } => {
+                let mut s = String::from("<");
+                s.push_str(&node(&nodes[0]));
+                for (i, r) in rels.iter().enumerate() {
+                    let forward = self.rels.get(r).is_none_or(|d| d.start == nodes[i]);
+                    if forward {
+                        s.push('-');
+                        s.push_str(&rel(r));
+                        s.push_str("->");
+                    } else {
+                        s.push_str("<-");
+                        s.push_str(&rel(r));
+                        s.push('-');
+                    }
+                    s.push_str(&node(&nodes[i + 1]));
+                }
+                s.push('>');
+                s
+            }
+            Val::Bytes(b) => format!("<{} bytes>", b.len()),
+            other => eval::to_string(other).unwrap_or_default(),
+        }
+    }
+
+    /// A value as JSON: nodes become `{"_id", "_labels", ...props}`, relationships
+    /// `{"_id", "_type", "_start", "_end", ...props}`, paths `{"nodes": [...], "relationships": [...]}`.
+    pub fn to_json(&self, v: &Val) -> serde_json::Value {
+        use serde_json::{Value as J, json};
+        let props = |m: &BTreeMap<String, Val>, o: &mut serde_json::Map<String, J>| {
+            for (k, v) in m {
+                o.insert(k.clone(), self.to_json(v));
+            }
+        };
+        match v {
+            Val::Null => J::Null,
+            Val::Bool(b) => json!(b),
+            Val::Int(i) => json!(i),
+            Val::Float(f) => json!(f),
+            Val::Str(s) => json!(s),
+            Val::List(l) => J::Array(l.iter().map(|x| self.to_json(x)).collect()),
+            Val::Map(m) => J::Object(
+                m.iter()
+                    .map(|(k, v)| (k.clone(), self.to_json(v)))
+                    .collect(),
+            ),
+            Val::Node(id) => {
+                let mut o = serde_json::Map::new();
+                o.insert("_id".into(), json!(id));
+                if let Some(n) = self.nodes.get(id) {
+                    o.insert("_labels".into(), json!(n.labels));
+                    props(&n.props, &mut o);
+                } else {
+                    o.insert("_deleted".into(), json!(true));
+                }
+                J::Object(o)
+            }
+            Val::Rel(id) => {
+                let mut o = serde_json::Map::new();
+                o.insert("_id".into(), json!(id));
+                if let Some(r) = self.rels.get(id) {
+                    o.insert("_type".into(), json!(r.ty));
+                    o.insert("_start".into(), json!(r.start));
+                    o.insert("_end".into(), json!(r.end));
+                    props(&r.props, &mut o);
+                } else {
+                    o.insert("_deleted".into(), json!(true));
+                }
+                J::Object(o)
+            }
+            Val::Path { nodes, rels } => json!({
+                "nodes": nodes.iter().map(|n| self.to_json(&Val::Node(*n))).collect::<Vec<_>>(),
+                "relationships": rels.iter().map(|r| self.to_json(&Val::Rel(*r))).collect::<Vec<_>>(),
+            }),
+            Val::Point2D([x, y]) => json!({"x": x, "y": y}),
+            Val::Point3D([x, y, z]) => json!({"x": x, "y": y, "z": z}),
+            Val::Vector(v) => json!(v),
+            Val::Bytes(b) => json!(b),
+        }
+    }
+
+    /// The rows as JSON objects keyed by column.
+    pub fn rows_json(&self) -> serde_json::Value {
+        serde_json::Value::Array(
+            self.rows
+                .iter()
+                .map(|r| {
+                    serde_json::Value::Object(
+                        self.columns
+                            .iter()
+                            .zip(r)
+                            .map(|(c, v)| (c.clone(), self.to_json(v)))
+                            .collect(),
+                    )
+                })
+                .collect(),
+        )
+    }
+}
+
+fn collect_elements(v: &Val, nodes: &mut Vec<u64>, rels: &mut Vec<u64>) {
+    match v {
+        Val::Node(n) => nodes.push(*n),
+        Val::Rel(r) => rels.push(*r),
+        Val::Path {
+            nodes: ns,
+            rels: rs,
+        } => {
+            nodes.extend(ns);
+            rels.extend(rs);
+        }
+        Val::List(l) => l.iter().for_each(|x| collect_elements(x, nodes, rels)),
+        Val::Map(m) => m.values().for_each(|x| collect_elements(x, nodes, rels)),
+        _ => {}
+    }
+}
+
+fn resolve(g: &dyn GraphRead, res: &mut QueryResult) -> crate::Result<()> {
+    let mut nodes = Vec::new();
+    let mut rels = Vec::new();
+    for r in &res.rows {
+        for v in r {
+            collect_elements(v, &mut nodes, &mut rels);
+        }
+    }
+    let named = |props: Vec<(crate::PropKey, crate::Value)>| -> BTreeMap<String, Val> {
+        props
+            .into_iter()
+            .map(|(k, v)| (g.name_of(k.0).unwrap_or_default(), Val::from(v)))
+            .collect()
+    };
+    for r in rels {
+        if res.rels.contains_key(&r) {
+            continue;
+        }
+        if let Some(rel) = g.rel(r)? {
+            nodes.push(rel.start);
+            nodes.push(rel.end);
+            res.rels.insert(
+                r,
+                RelData {
+                    ty: g.name_of(rel.ty.0).unwrap_or_default(),
+                    start: rel.start,
+                    end: rel.end,
+                    props: named(rel.props),
+                },
+            );
+        }
+    }
+    for n in nodes {
+        if res.nodes.contains_key(&n) {
+            continue;
+        }
+        if let Some(node) = g.node(n)? {
+            let mut labels: Vec<String> =
+                node.labels.iter().filter_map(|l| g.name_of(l.0)).collect();
+            labels.sort();
+            res.nodes.insert(
+                n,
+                NodeData {
+                    labels,
+                    props: named(node.props),
+                },
+            );
+        }
+    }
+    Ok(())
+}
+
+fn run_statement(
+    ctx: &mut exec::Ctx<'_, '_>,
+    stmt: &ast::Statement,
+    opts: &QueryOptions,
+) -> R<QueryResult> {
+    let mut columns = Vec::new();
+    let mut rows: Vec<Vec<Val>> = Vec::new();
+    for (i, part) in stmt.parts.iter().enumerate() {
+        let (cols, mut r) = ctx.run_single(part)?;
+        if i == 0 {
+            columns = cols;
+        }
+        rows.append(&mut r);
+        if let Some(limit) = opts.row_limit
+            && rows.len() > limit
+        {
+            return Err(QueryError::new(
+                ErrorKind::RowLimit,
+                "RowLimit",
+                format!("the result has more than {limit} rows; add LIMIT or raise the row limit"),
+                None,
+            ));
+        }
+    }
+    if !stmt.union_all.is_empty() && !stmt.union_all.iter().all(|a| *a) {
+        let mut seen = std::collections::BTreeSet::new();
+        rows.retain(|r| seen.insert(value::Key(r.clone())));
+    }
+    Ok(QueryResult {
+        columns,
+        rows,
+        stats: ctx.stats,
+        ..QueryResult::default()
+    })
+}
+
+impl Store {
+    /// Runs a Cypher statement. Reads run in a read transaction; a statement that writes runs
+    /// in one write transaction and leaves the store unchanged when it fails.
+    pub fn query(&self, text: &str, opts: &QueryOptions) -> crate::Result<QueryResult> {
+        let stmt = parser::parse(text)?;
+        check::check(&stmt)?;
+        let deadline = opts.timeout.map(|t| Instant::now() + t);
+        let writes = stmt
+            .parts
+            .iter()
+            .any(|p| p.clauses.iter().any(ast::Clause::is_write));
+        if stmt.explain {
+            let txn = self.read()?;
+            let plan = plan::explain(&stmt, &txn);
+            return Ok(QueryResult {
+                plan: Some(plan),
+                ..QueryResult::default()
+            });
+        }
+        if writes {
+            if opts.read_only {
+                let pos = stmt
+                    .parts
+                    .iter()
+                    .flat_map(|p| p.clauses.iter().zip(&p.positions))
+                    .find(|(c, _)| c.is_write())
+                    .map(|(_, p)| *p);
+                return Err(QueryError::new(
+                    ErrorKind::ReadOnly,
+                    "ReadOnly",
+                    "this session is read-only; the statement writes",
+                    pos,
+                )
+                .into());
+            }
+            self.write(|tx| {
+                let mut ctx =
+                    exec::Ctx::new(exec::Tx::Write(&mut *tx), &opts.params, deadline, opts.seed);
+                let mut res = run_statement(&mut ctx, &stmt, opts)?;
+                drop(ctx);
+                resolve(&*tx, &mut res)?;
+                Ok(res)
+            })
+        } else {
+            let txn = self.read()?;
+            let mut ctx = exec::Ctx::new(exec::Tx::Read(&txn), &opts.params, deadline, opts.seed);
+            let mut res = run_statement(&mut ctx, &stmt, opts)?;
+            resolve(&txn, &mut res)?;
+            Ok(res)
+        }
+    }
+
+    /// The plan of a statement, without running it.
+    pub fn explain(&self, text: &str) -> crate::Result<String> {
+        let stmt = parser::parse(text)?;
+        check::check(&stmt)?;
+        let txn = self.read()?;
+        Ok(plan::explain(&stmt, &txn))
+    }
+}
+
+/// Parses and checks a statement without running it (for tools that validate queries).
+pub fn validate(text: &str) -> Result<(), QueryError> {
+    let stmt = parser::parse(text)?;
+    check::check(&stmt)
+}
+
+/// Whether the statement writes (CREATE, MERGE, SET, REMOVE, DELETE).
+pub fn is_write(text: &str) -> Result<bool, QueryError> {
+    let stmt = parser::parse(text)?;
+    Ok(stmt
+        .parts
+        .iter()
+        .any(|p| p.clauses.iter().any(ast::Clause::is_write)))
+}
+
+/// Parses a parameter value given on a command line: JSON when it parses as JSON
+/// (`3`, `2.5`, `"x"`, `[1,2]`, `{"a":1}`, `true`, `null`), else the plain string.
+pub fn param_from_text(text: &str) -> Val {
+    match serde_json::from_str::<serde_json::Value>(text) {
+        Ok(j) => from_json(&j),
+        Err(_) => Val::Str(text.to_string()),
+    }
+}
+
+/// Converts JSON to a value (integers stay integers).
+pub fn from_json(j: &serde_json::Value) -> Val {
+    match j {
+        serde_json::Value::Null => Val::Null,
+        serde_json::Value::Bool(b) => Val::Bool(*b),
+        serde_json::Value::Number(n) => n
+            .as_i64()
+            .map(Val::Int)
+            .unwrap_or_else(|| Val::Float(n.as_f64().unwrap_or(f64::NAN))),
+        serde_json::Value::String(s) => Val::Str(s.clone()),
+        serde_json::Value::Array(a) => Val::List(a.iter().map(from_json).collect()),
+        serde_json::Value::Object(o) => {
+            Val::Map(o.iter().map(|(k, v)| (k.clone(), from_json(v))).collect())
+        }
+    }
+}
