@@ -240,6 +240,30 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a Cypher statement against a store and print a table (or JSON rows).
+    Query {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// A parameter `name=value` for `$name`; the value is read as JSON when it parses as
+        /// JSON (3, 2.5, "x", [1,2], {"a":1}, true, null), else as a plain string. Repeatable.
+        #[arg(long = "param", value_parser = parse_param)]
+        params: Vec<(String, graphstore::cypher::Val)>,
+        /// Print a JSON array of row objects keyed by column.
+        #[arg(long)]
+        json: bool,
+        /// Refuse statements that write.
+        #[arg(long)]
+        read_only: bool,
+        /// Stop the statement after this many seconds (a write is rolled back).
+        #[arg(long, default_value_t = 30.0)]
+        timeout_secs: f64,
+        /// Fail when the result has more rows than this (add LIMIT).
+        #[arg(long, default_value_t = 100_000)]
+        max_rows: usize,
+        /// The statement; `EXPLAIN <statement>` prints its plan.
+        cypher: String,
+    },
     /// Evaluate a map.
     Eval {
         #[command(subcommand)]
@@ -348,6 +372,29 @@ fn is_input_error(e: &anyhow::Error) -> bool {
         }
         c.downcast_ref::<UsageError>().is_some()
     })
+}
+
+fn parse_param(s: &str) -> Result<(String, graphstore::cypher::Val), String> {
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("--param takes name=value, got {s:?}"))?;
+    let k = k.trim().trim_start_matches('$');
+    if k.is_empty() || !k.chars().all(|c| c.is_alphanumeric() || c == '_') {
+        return Err(format!("--param: {k:?} is not a parameter name"));
+    }
+    Ok((k.to_string(), graphstore::cypher::param_from_text(v)))
+}
+
+/// Shortens a rendered cell for the table view.
+fn cell(text: String) -> String {
+    const MAX: usize = 60;
+    if text.chars().count() <= MAX {
+        text
+    } else {
+        let mut t: String = text.chars().take(MAX - 1).collect();
+        t.push('…');
+        t
+    }
 }
 
 /// A problem with the arguments that clap cannot see.
@@ -736,6 +783,94 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     t.rank_ms
                 );
             }
+        }
+        Command::Query {
+            db,
+            params,
+            json,
+            read_only,
+            timeout_secs,
+            max_rows,
+            cypher,
+        } => {
+            if !(timeout_secs.is_finite() && timeout_secs > 0.0) {
+                return Err(UsageError(format!(
+                    "--timeout-secs must be positive, got {timeout_secs}"
+                ))
+                .into());
+            }
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let opts = graphstore::cypher::QueryOptions {
+                params: params.into_iter().collect(),
+                timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
+                row_limit: Some(max_rows),
+                read_only,
+                seed: 0,
+            };
+            let t0 = std::time::Instant::now();
+            let r = store.query(&cypher, &opts)?;
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            if let Some(plan) = &r.plan {
+                print!("{plan}");
+                return Ok(());
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&r.rows_json())?);
+            } else {
+                let cells: Vec<Vec<String>> = r
+                    .rows
+                    .iter()
+                    .map(|row| row.iter().map(|v| cell(r.render(v))).collect())
+                    .collect();
+                let mut width: Vec<usize> = r.columns.iter().map(|c| c.chars().count()).collect();
+                for row in &cells {
+                    for (w, c) in width.iter_mut().zip(row) {
+                        *w = (*w).max(c.chars().count());
+                    }
+                }
+                let line = |vals: &[String]| {
+                    let parts: Vec<String> = vals
+                        .iter()
+                        .zip(&width)
+                        .map(|(v, w)| format!("{v}{}", " ".repeat(w - v.chars().count())))
+                        .collect();
+                    format!("| {} |", parts.join(" | "))
+                };
+                if !r.columns.is_empty() {
+                    println!("{}", line(&r.columns));
+                    let rule: Vec<String> = width.iter().map(|w| "-".repeat(*w)).collect();
+                    println!("{}", line(&rule));
+                    for row in &cells {
+                        println!("{}", line(row));
+                    }
+                }
+            }
+            let st = r.stats;
+            let mut wrote = Vec::new();
+            for (n, what) in [
+                (st.nodes_created, "nodes created"),
+                (st.nodes_deleted, "nodes deleted"),
+                (st.relationships_created, "relationships created"),
+                (st.relationships_deleted, "relationships deleted"),
+                (st.properties_set, "properties set"),
+                (st.properties_removed, "properties removed"),
+                (st.labels_added, "labels added"),
+                (st.labels_removed, "labels removed"),
+            ] {
+                if n > 0 {
+                    wrote.push(format!("{n} {what}"));
+                }
+            }
+            eprintln!(
+                "{} row(s) in {ms:.1} ms{}",
+                r.rows.len(),
+                if wrote.is_empty() {
+                    String::new()
+                } else {
+                    format!("; {}", wrote.join(", "))
+                }
+            );
         }
         Command::Oracle { kitti, out, frames } => {
             use ingest::build::{Sequence, Source, key_frames};

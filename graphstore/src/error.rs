@@ -92,7 +92,7 @@ pub enum Error {
     #[error("transaction rolled back")]
     RolledBack,
     /// A Cypher query failed to parse, check or run.
-    #[error("{0}")]
+    #[error(transparent)]
     Query(#[from] crate::cypher::QueryError),
     /// An I/O error outside redb (export files and the like).
     #[error("i/o error on {path}: {error}")]

@@ -24,7 +24,7 @@ struct Parser<'a> {
     depth: u32,
 }
 
-const MAX_DEPTH: u32 = 200;
+const MAX_DEPTH: u32 = 40;
 
 const RESERVED: &[&str] = &[
     "match",

@@ -1,0 +1,150 @@
+//! `opengraph query`: tables, JSON rows, parameters, EXPLAIN, read-only mode and errors.
+
+mod common;
+use common::{json, og, ok, s};
+
+#[test]
+fn query_prints_tables_and_json_and_takes_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("demo.og");
+    ok(&og(&["demo", "--db", s(&db)]));
+
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "MATCH (i:Instance) RETURN i.instance_id AS id, i.class AS class ORDER BY id LIMIT 2",
+    ]);
+    ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0]
+            .split('|')
+            .map(str::trim)
+            .filter(|c| !c.is_empty())
+            .collect::<Vec<_>>(),
+        ["id", "class"]
+    );
+    assert!(
+        lines[2].contains("| 1 ") && lines[2].contains("'bench'"),
+        "{text}"
+    );
+    assert_eq!(lines.len(), 4, "{text}");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("2 row(s)"));
+
+    let rows = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--json",
+        "--param",
+        "cls=\"car\"",
+        "--param",
+        "k=5",
+        "MATCH (i:Instance) WHERE i.class = $cls RETURN i.caption AS caption, i.centroid AS c LIMIT $k",
+    ]));
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0]["caption"], "a silver hatchback parked at the kerb");
+    assert!(rows[0]["c"]["x"].is_number(), "{rows:?}");
+
+    // a plain-text parameter and a node in JSON
+    let rows = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--json",
+        "--param",
+        "name=bench",
+        "MATCH (i:Instance {class: $name}) RETURN i",
+    ]));
+    let node = &rows[0]["i"];
+    assert_eq!(node["_labels"], serde_json::json!(["Instance"]));
+    assert_eq!(node["class"], "bench");
+
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "EXPLAIN MATCH (i:Instance {instance_id: 3}) RETURN i",
+    ]);
+    ok(&out);
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("NodeIndexSeek i:Instance(instance_id = 3)")
+    );
+}
+
+#[test]
+fn query_refuses_writes_when_read_only_and_reports_errors_with_positions() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("demo.og");
+    ok(&og(&["demo", "--db", s(&db)]));
+    let count = || {
+        let rows = json(&og(&[
+            "query",
+            "--db",
+            s(&db),
+            "--json",
+            "MATCH (n) RETURN count(n) AS n",
+        ]));
+        rows[0]["n"].as_i64().unwrap()
+    };
+    let before = count();
+
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--read-only",
+        "MATCH (n) DETACH DELETE n",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("read-only") && err.contains("line 1, column 11"),
+        "{err}"
+    );
+    assert_eq!(count(), before);
+
+    let out = og(&["query", "--db", s(&db), "MATCH (n)\nRETURN n.name +"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("SyntaxError") && err.contains("line 2, column 16"),
+        "{err}"
+    );
+
+    let out = og(&["query", "--db", s(&db), "--param", "no-equals", "RETURN 1"]);
+    assert_eq!(out.status.code(), Some(2));
+
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--max-rows",
+        "3",
+        "MATCH (n) RETURN n",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("more than 3 rows"));
+
+    // a write that fails half way leaves nothing behind
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "CREATE (:Scratch) WITH 1 AS x RETURN x / 0",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(count(), before);
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "CREATE (:Scratch {k: 1}) RETURN 1 AS one",
+    ]);
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("1 nodes created"));
+    assert_eq!(count(), before + 1);
+}

@@ -1,0 +1,598 @@
+//! The Cypher engine against the store: atomic writes, safety limits, index-aware plans,
+//! index procedures, error positions, a reference model, and a parser fuzz.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use graphstore::cypher::{ErrorKind, QueryError, QueryOptions, Val};
+use graphstore::{Error, GraphRead, Store, Value, opengraph_schema};
+use proptest::prelude::*;
+
+fn store() -> (tempfile::TempDir, Store) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let s = Store::create(dir.path().join("g.og")).expect("store");
+    (dir, s)
+}
+
+fn q(s: &Store, text: &str) -> graphstore::cypher::QueryResult {
+    s.query(text, &QueryOptions::default())
+        .unwrap_or_else(|e| panic!("{text}: {e}"))
+}
+
+fn qerr(s: &Store, text: &str, opts: &QueryOptions) -> QueryError {
+    match s.query(text, opts) {
+        Err(Error::Query(e)) => e,
+        Err(other) => panic!("{text}: not a query error: {other}"),
+        Ok(_) => panic!("{text}: expected an error"),
+    }
+}
+
+fn count(s: &Store) -> (u64, u64) {
+    let c = s.counts().expect("counts");
+    (c.total_nodes, c.total_relationships)
+}
+
+/// An OpenGraph-schema store with a few instances and lane nodes.
+fn city() -> (tempfile::TempDir, Store) {
+    let (d, s) = store();
+    s.set_schema(opengraph_schema()).expect("schema");
+    s.write(|tx| {
+        for i in 0..50i64 {
+            let x = (i % 10) as f64 * 10.0;
+            let y = (i / 10) as f64 * 10.0;
+            let mut feature = vec![0.0f32; graphstore::FEATURE_DIM];
+            feature[(i % 7) as usize] = 1.0;
+            let class = ["bench", "car", "pole", "bus shelter", "tree"][(i % 5) as usize];
+            tx.create_node_named(
+                &["Instance"],
+                &[
+                    ("instance_id", Value::Int(i)),
+                    ("caption", Value::from(format!("a {class} number {i}"))),
+                    ("class", Value::from(class)),
+                    ("centroid", Value::Point3D([x, y, 0.5])),
+                    (
+                        "bbox",
+                        Value::box3d([x - 0.5, y - 0.5, 0.0], [x + 0.5, y + 0.5, 1.0]),
+                    ),
+                    ("feature", Value::Vector(feature)),
+                ],
+            )?;
+        }
+        let mut prev = None;
+        for i in 0..20i64 {
+            let n = tx.create_node_named(
+                &["LaneNode"],
+                &[
+                    ("lane_id", Value::Int(i)),
+                    ("kind", Value::from("breakpoint")),
+                    ("position", Value::Point3D([i as f64 * 5.0, 0.0, 0.0])),
+                ],
+            )?;
+            if let Some(p) = prev {
+                tx.create_rel_named(p, "LANE_EDGE", n, &[("length_m", Value::Float(5.0))])?;
+            }
+            prev = Some(n);
+        }
+        Ok(())
+    })
+    .expect("fill");
+    (d, s)
+}
+
+#[test]
+fn a_failing_statement_leaves_the_store_as_it_was() {
+    let (_d, s) = store();
+    q(&s, "CREATE (:A {v: 1})-[:R]->(:B)");
+    let before = count(&s);
+    // creates, then divides by zero in the same statement
+    let e = qerr(
+        &s,
+        "CREATE (a:A {v: 2}) WITH a RETURN 1 / 0",
+        &QueryOptions::default(),
+    );
+    assert_eq!(e.kind, ErrorKind::Argument);
+    assert_eq!(count(&s), before);
+    // deleting a connected node fails; nothing else of the statement stays either
+    let e = qerr(
+        &s,
+        "MATCH (b:B) SET b.touched = true WITH b MATCH (a:A) DELETE a",
+        &QueryOptions::default(),
+    );
+    assert_eq!(e.kind, ErrorKind::Constraint);
+    let r = q(&s, "MATCH (b:B) RETURN b.touched");
+    assert_eq!(r.rows, vec![vec![Val::Null]]);
+    assert_eq!(count(&s), before);
+    // a successful write is one transaction with its statistics
+    let r = q(&s, "MATCH (a:A) DETACH DELETE a");
+    assert_eq!(
+        (r.stats.nodes_deleted, r.stats.relationships_deleted),
+        (1, 1)
+    );
+    assert_eq!(count(&s), (1, 0));
+}
+
+#[test]
+fn read_only_timeout_and_row_limit() {
+    let (_d, s) = store();
+    let ro = QueryOptions {
+        read_only: true,
+        ..QueryOptions::default()
+    };
+    let e = qerr(&s, "MATCH (n)\nCREATE (m:X)", &ro);
+    assert_eq!(e.kind, ErrorKind::ReadOnly);
+    assert_eq!(e.pos.map(|p| (p.line, p.col)), Some((2, 1)));
+    assert_eq!(count(&s), (0, 0));
+    assert!(s.query("RETURN 1 AS one", &ro).is_ok());
+
+    let slow = QueryOptions {
+        timeout: Some(Duration::from_millis(200)),
+        ..QueryOptions::default()
+    };
+    let t0 = std::time::Instant::now();
+    let e = qerr(
+        &s,
+        "UNWIND range(1, 3000) AS x UNWIND range(1, 3000) AS y RETURN count(*)",
+        &slow,
+    );
+    assert_eq!(e.kind, ErrorKind::Timeout);
+    assert!(
+        t0.elapsed() < Duration::from_secs(20),
+        "timeout took {:?}",
+        t0.elapsed()
+    );
+
+    let limited = QueryOptions {
+        row_limit: Some(10),
+        ..QueryOptions::default()
+    };
+    assert_eq!(
+        s.query("UNWIND range(1, 10) AS x RETURN x", &limited)
+            .map(|r| r.rows.len())
+            .ok(),
+        Some(10)
+    );
+    assert_eq!(
+        qerr(&s, "UNWIND range(1, 11) AS x RETURN x", &limited).kind,
+        ErrorKind::RowLimit
+    );
+}
+
+#[test]
+fn errors_carry_line_and_column() {
+    let (_d, s) = store();
+    let o = QueryOptions::default();
+    let e = qerr(&s, "MATCH (n)\nRETURN m.name", &o);
+    assert_eq!(
+        (e.code, e.pos.map(|p| (p.line, p.col))),
+        ("UndefinedVariable", Some((2, 8)))
+    );
+    let e = qerr(&s, "MATCH (n)\nWHERE n.x = 1\nRETURN nosuch(n)", &o);
+    assert_eq!(
+        (e.code, e.pos.map(|p| (p.line, p.col))),
+        ("UnknownFunction", Some((3, 8)))
+    );
+    let e = qerr(&s, "MATCH (n) RETURN n ORDER", &o);
+    assert_eq!(e.kind, ErrorKind::Syntax);
+    assert_eq!(e.pos.map(|p| (p.line, p.col)), Some((1, 25)));
+    let e = qerr(&s, "RETURN 'unterminated", &o);
+    assert_eq!(e.pos.map(|p| (p.line, p.col)), Some((1, 8)));
+    assert!(e.to_string().contains("line 1, column 8"), "{e}");
+    let e = qerr(&s, "RETURN $missing", &o);
+    assert_eq!(e.kind, ErrorKind::Parameter);
+}
+
+#[test]
+fn parameters_lists_maps_case_and_functions() {
+    let (_d, s) = store();
+    let mut o = QueryOptions::default();
+    o.params.insert(
+        "names".into(),
+        Val::List(vec![Val::Str("b".into()), Val::Str("a".into())]),
+    );
+    let r = s
+        .query(
+            "UNWIND $names AS n WITH n ORDER BY n RETURN collect(toUpper(n)) AS up, \
+             CASE WHEN size($names) > 1 THEN 'many' ELSE 'one' END AS how, \
+             [x IN range(1, 5) WHERE x % 2 = 1 | x * x] AS odd_squares, {k: 1}.k AS k",
+            &o,
+        )
+        .expect("query");
+    assert_eq!(r.columns, ["up", "how", "odd_squares", "k"]);
+    assert_eq!(
+        r.rows[0],
+        vec![
+            Val::List(vec![Val::Str("A".into()), Val::Str("B".into())]),
+            Val::Str("many".into()),
+            Val::List(vec![Val::Int(1), Val::Int(9), Val::Int(25)]),
+            Val::Int(1),
+        ]
+    );
+    let r = q(
+        &s,
+        "RETURN point.distance(point({x: 0, y: 0, z: 0}), point({x: 3, y: 4, z: 0})) AS d, vector.similarity.cosine([1, 0], [0, 1]) AS c",
+    );
+    let (Val::Float(d), Val::Float(c)) = (&r.rows[0][0], &r.rows[0][1]) else {
+        panic!("{:?}", r.rows)
+    };
+    assert!(
+        (d - 5.0).abs() < 1e-12 && (c - 0.5).abs() < 1e-12,
+        "{d} {c}"
+    );
+}
+
+#[test]
+fn the_planner_uses_indexes_and_explain_shows_it() {
+    let (_d, s) = city();
+    let plan = s
+        .explain("MATCH (i:Instance {instance_id: 7}) RETURN i.caption")
+        .expect("explain");
+    assert!(
+        plan.contains("NodeIndexSeek i:Instance(instance_id = 7)"),
+        "{plan}"
+    );
+    let plan = s
+        .explain("MATCH (i:Instance) WHERE i.instance_id >= 40 RETURN count(*)")
+        .expect("explain");
+    assert!(plan.contains("NodeIndexRangeScan"), "{plan}");
+    let plan = s
+        .explain("MATCH (a:LaneNode)-[:LANE_EDGE]->(b:LaneNode {lane_id: 3}) RETURN a")
+        .expect("explain");
+    assert!(
+        plan.contains("NodeIndexSeek b:LaneNode(lane_id = 3)")
+            && plan.contains("Expand (b:LaneNode)<-[:LANE_EDGE]-(a:LaneNode)"),
+        "{plan}"
+    );
+    let plan = s.explain("MATCH (n:Instance) RETURN n").expect("explain");
+    assert!(plan.contains("NodeByLabelScan n:Instance"), "{plan}");
+    let r = q(&s, "EXPLAIN MATCH (n) RETURN n");
+    assert!(
+        r.plan
+            .as_deref()
+            .is_some_and(|p| p.contains("AllNodesScan n"))
+            && r.rows.is_empty()
+    );
+
+    // the index answers the same as a full scan
+    let via_index = q(
+        &s,
+        "MATCH (i:Instance) WHERE i.instance_id >= 40 AND i.instance_id < 45 RETURN i.instance_id AS id ORDER BY id",
+    );
+    let via_scan = q(
+        &s,
+        "MATCH (i) WHERE i.instance_id + 0 >= 40 AND i.instance_id + 0 < 45 RETURN i.instance_id AS id ORDER BY id",
+    );
+    assert_eq!(via_index.rows, via_scan.rows);
+    assert_eq!(via_index.rows.len(), 5);
+    let r = q(
+        &s,
+        "MATCH (a:LaneNode)-[:LANE_EDGE]->(b:LaneNode {lane_id: 3}) RETURN a.lane_id",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Int(2)]]);
+}
+
+#[test]
+fn procedures_query_the_vector_spatial_and_text_indexes() {
+    let (_d, s) = city();
+    let mut o = QueryOptions::default();
+    let mut query = vec![Val::Float(0.0); graphstore::FEATURE_DIM];
+    query[3] = Val::Float(1.0);
+    o.params.insert("q".into(), Val::List(query));
+    let r = s
+        .query(
+            "CALL db.index.vector.queryNodes('instance_feature', 5, $q) YIELD node, score \
+             RETURN node.instance_id % 7 AS slot, score",
+            &o,
+        )
+        .expect("vector");
+    assert_eq!(r.rows.len(), 5);
+    for row in &r.rows {
+        assert_eq!(row[0], Val::Int(3));
+        assert!(matches!(row[1], Val::Float(f) if (f - 1.0).abs() < 1e-6));
+    }
+    let r = q(
+        &s,
+        "CALL db.index.spatial.withinDistance('instance_space', point({x: 0, y: 0, z: 0}), 14.0) YIELD node, distance RETURN node.instance_id AS id ORDER BY id",
+    );
+    // boxes within 14 m of the origin: (0,0), (10,0), (0,10), (10,10)
+    assert_eq!(
+        r.rows,
+        vec![
+            vec![Val::Int(0)],
+            vec![Val::Int(1)],
+            vec![Val::Int(10)],
+            vec![Val::Int(11)]
+        ]
+    );
+    let r = q(
+        &s,
+        "CALL db.index.spatial.inBox('instance_space', point({x: 15, y: -1, z: 0}), point({x: 25, y: 1, z: 1})) YIELD node RETURN node.instance_id",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Int(2)]]);
+    let r = q(
+        &s,
+        "CALL db.index.fulltext.queryNodes('instance_caption', 'shelter', 3) YIELD node RETURN node.class AS c",
+    );
+    assert_eq!(r.rows.len(), 3);
+    assert!(
+        r.rows
+            .iter()
+            .all(|row| row[0] == Val::Str("bus shelter".into()))
+    );
+    let e = qerr(
+        &s,
+        "CALL db.index.vector.queryNodes('nope', 5, [1.0]) YIELD node RETURN node",
+        &QueryOptions::default(),
+    );
+    assert_eq!(e.kind, ErrorKind::Procedure);
+    let e = qerr(
+        &s,
+        "CALL no.such.proc() YIELD x RETURN x",
+        &QueryOptions::default(),
+    );
+    assert_eq!(e.code, "ProcedureNotFound");
+}
+
+#[test]
+fn variable_length_paths_union_and_optional_match() {
+    let (_d, s) = city();
+    let r = q(
+        &s,
+        "MATCH p = (a:LaneNode {lane_id: 0})-[:LANE_EDGE*2..3]->(b) RETURN b.lane_id AS id, length(p) AS hops ORDER BY id",
+    );
+    assert_eq!(
+        r.rows,
+        vec![
+            vec![Val::Int(2), Val::Int(2)],
+            vec![Val::Int(3), Val::Int(3)]
+        ]
+    );
+    let r = q(
+        &s,
+        "MATCH (a:LaneNode {lane_id: 19}) OPTIONAL MATCH (a)-[:LANE_EDGE]->(b) RETURN a.lane_id, b",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Int(19), Val::Null]]);
+    let r = q(
+        &s,
+        "MATCH (i:Instance) RETURN i.class AS c UNION MATCH (i:Instance) RETURN i.class AS c",
+    );
+    assert_eq!(r.rows.len(), 5);
+    let r = q(
+        &s,
+        "MATCH (i:Instance) RETURN i.class AS c, count(*) AS n ORDER BY n DESC, c LIMIT 2",
+    );
+    assert_eq!(
+        r.rows,
+        vec![
+            vec![Val::Str("bench".into()), Val::Int(10)],
+            vec![Val::Str("bus shelter".into()), Val::Int(10)]
+        ]
+    );
+}
+
+#[test]
+fn merge_set_remove_and_schema_errors() {
+    let (_d, s) = city();
+    let r = q(
+        &s,
+        "MERGE (e:Environment {name: 'sim'}) ON CREATE SET e.source = 'test' RETURN e.source",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Str("test".into())]]);
+    let r = q(
+        &s,
+        "MERGE (e:Environment {name: 'sim'}) ON MATCH SET e.source = 'again' RETURN e.source",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Str("again".into())]]);
+    assert_eq!(
+        q(&s, "MATCH (e:Environment) RETURN count(e)").rows,
+        vec![vec![Val::Int(1)]]
+    );
+    q(&s, "MATCH (e:Environment) REMOVE e.source SET e:Root");
+    let r = q(&s, "MATCH (e:Root) RETURN e.source, labels(e)");
+    assert_eq!(
+        r.rows,
+        vec![vec![
+            Val::Null,
+            Val::List(vec![
+                Val::Str("Environment".into()),
+                Val::Str("Root".into())
+            ])
+        ]]
+    );
+    // the schema's unique key still holds, and the failed write changes nothing
+    let before = count(&s);
+    let e = qerr(
+        &s,
+        "CREATE (:Environment {name: 'other'}), (:Environment {name: 'sim'})",
+        &QueryOptions::default(),
+    );
+    assert_eq!(e.kind, ErrorKind::Constraint);
+    assert_eq!(count(&s), before);
+}
+
+// ----------------------------------------------------------- reference model
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
+
+    /// Counts of a 2-hop pattern with a filter match a brute-force count over the same edges.
+    #[test]
+    fn two_hop_counts_match_a_reference(
+        n in 2usize..12,
+        edges in proptest::collection::vec((0usize..12, 0usize..12), 0..30),
+        threshold in 0i64..12,
+    ) {
+        let (_d, s) = store();
+        let edges: Vec<(usize, usize)> = edges.into_iter().map(|(a, b)| (a % n, b % n)).collect();
+        s.write(|tx| {
+            let ids: Vec<u64> = (0..n).map(|i| tx.create_node_named(&["N"], &[("v", Value::Int(i as i64))])).collect::<Result<_, _>>()?;
+            for (a, b) in &edges {
+                tx.create_rel_named(ids[*a], "R", ids[*b], &[])?;
+            }
+            Ok(())
+        }).expect("fill");
+        let r = s.query(
+            &format!("MATCH (a:N)-[r1:R]->(b)-[r2:R]->(c) WHERE c.v >= {threshold} RETURN count(*) AS n"),
+            &QueryOptions::default(),
+        ).expect("query");
+        // reference: ordered pairs of distinct edges e1, e2 with e1.end == e2.start
+        let mut expected = 0i64;
+        for (i, e1) in edges.iter().enumerate() {
+            for (j, e2) in edges.iter().enumerate() {
+                if i != j && e1.1 == e2.0 && e2.1 as i64 >= threshold {
+                    expected += 1;
+                }
+            }
+        }
+        prop_assert_eq!(&r.rows, &vec![vec![Val::Int(expected)]]);
+        // and grouping agrees with a reference per start node
+        let r = s.query("MATCH (a:N)-->(b) RETURN a.v AS v, count(b) AS k ORDER BY v", &QueryOptions::default()).expect("group");
+        let mut per: BTreeMap<i64, i64> = BTreeMap::new();
+        for (a, _) in &edges {
+            *per.entry(*a as i64).or_default() += 1;
+        }
+        let want: Vec<Vec<Val>> = per.into_iter().map(|(v, k)| vec![Val::Int(v), Val::Int(k)]).collect();
+        prop_assert_eq!(r.rows, want);
+    }
+}
+
+// ------------------------------------------------------------------- fuzzing
+
+const SEEDS: &[&str] = &[
+    "MATCH (a:Lane {id: 1})-[:NEXT*1..3]->(b) WHERE b.x > 2 RETURN a, count(*) AS n ORDER BY n DESC LIMIT 5",
+    "UNWIND [1, 2, 3] AS x WITH x WHERE x > 1 RETURN collect(x), sum(x), avg(x)",
+    "CREATE (a:A {v: [1, 2]})-[:R {w: 0.5}]->(b:B) SET a.k = 'x' REMOVE b.z RETURN a",
+    "MATCH (n) OPTIONAL MATCH (n)-[r]-(m) RETURN n, r, m UNION ALL RETURN 1 AS n, 2 AS r, 3 AS m",
+    "RETURN CASE WHEN 1 < 2 THEN [x IN range(0, 3) | x ^ 2] ELSE null END AS v",
+    "MERGE (n:N {k: 1}) ON CREATE SET n.c = 1 ON MATCH SET n.c = n.c + 1 RETURN n.c",
+    "CALL db.labels() YIELD label RETURN label",
+    "MATCH p = (a)-[*]->(b) WHERE all(x IN nodes(p) WHERE x.v IS NOT NULL) RETURN p, reduce(s = 0, r IN relationships(p) | s + 1)",
+];
+
+const TOKENS: &[&str] = &[
+    "MATCH",
+    "RETURN",
+    "WITH",
+    "WHERE",
+    "(",
+    ")",
+    "[",
+    "]",
+    "{",
+    "}",
+    "-",
+    "->",
+    "<-",
+    ":",
+    "*",
+    "..",
+    ",",
+    ".",
+    "n",
+    "m",
+    "x",
+    "1",
+    "2.5",
+    "'s'",
+    "$p",
+    "=",
+    "<",
+    "+",
+    "AND",
+    "NOT",
+    "IN",
+    "CASE",
+    "WHEN",
+    "THEN",
+    "END",
+    "count",
+    "|",
+    "UNWIND",
+    "AS",
+    "CREATE",
+    "DELETE",
+    "SET",
+    "ORDER BY",
+    "LIMIT",
+    "null",
+    "\"",
+    "`",
+    "/*",
+    "\\",
+    "é",
+    "0x",
+    "9999999999999999999999",
+];
+
+fn run_fuzz(s: &Store, text: &str) {
+    let o = QueryOptions {
+        timeout: Some(Duration::from_millis(200)),
+        row_limit: Some(1000),
+        ..QueryOptions::default()
+    };
+    // any outcome but a panic is fine
+    let _ = s.query(text, &o);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, .. ProptestConfig::default() })]
+
+    #[test]
+    fn random_token_soup_never_panics(toks in proptest::collection::vec(0usize..TOKENS.len(), 0..25)) {
+        let (_d, s) = store();
+        let text: Vec<&str> = toks.iter().map(|i| TOKENS[*i]).collect();
+        run_fuzz(&s, &text.join(" "));
+    }
+
+    #[test]
+    fn mutated_queries_never_panic(seed in 0usize..SEEDS.len(), cuts in proptest::collection::vec((0usize..200, 0usize..TOKENS.len(), 0u8..3), 1..4)) {
+        let (_d, s) = store();
+        s.query("CREATE (:Lane {id: 1, x: 3})-[:NEXT]->(:Lane {id: 2, x: 1})", &QueryOptions::default()).expect("seed graph");
+        let mut text = SEEDS[seed].to_string();
+        for (at, tok, op) in cuts {
+            let mut at = at.min(text.len());
+            while !text.is_char_boundary(at) {
+                at -= 1;
+            }
+            match op {
+                0 => text.insert_str(at, TOKENS[tok]),
+                1 => {
+                    let mut end = (at + 3).min(text.len());
+                    while !text.is_char_boundary(end) {
+                        end -= 1;
+                    }
+                    text.replace_range(at..end, "");
+                }
+                _ => text.truncate(at),
+            }
+        }
+        run_fuzz(&s, &text);
+    }
+
+    #[test]
+    fn arbitrary_unicode_never_panics(text in "\\PC{0,80}") {
+        let (_d, s) = store();
+        run_fuzz(&s, &text);
+        prop_assert!(graphstore::cypher::validate(&text).is_ok() || graphstore::cypher::validate(&text).is_err());
+    }
+}
+
+#[test]
+fn deep_nesting_is_an_error_not_a_stack_overflow() {
+    let (_d, s) = store();
+    let deep = format!("RETURN {}1{}", "(".repeat(5000), ")".repeat(5000));
+    assert_eq!(
+        qerr(&s, &deep, &QueryOptions::default()).kind,
+        ErrorKind::Syntax
+    );
+    let deep = format!("RETURN {}1", "NOT ".repeat(5000));
+    assert_eq!(
+        qerr(&s, &deep, &QueryOptions::default()).kind,
+        ErrorKind::Syntax
+    );
+    let deep = format!("RETURN {}1{}", "[".repeat(5000), "]".repeat(5000));
+    assert_eq!(
+        qerr(&s, &deep, &QueryOptions::default()).kind,
+        ErrorKind::Syntax
+    );
+    let _ = s.read().map(|t| t.all_node_ids());
+}
