@@ -2,7 +2,7 @@
 //! text and their fused feature (0.5 × caption embedding + 0.5 × mean detection feature, as
 //! ingest writes it), optionally filtered by class and by distance from a ground point.
 
-use graphstore::{GraphRead, PropKey, Value};
+use graphstore::{GraphRead, PropKey, Value, VectorSearch};
 
 use crate::embed::{Embedder, cosine};
 use crate::error::{Error, Result};
@@ -92,6 +92,97 @@ pub fn find<R: GraphRead>(
         .ok_or_else(|| Error::Invalid("the embedder returned nothing".into()))?;
     let embed_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = std::time::Instant::now();
+    let mut scored = match r.vector_index(INDEX) {
+        // the in-memory vector index: exact top-k, filtered from a growing ranked prefix
+        Ok(ix) if ix.dim() == q.len() => ranked_by_index(r, &ix, &q, opts)?,
+        _ => scan(r, &q, opts)?,
+    };
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    scored.truncate(opts.k);
+    let mut out = Vec::with_capacity(scored.len());
+    for (score, id) in scored {
+        let text = |k: &str| -> Result<String> {
+            Ok(r.node_prop(id, k)?
+                .as_ref()
+                .and_then(Value::as_str)
+                .unwrap_or_default()
+                .to_string())
+        };
+        out.push(Found {
+            id,
+            caption: text("caption")?,
+            class: text("class")?,
+            score,
+            centroid: r
+                .node_prop(id, "centroid")?
+                .as_ref()
+                .and_then(Value::as_point3)
+                .unwrap_or([f64::NAN; 3]),
+        });
+    }
+    let rank_ms = t1.elapsed().as_secs_f64() * 1e3;
+    Ok((out, FindTimings { embed_ms, rank_ms }))
+}
+
+/// The vector index over instance features (see the OpenGraph schema).
+const INDEX: &str = "instance_feature";
+
+fn passes<R: GraphRead>(r: &R, id: u64, opts: &FindOptions) -> Result<bool> {
+    if let Some(c) = &opts.class
+        && r.node_prop(id, "class")?.as_ref().and_then(Value::as_str) != Some(c.as_str())
+    {
+        return Ok(false);
+    }
+    if let Some((g, radius_m)) = opts.near {
+        let Some(p) = r
+            .node_prop(id, "centroid")?
+            .as_ref()
+            .and_then(Value::as_point3)
+        else {
+            return Ok(false);
+        };
+        if (p[0] - g[0]).hypot(p[2] - g[1]) > radius_m {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
+/// Top-k through the vector index. With filters it ranks a prefix of the whole ranking and
+/// keeps the first k that pass, growing the prefix until k pass or the index is exhausted,
+/// so the answer is the exact filtered top-k.
+fn ranked_by_index<R: GraphRead>(
+    r: &R,
+    ix: &graphstore::FlatVectorIndex<'_>,
+    q: &[f32],
+    opts: &FindOptions,
+) -> Result<Vec<(f64, u64)>> {
+    let filtered = opts.class.is_some() || opts.near.is_some();
+    let mut fetch = if filtered {
+        (opts.k * 8).max(64)
+    } else {
+        opts.k
+    };
+    loop {
+        let hits = ix.top_k(q, fetch)?;
+        let mut out = Vec::with_capacity(opts.k);
+        for h in &hits {
+            if out.len() == opts.k {
+                break;
+            }
+            if !filtered || passes(r, h.node, opts)? {
+                out.push((h.score, h.node));
+            }
+        }
+        if out.len() == opts.k || hits.len() < fetch {
+            return Ok(out);
+        }
+        fetch = fetch.saturating_mul(4);
+    }
+}
+
+/// Exact scan over every instance's stored feature (maps without the vector index).
+fn scan<R: GraphRead>(r: &R, q: &[f32], opts: &FindOptions) -> Result<Vec<(f64, u64)>> {
     let (k_feature, k_class, k_centroid) = (
         r.prop_key("feature"),
         r.prop_key("class"),
@@ -128,33 +219,9 @@ pub fn find<R: GraphRead>(
                 continue;
             }
         }
-        scored.push((cosine(&q, f), id));
+        scored.push((cosine(q, f), id));
     }
-    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    scored.truncate(opts.k);
-    let mut out = Vec::with_capacity(scored.len());
-    for (score, id) in scored {
-        let text = |k: &str| -> Result<String> {
-            Ok(r.node_prop(id, k)?
-                .as_ref()
-                .and_then(Value::as_str)
-                .unwrap_or_default()
-                .to_string())
-        };
-        out.push(Found {
-            id,
-            caption: text("caption")?,
-            class: text("class")?,
-            score,
-            centroid: r
-                .node_prop(id, "centroid")?
-                .as_ref()
-                .and_then(Value::as_point3)
-                .unwrap_or([f64::NAN; 3]),
-        });
-    }
-    let rank_ms = t1.elapsed().as_secs_f64() * 1e3;
-    Ok((out, FindTimings { embed_ms, rank_ms }))
+    Ok(scored)
 }
 
 #[cfg(test)]
@@ -227,5 +294,88 @@ mod tests {
         // a query embedder of another dimension is refused
         let mut wrong = HashEmbedder::new(32);
         assert!(find(&r, &mut wrong, "a bench", &FindOptions::default()).is_err());
+    }
+
+    #[test]
+    fn the_vector_index_path_ranks_exactly_like_the_full_scan() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::create(dir.path().join("ix.og")).unwrap();
+        store.set_schema(graphstore::opengraph_schema()).unwrap();
+        let mut e = HashEmbedder::new(graphstore::FEATURE_DIM);
+        let words = [
+            "bench", "car", "tree", "pole", "shelter", "lamp", "bin", "sign",
+        ];
+        store
+            .write(|tx| {
+                for i in 0..400i64 {
+                    let caption = format!(
+                        "a {} near the {} number {i}",
+                        words[(i % 8) as usize],
+                        words[(i % 5) as usize]
+                    );
+                    let f = e.embed(&[caption.as_str()]).unwrap().pop().unwrap();
+                    let (x, z) = ((i % 20) as f64 * 5.0, (i / 20) as f64 * 5.0);
+                    tx.create_node_named(
+                        &["Instance"],
+                        &[
+                            ("instance_id", Value::Int(i)),
+                            ("caption", Value::String(caption)),
+                            ("class", Value::from(words[(i % 8) as usize])),
+                            ("centroid", Value::Point3D([x, 0.0, z])),
+                            ("bbox", Value::box3d([x, 0.0, z], [x + 1.0, 1.0, z + 1.0])),
+                            ("feature", Value::Vector(f)),
+                        ],
+                    )?;
+                }
+                Ok(())
+            })
+            .unwrap();
+        let r = store.read().unwrap();
+        let ix = r.vector_index(INDEX).unwrap();
+        let q = e
+            .embed(&["a shelter near the bench"])
+            .unwrap()
+            .pop()
+            .unwrap();
+        for opts in [
+            FindOptions {
+                k: 10,
+                class: None,
+                near: None,
+            },
+            FindOptions {
+                k: 7,
+                class: Some("lamp".into()),
+                near: None,
+            },
+            FindOptions {
+                k: 5,
+                class: None,
+                near: Some(([20.0, 20.0], 12.0)),
+            },
+            FindOptions {
+                k: 3,
+                class: Some("sign".into()),
+                near: Some(([0.0, 0.0], 30.0)),
+            },
+            FindOptions {
+                k: 10,
+                class: Some("no such class".into()),
+                near: None,
+            },
+        ] {
+            let mut a = ranked_by_index(&r, &ix, &q, &opts).unwrap();
+            let mut b = scan(&r, &q, &opts).unwrap();
+            for v in [&mut a, &mut b] {
+                v.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+                v.truncate(opts.k);
+            }
+            assert_eq!(a.len(), b.len(), "{opts:?}");
+            for ((sa, ia), (sb, ib)) in a.iter().zip(&b) {
+                assert!((sa - sb).abs() < 1e-5, "{opts:?}: {sa} vs {sb}");
+                // equal scores may come in either order; otherwise the same node
+                assert!(ia == ib || (sa - sb).abs() < 1e-6, "{opts:?}");
+            }
+        }
     }
 }

@@ -76,6 +76,17 @@ pub(crate) fn choose_anchor<'e>(
                 *best = Some((score, count, a));
             }
         };
+    // any bound node or inline indexed equality makes label counts irrelevant
+    let has_index_anchor = (0..=p.steps.len()).any(|i| {
+        let np = node_pat(p, i);
+        np.var.as_deref().is_some_and(is_bound)
+            || np.labels.iter().any(|l| match &np.props {
+                Some(Expr::Map(entries)) => entries
+                    .iter()
+                    .any(|(k, e)| g.has_property_index(l, k) && can_eval(e)),
+                _ => false,
+            })
+    });
     for i in 0..=p.steps.len() {
         let np = node_pat(p, i);
         if let Some(v) = &np.var
@@ -183,7 +194,8 @@ pub(crate) fn choose_anchor<'e>(
                     );
                 }
             }
-            let n = if np.labels.len() > 1 || !p.steps.is_empty() {
+            // label sizes only matter when a label scan may win
+            let n = if (np.labels.len() > 1 || !p.steps.is_empty()) && !has_index_anchor {
                 let c =
                     counts.get_or_insert_with(|| g.counts().map(|c| c.nodes).unwrap_or_default());
                 c.get(l).copied().unwrap_or(0)
