@@ -179,6 +179,9 @@ fn errors_carry_line_and_column() {
     assert!(e.to_string().contains("line 1, column 8"), "{e}");
     let e = qerr(&s, "RETURN $missing", &o);
     assert_eq!(e.kind, ErrorKind::Parameter);
+    // a runtime error points at least at its clause
+    let e = qerr(&s, "UNWIND [1, 2] AS x\nWITH x\nRETURN x + true", &o);
+    assert_eq!((e.kind, e.pos.map(|p| p.line)), (ErrorKind::Type, Some(3)));
 }
 
 #[test]

@@ -44,6 +44,8 @@ pub(crate) struct Ctx<'a, 'b> {
     deleted_rels: HashSet<u64>,
     deleted_rel_types: BTreeMap<u64, String>,
     pub stats: Stats,
+    /// Where the clause being run starts, for errors that know no better place.
+    pub clause_pos: Option<super::Pos>,
 }
 
 fn sem(code: &'static str, msg: impl Into<String>) -> QueryError {
@@ -66,6 +68,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             deleted_nodes: HashSet::new(),
             deleted_rels: HashSet::new(),
             deleted_rel_types: BTreeMap::new(),
+            clause_pos: None,
             stats: Stats::default(),
         }
     }
@@ -148,7 +151,8 @@ impl<'a, 'b> Ctx<'a, 'b> {
     pub fn run_single(&mut self, q: &SingleQuery) -> R<(Vec<String>, Vec<Vec<Val>>)> {
         let mut rows = vec![Row::default()];
         let mut scope: Vec<String> = Vec::new();
-        for clause in &q.clauses {
+        for (ci, clause) in q.clauses.iter().enumerate() {
+            self.clause_pos = q.positions.get(ci).copied();
             match clause {
                 Clause::Match {
                     optional,

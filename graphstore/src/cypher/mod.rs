@@ -487,7 +487,11 @@ fn run_statement(
     let mut columns = Vec::new();
     let mut rows: Vec<Vec<Val>> = Vec::new();
     for (i, part) in stmt.parts.iter().enumerate() {
-        let (cols, mut r) = ctx.run_single(part)?;
+        let run = ctx.run_single(part);
+        let (cols, mut r) = run.map_err(|e| match ctx.clause_pos {
+            Some(p) => e.at(p),
+            None => e,
+        })?;
         if i == 0 {
             columns = cols;
         }
