@@ -806,7 +806,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
                 row_limit: Some(max_rows),
                 read_only,
-                seed: 0,
+                ..graphstore::cypher::QueryOptions::default()
             };
             let t0 = std::time::Instant::now();
             let r = store.query(&cypher, &opts)?;

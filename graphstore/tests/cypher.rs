@@ -155,6 +155,27 @@ fn read_only_timeout_and_row_limit() {
         qerr(&s, "UNWIND range(1, 11) AS x RETURN x", &limited).kind,
         ErrorKind::RowLimit
     );
+    // a runaway intermediate result stops at the cap instead of eating memory
+    let capped = QueryOptions {
+        max_intermediate_rows: 100_000,
+        ..QueryOptions::default()
+    };
+    let e = qerr(
+        &s,
+        "UNWIND range(1, 1000) AS x UNWIND range(1, 1000) AS y RETURN count(*)",
+        &capped,
+    );
+    assert_eq!(
+        (e.kind, e.code),
+        (ErrorKind::RowLimit, "IntermediateRowLimit")
+    );
+    let r = s
+        .query(
+            "UNWIND range(1, 300) AS x UNWIND range(1, 300) AS y RETURN count(*) AS n",
+            &capped,
+        )
+        .expect("under the cap");
+    assert_eq!(r.rows, vec![vec![Val::Int(90_000)]]);
 }
 
 #[test]

@@ -46,6 +46,8 @@ pub(crate) struct Ctx<'a, 'b> {
     pub stats: Stats,
     /// Where the clause being run starts, for errors that know no better place.
     pub clause_pos: Option<super::Pos>,
+    /// Cap on the rows any clause may produce.
+    pub max_rows: usize,
 }
 
 fn sem(code: &'static str, msg: impl Into<String>) -> QueryError {
@@ -69,6 +71,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             deleted_rels: HashSet::new(),
             deleted_rel_types: BTreeMap::new(),
             clause_pos: None,
+            max_rows: usize::MAX,
             stats: Stats::default(),
         }
     }
@@ -103,6 +106,22 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 ErrorKind::Timeout,
                 "Timeout",
                 "the query ran past its time limit",
+                None,
+            ));
+        }
+        Ok(())
+    }
+
+    /// Fails when an intermediate result grows past the cap (memory guard).
+    fn room(&self, rows: usize) -> R<()> {
+        if rows > self.max_rows {
+            return Err(QueryError::new(
+                ErrorKind::RowLimit,
+                "IntermediateRowLimit",
+                format!(
+                    "an intermediate result grew past {} rows; narrow the pattern or add LIMIT",
+                    self.max_rows
+                ),
                 None,
             ));
         }
@@ -177,8 +196,10 @@ impl<'a, 'b> Ctx<'a, 'b> {
                                 r.set(v, Val::Null);
                             }
                             out.push(r);
+                            self.room(out.len())?;
                         } else {
                             out.extend(m);
+                            self.room(out.len())?;
                         }
                     }
                     scope.extend(new_vars);
@@ -195,12 +216,14 @@ impl<'a, 'b> Ctx<'a, 'b> {
                                     let mut r = row.clone();
                                     r.set(var, it);
                                     out.push(r);
+                                    self.room(out.len())?;
                                 }
                             }
                             other => {
                                 let mut r = row.clone();
                                 r.set(var, other);
                                 out.push(r);
+                                self.room(out.len())?;
                             }
                         }
                     }
@@ -270,12 +293,14 @@ impl<'a, 'b> Ctx<'a, 'b> {
                                 self.set_item(&mut r, it)?;
                             }
                             out.push(r);
+                            self.room(out.len())?;
                         } else {
                             for mut r in found {
                                 for it in on_match {
                                     self.set_item(&mut r, it)?;
                                 }
                                 out.push(r);
+                                self.room(out.len())?;
                             }
                         }
                     }
@@ -349,6 +374,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
                                 continue;
                             }
                             out.push(r);
+                            self.room(out.len())?;
                         }
                         if q.clauses.len() == 1 {
                             let names: Vec<String> =
@@ -632,6 +658,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 return Ok(false);
             }
             out.push(row);
+            self.room(out.len())?;
             return Ok(limit.is_some_and(|l| out.len() >= l));
         }
         let p = &pats[i];

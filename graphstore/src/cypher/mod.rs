@@ -175,6 +175,9 @@ pub struct QueryOptions {
     pub row_limit: Option<usize>,
     /// Refuse statements that write.
     pub read_only: bool,
+    /// Fail with [`ErrorKind::RowLimit`] when any clause produces more rows than this
+    /// (a memory guard for runaway patterns; default 10 million).
+    pub max_intermediate_rows: usize,
     /// Seed of `rand()`.
     pub seed: u64,
 }
@@ -186,6 +189,7 @@ impl Default for QueryOptions {
             timeout: Some(Duration::from_secs(60)),
             row_limit: None,
             read_only: false,
+            max_intermediate_rows: 10_000_000,
             seed: 0,
         }
     }
@@ -557,6 +561,7 @@ impl Store {
             self.write(|tx| {
                 let mut ctx =
                     exec::Ctx::new(exec::Tx::Write(&mut *tx), &opts.params, deadline, opts.seed);
+                ctx.max_rows = opts.max_intermediate_rows;
                 let mut res = run_statement(&mut ctx, &stmt, opts)?;
                 drop(ctx);
                 resolve(&*tx, &mut res)?;
@@ -565,6 +570,7 @@ impl Store {
         } else {
             let txn = self.read()?;
             let mut ctx = exec::Ctx::new(exec::Tx::Read(&txn), &opts.params, deadline, opts.seed);
+            ctx.max_rows = opts.max_intermediate_rows;
             let mut res = run_statement(&mut ctx, &stmt, opts)?;
             resolve(&txn, &mut res)?;
             Ok(res)
