@@ -506,3 +506,120 @@ impl Expr {
         }
     }
 }
+
+impl Expr {
+    /// The direct sub-expressions (pattern property maps included).
+    pub fn children(&self) -> Vec<&Expr> {
+        let mut v: Vec<&Expr> = Vec::new();
+        match self {
+            Expr::Lit(_) | Expr::Param(..) | Expr::Var(..) | Expr::CountStar | Expr::AggRef(_) => {}
+            Expr::Prop(e, _)
+            | Expr::Not(e)
+            | Expr::Neg(e)
+            | Expr::IsNull(e, _)
+            | Expr::HasLabels(e, _) => v.push(e),
+            Expr::Index(a, b) | Expr::Bin(_, a, b) => {
+                v.push(a);
+                v.push(b);
+            }
+            Expr::Slice(a, b, c) => {
+                v.push(a);
+                v.extend(b.as_deref());
+                v.extend(c.as_deref());
+            }
+            Expr::List(l) | Expr::Chain(l, _) => v.extend(l.iter()),
+            Expr::Func { args, .. } => v.extend(args.iter()),
+            Expr::Map(m) => v.extend(m.iter().map(|(_, e)| e)),
+            Expr::Case {
+                subject,
+                whens,
+                else_,
+            } => {
+                v.extend(subject.as_deref());
+                for (a, b) in whens {
+                    v.push(a);
+                    v.push(b);
+                }
+                v.extend(else_.as_deref());
+            }
+            Expr::ListComp {
+                list, filter, map, ..
+            } => {
+                v.push(list);
+                v.extend(filter.as_deref());
+                v.extend(map.as_deref());
+            }
+            Expr::Quantified { list, pred, .. } => {
+                v.push(list);
+                v.push(pred);
+            }
+            Expr::Reduce {
+                init, list, expr, ..
+            } => {
+                v.push(init);
+                v.push(list);
+                v.push(expr);
+            }
+            Expr::Pattern(p) => pattern_children(p, &mut v),
+            Expr::PatternComp {
+                pattern,
+                filter,
+                map,
+            } => {
+                pattern_children(pattern, &mut v);
+                v.extend(filter.as_deref());
+                v.push(map);
+            }
+            Expr::MapProj(e, items) => {
+                v.push(e);
+                for it in items {
+                    if let MapProjItem::Lit(_, e) = it {
+                        v.push(e);
+                    }
+                }
+            }
+        }
+        v
+    }
+
+    /// How deep evaluation recurses through the tree, computed without recursion. A chain of
+    /// one operator family counts once, as evaluation folds it in a loop.
+    pub fn depth(&self) -> usize {
+        let mut max = 0;
+        let mut stack = vec![(self, 1usize)];
+        while let Some((e, d)) = stack.pop() {
+            max = max.max(d);
+            match e {
+                Expr::Bin(op, l, r) => {
+                    let flat = matches!(l.as_ref(), Expr::Bin(o, _, _) if same_family(*o, *op));
+                    stack.push((l, if flat { d } else { d + 1 }));
+                    stack.push((r, d + 1));
+                }
+                _ => stack.extend(e.children().into_iter().map(|c| (c, d + 1))),
+            }
+        }
+        max
+    }
+}
+
+fn pattern_children<'a>(p: &'a PathPattern, v: &mut Vec<&'a Expr>) {
+    v.extend(p.start.props.as_ref());
+    for (r, n) in &p.steps {
+        v.extend(r.props.as_ref());
+        v.extend(n.props.as_ref());
+    }
+}
+
+/// Operators evaluated left to right at one precedence level: a chain of them folds in a loop.
+pub(crate) fn same_family(a: BinOp, b: BinOp) -> bool {
+    use BinOp::*;
+    matches!(
+        (a, b),
+        (Add | Sub, Add | Sub)
+            | (Mul | Div | Mod, Mul | Div | Mod)
+            | (And, And)
+            | (Or, Or)
+            | (Xor, Xor)
+            | (Pow, Pow)
+    )
+}

@@ -825,20 +825,28 @@ fn check_expr(e: &Expr, scope: &Scope, cx: Cx<'_>) -> R<()> {
             not_boolean(x)?;
             rec(x)
         }
-        Expr::Bin(BinOp::And | BinOp::Or | BinOp::Xor, a, b) => {
-            not_boolean(a)?;
-            not_boolean(b)?;
-            rec(a)?;
-            rec(b)
-        }
-        Expr::Bin(BinOp::In, a, b) => {
-            if matches!(b.as_ref(), Expr::Lit(v) if !v.is_null())
-                || matches!(b.as_ref(), Expr::Map(_))
-            {
-                return Err(bad_arg("IN needs a list on its right"));
+        Expr::Bin(..) => {
+            // walk the left spine in a loop: long chains do not deepen the recursion
+            let mut cur = e;
+            while let Expr::Bin(op, a, b) = cur {
+                match op {
+                    BinOp::And | BinOp::Or | BinOp::Xor => {
+                        not_boolean(a)?;
+                        not_boolean(b)?;
+                    }
+                    BinOp::In => {
+                        if matches!(b.as_ref(), Expr::Lit(v) if !v.is_null())
+                            || matches!(b.as_ref(), Expr::Map(_))
+                        {
+                            return Err(bad_arg("IN needs a list on its right"));
+                        }
+                    }
+                    _ => {}
+                }
+                rec(b)?;
+                cur = a;
             }
-            rec(a)?;
-            rec(b)
+            rec(cur)
         }
         Expr::Prop(x, _) => {
             if matches!(static_kind(x, scope), Some(Kind::Path)) {
@@ -847,7 +855,7 @@ fn check_expr(e: &Expr, scope: &Scope, cx: Cx<'_>) -> R<()> {
             rec(x)
         }
         Expr::Neg(x) | Expr::IsNull(x, _) | Expr::HasLabels(x, _) => rec(x),
-        Expr::Index(a, b) | Expr::Bin(_, a, b) => {
+        Expr::Index(a, b) => {
             rec(a)?;
             rec(b)
         }

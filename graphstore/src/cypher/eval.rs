@@ -615,77 +615,98 @@ impl Ctx<'_, '_> {
     }
 
     fn binary(&self, op: BinOp, a: &Expr, b: &Expr, row: &Row, aggs: &[Val]) -> R<Val> {
+        // a left-deep chain of one family (`a OR b OR c`, `a + b - c`) is folded left to right
+        // in a loop, so long chains do not deepen the recursion
+        if let Expr::Bin(inner, _, _) = a
+            && super::ast::same_family(*inner, op)
+        {
+            let mut rhs: Vec<(BinOp, &Expr)> = vec![(op, b)];
+            let mut cur = a;
+            while let Expr::Bin(o, l, r) = cur {
+                if !super::ast::same_family(*o, op) {
+                    break;
+                }
+                rhs.push((*o, r));
+                cur = l;
+            }
+            let mut acc = self.eval_in(cur, row, aggs)?;
+            for (o, r) in rhs.into_iter().rev() {
+                let y = self.eval_in(r, row, aggs)?;
+                acc = self.apply(o, &acc, &y)?;
+            }
+            return Ok(acc);
+        }
+        let x = self.eval_in(a, row, aggs)?;
+        let y = self.eval_in(b, row, aggs)?;
+        self.apply(op, &x, &y)
+    }
+
+    /// Applies a binary operator to two evaluated operands.
+    fn apply(&self, op: BinOp, x: &Val, y: &Val) -> R<Val> {
+        let (x, y) = (x.clone(), y.clone());
         match op {
-            BinOp::And | BinOp::Or | BinOp::Xor => {
-                let x = self.eval_in(a, row, aggs)?;
-                let y = self.eval_in(b, row, aggs)?;
-                match op {
-                    BinOp::And => and3(&x, &y),
-                    BinOp::Or => {
-                        let (p, q) = (to_bool(&x, "OR")?, to_bool(&y, "OR")?);
-                        Ok(match (p, q) {
-                            (Some(true), _) | (_, Some(true)) => Val::Bool(true),
-                            (Some(false), Some(false)) => Val::Bool(false),
-                            _ => Val::Null,
-                        })
-                    }
-                    _ => {
-                        let (p, q) = (to_bool(&x, "XOR")?, to_bool(&y, "XOR")?);
-                        Ok(match (p, q) {
-                            (Some(p), Some(q)) => Val::Bool(p != q),
-                            _ => Val::Null,
-                        })
-                    }
+            BinOp::And | BinOp::Or | BinOp::Xor => match op {
+                BinOp::And => and3(&x, &y),
+                BinOp::Or => {
+                    let (p, q) = (to_bool(&x, "OR")?, to_bool(&y, "OR")?);
+                    Ok(match (p, q) {
+                        (Some(true), _) | (_, Some(true)) => Val::Bool(true),
+                        (Some(false), Some(false)) => Val::Bool(false),
+                        _ => Val::Null,
+                    })
                 }
-            }
-            _ => {
-                let x = self.eval_in(a, row, aggs)?;
-                let y = self.eval_in(b, row, aggs)?;
-                match op {
-                    BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
-                        Ok(cmp_op(op, &x, &y))
-                    }
-                    BinOp::In => match &y {
-                        Val::Null => Ok(Val::Null),
-                        Val::List(l) => {
-                            let mut unknown = false;
-                            for it in l {
-                                match equals(&x, it) {
-                                    Some(true) => return Ok(Val::Bool(true)),
-                                    None => unknown = true,
-                                    Some(false) => {}
-                                }
+                _ => {
+                    let (p, q) = (to_bool(&x, "XOR")?, to_bool(&y, "XOR")?);
+                    Ok(match (p, q) {
+                        (Some(p), Some(q)) => Val::Bool(p != q),
+                        _ => Val::Null,
+                    })
+                }
+            },
+            _ => match op {
+                BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
+                    Ok(cmp_op(op, &x, &y))
+                }
+                BinOp::In => match &y {
+                    Val::Null => Ok(Val::Null),
+                    Val::List(l) => {
+                        let mut unknown = false;
+                        for it in l {
+                            match equals(&x, it) {
+                                Some(true) => return Ok(Val::Bool(true)),
+                                None => unknown = true,
+                                Some(false) => {}
                             }
-                            Ok(if unknown { Val::Null } else { Val::Bool(false) })
                         }
-                        o => Err(type_err(format!(
-                            "IN expects a list, got {}",
-                            o.type_name()
-                        ))),
-                    },
-                    BinOp::StartsWith | BinOp::EndsWith | BinOp::Contains => match (&x, &y) {
-                        (Val::Str(s), Val::Str(t)) => Ok(Val::Bool(match op {
-                            BinOp::StartsWith => s.starts_with(t.as_str()),
-                            BinOp::EndsWith => s.ends_with(t.as_str()),
-                            _ => s.contains(t.as_str()),
-                        })),
-                        _ => Ok(Val::Null),
-                    },
-                    BinOp::Regex => match (&x, &y) {
-                        (Val::Str(s), Val::Str(p)) => {
-                            let re = regex::Regex::new(&format!("^(?:{p})$")).map_err(|e| {
-                                arg_err(
-                                    "InvalidArgumentValue",
-                                    format!("invalid regular expression: {e}"),
-                                )
-                            })?;
-                            Ok(Val::Bool(re.is_match(s)))
-                        }
-                        _ => Ok(Val::Null),
-                    },
-                    _ => arith(op, &x, &y),
-                }
-            }
+                        Ok(if unknown { Val::Null } else { Val::Bool(false) })
+                    }
+                    o => Err(type_err(format!(
+                        "IN expects a list, got {}",
+                        o.type_name()
+                    ))),
+                },
+                BinOp::StartsWith | BinOp::EndsWith | BinOp::Contains => match (&x, &y) {
+                    (Val::Str(s), Val::Str(t)) => Ok(Val::Bool(match op {
+                        BinOp::StartsWith => s.starts_with(t.as_str()),
+                        BinOp::EndsWith => s.ends_with(t.as_str()),
+                        _ => s.contains(t.as_str()),
+                    })),
+                    _ => Ok(Val::Null),
+                },
+                BinOp::Regex => match (&x, &y) {
+                    (Val::Str(s), Val::Str(p)) => {
+                        let re = regex::Regex::new(&format!("^(?:{p})$")).map_err(|e| {
+                            arg_err(
+                                "InvalidArgumentValue",
+                                format!("invalid regular expression: {e}"),
+                            )
+                        })?;
+                        Ok(Val::Bool(re.is_match(s)))
+                    }
+                    _ => Ok(Val::Null),
+                },
+                _ => arith(op, &x, &y),
+            },
         }
     }
 

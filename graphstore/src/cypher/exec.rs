@@ -938,8 +938,10 @@ impl<'a, 'b> Ctx<'a, 'b> {
         }
     }
 
+    /// Emits one variable-length hop sequence `trail` ending at `at` if it is long enough and
+    /// its end fits; true stops the search.
     #[allow(clippy::too_many_arguments)]
-    fn var_len(
+    fn var_len_emit(
         &self,
         p: &PathPattern,
         moves: &[(usize, bool)],
@@ -950,11 +952,8 @@ impl<'a, 'b> Ctx<'a, 'b> {
         k: &mut OnMatch<'_, 'a, 'b>,
         at: u64,
         lo: usize,
-        hi: usize,
-        types: &Option<Vec<crate::RelType>>,
-        trail: &mut Vec<(u64, u64)>,
+        trail: &[(u64, u64)],
     ) -> R<bool> {
-        self.tick()?;
         let (j, forward) = moves[mi];
         let (rp, _) = &p.steps[j];
         let to_idx = if forward { j + 1 } else { j };
@@ -988,7 +987,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             if ok_var && self.node_ok(at, target, &mut r)? {
                 st.nodes[to_idx] = at;
                 st.segs[j] = if forward {
-                    trail.clone()
+                    trail.to_vec()
                 } else {
                     // walking back from node j+1 to node j; store hops in forward order
                     let start = st.nodes[j + 1];
@@ -1012,10 +1011,46 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 }
             }
         }
-        if trail.len() >= hi {
-            return Ok(false);
+        Ok(false)
+    }
+
+    /// Depth-first search over variable-length hops with an explicit stack, so that long paths
+    /// cannot overflow the call stack.
+    #[allow(clippy::too_many_arguments)]
+    fn var_len(
+        &self,
+        p: &PathPattern,
+        moves: &[(usize, bool)],
+        mi: usize,
+        row: &Row,
+        st: &mut PathState,
+        used: &mut Vec<u64>,
+        k: &mut OnMatch<'_, 'a, 'b>,
+        from: u64,
+        lo: usize,
+        hi: usize,
+        types: &Option<Vec<crate::RelType>>,
+        trail: &mut Vec<(u64, u64)>,
+    ) -> R<bool> {
+        let (j, forward) = moves[mi];
+        let (rp, _) = &p.steps[j];
+        if self.var_len_emit(p, moves, mi, row, st, used, k, from, lo, trail)? {
+            return Ok(true);
         }
-        for (rid, other) in self.hops(at, rp, forward, types)? {
+        // frames of (hops out of a node, next hop to try)
+        let mut stack: Vec<(Vec<(u64, u64)>, usize)> = Vec::new();
+        if hi > 0 {
+            stack.push((self.hops(from, rp, forward, types)?, 0));
+        }
+        while let Some((hops, next)) = stack.last_mut() {
+            self.tick()?;
+            if *next >= hops.len() {
+                stack.pop();
+                trail.pop();
+                continue;
+            }
+            let (rid, other) = hops[*next];
+            *next += 1;
             if used.contains(&rid)
                 || trail.iter().any(|(r, _)| *r == rid)
                 || !self.rel_ok(rid, rp, row)?
@@ -1023,10 +1058,14 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 continue;
             }
             trail.push((rid, other));
-            let stop = self.var_len(p, moves, mi, row, st, used, k, other, lo, hi, types, trail)?;
-            trail.pop();
-            if stop {
+            if self.var_len_emit(p, moves, mi, row, st, used, k, other, lo, trail)? {
                 return Ok(true);
+            }
+            if trail.len() < hi {
+                let h = self.hops(other, rp, forward, types)?;
+                stack.push((h, 0));
+            } else {
+                trail.pop();
             }
         }
         Ok(false)

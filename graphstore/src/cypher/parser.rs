@@ -13,6 +13,7 @@ pub(crate) fn parse(src: &str) -> Result<Statement, QueryError> {
         toks,
         i: 0,
         depth: 0,
+        chain: 0,
     };
     p.statement()
 }
@@ -22,9 +23,15 @@ struct Parser<'a> {
     toks: Vec<Token>,
     i: usize,
     depth: u32,
+    chain: u32,
 }
 
+/// Nesting of parentheses, lists and calls (each level costs the parser a dozen frames).
 const MAX_DEPTH: u32 = 40;
+/// Depth of an expression tree, operators in a chain included (evaluation recurses through it).
+const MAX_TREE_DEPTH: u32 = 64;
+/// Operators in a row at one nesting level (bounds the parser's work before the depth check).
+const MAX_CHAIN: u32 = 4096;
 
 const RESERVED: &[&str] = &[
     "match",
@@ -703,14 +710,45 @@ impl Parser<'_> {
                 Some(self.pos()),
             ));
         }
+        let chain = self.chain;
+        let pos = self.pos();
         let r = self.or_expr();
         self.depth -= 1;
+        self.chain = chain;
+        // the tree's real depth bounds every recursion over it (checks, evaluation)
+        if self.depth == 0
+            && let Ok(e) = &r
+            && e.depth() > MAX_TREE_DEPTH as usize
+        {
+            return Err(QueryError::syntax(
+                "UnexpectedSyntax",
+                format!(
+                    "expression too deep (more than {MAX_TREE_DEPTH} levels); split it or use IN [...]"
+                ),
+                Some(pos),
+            ));
+        }
         r
+    }
+
+    /// One more operator in a row (`a + b + c` nests to the left); bounds the parser's work
+    /// before the depth check.
+    fn grow(&mut self) -> R<()> {
+        self.chain += 1;
+        if self.chain > MAX_CHAIN {
+            return Err(QueryError::syntax(
+                "UnexpectedSyntax",
+                format!("expression too long (more than {MAX_CHAIN} operators in a row)"),
+                Some(self.pos()),
+            ));
+        }
+        Ok(())
     }
 
     fn or_expr(&mut self) -> R<Expr> {
         let mut l = self.xor_expr()?;
         while self.eat_kw("or") {
+            self.grow()?;
             let r = self.xor_expr()?;
             l = Expr::Bin(BinOp::Or, Box::new(l), Box::new(r));
         }
@@ -719,6 +757,7 @@ impl Parser<'_> {
     fn xor_expr(&mut self) -> R<Expr> {
         let mut l = self.and_expr()?;
         while self.eat_kw("xor") {
+            self.grow()?;
             let r = self.and_expr()?;
             l = Expr::Bin(BinOp::Xor, Box::new(l), Box::new(r));
         }
@@ -727,6 +766,7 @@ impl Parser<'_> {
     fn and_expr(&mut self) -> R<Expr> {
         let mut l = self.not_expr()?;
         while self.eat_kw("and") {
+            self.grow()?;
             let r = self.not_expr()?;
             l = Expr::Bin(BinOp::And, Box::new(l), Box::new(r));
         }
@@ -764,6 +804,7 @@ impl Parser<'_> {
                     // `a<-1` lexes as `<-`: it is `a < -1`
                     let pos = self.pos();
                     self.advance();
+                    self.grow()?;
                     let rhs = self.predicate_expr()?;
                     ops.push(BinOp::Lt);
                     operands.push(Expr::Neg(Box::new(rhs)));
@@ -773,6 +814,7 @@ impl Parser<'_> {
                 _ => break,
             };
             self.advance();
+            self.grow()?;
             ops.push(op);
             operands.push(self.predicate_expr()?);
         }
@@ -790,29 +832,35 @@ impl Parser<'_> {
         let mut l = self.add_expr()?;
         loop {
             if self.is_kw("is") {
+                self.grow()?;
                 self.advance();
                 let neg = self.eat_kw("not");
                 self.expect_kw("null")?;
                 l = Expr::IsNull(Box::new(l), neg);
             } else if self.is_kw("in") {
+                self.grow()?;
                 self.advance();
                 let r = self.add_expr()?;
                 l = Expr::Bin(BinOp::In, Box::new(l), Box::new(r));
             } else if self.is_kw("starts") && self.is_kw_at(1, "with") {
+                self.grow()?;
                 self.advance();
                 self.advance();
                 let r = self.add_expr()?;
                 l = Expr::Bin(BinOp::StartsWith, Box::new(l), Box::new(r));
             } else if self.is_kw("ends") && self.is_kw_at(1, "with") {
+                self.grow()?;
                 self.advance();
                 self.advance();
                 let r = self.add_expr()?;
                 l = Expr::Bin(BinOp::EndsWith, Box::new(l), Box::new(r));
             } else if self.is_kw("contains") {
+                self.grow()?;
                 self.advance();
                 let r = self.add_expr()?;
                 l = Expr::Bin(BinOp::Contains, Box::new(l), Box::new(r));
             } else if self.is_sym("=~") {
+                self.grow()?;
                 self.advance();
                 let r = self.add_expr()?;
                 l = Expr::Bin(BinOp::Regex, Box::new(l), Box::new(r));
@@ -833,6 +881,7 @@ impl Parser<'_> {
                 break;
             };
             self.advance();
+            self.grow()?;
             let r = self.mul_expr()?;
             l = Expr::Bin(op, Box::new(l), Box::new(r));
         }
@@ -851,6 +900,7 @@ impl Parser<'_> {
                 break;
             };
             self.advance();
+            self.grow()?;
             let r = self.pow_expr()?;
             l = Expr::Bin(op, Box::new(l), Box::new(r));
         }
@@ -859,6 +909,7 @@ impl Parser<'_> {
     fn pow_expr(&mut self) -> R<Expr> {
         let mut l = self.unary_expr()?;
         while self.eat_sym("^") {
+            self.grow()?;
             let r = self.unary_expr()?;
             l = Expr::Bin(BinOp::Pow, Box::new(l), Box::new(r));
         }
@@ -904,10 +955,12 @@ impl Parser<'_> {
         let mut e = self.atom()?;
         loop {
             if self.is_sym(".") {
+                self.grow()?;
                 self.advance();
                 let key = self.name()?;
                 e = Expr::Prop(Box::new(e), key);
             } else if self.is_sym("[") {
+                self.grow()?;
                 self.advance();
                 if self.eat_sym("..") {
                     let hi = if self.is_sym("]") {
@@ -1135,11 +1188,13 @@ impl Parser<'_> {
     fn try_pattern(&mut self) -> R<Option<PathPattern>> {
         let save = self.i;
         let depth = self.depth;
+        let chain = self.chain;
         match self.path_pattern() {
             Ok(p) if !p.steps.is_empty() => Ok(Some(p)),
             _ => {
                 self.i = save;
                 self.depth = depth;
+                self.chain = chain;
                 Ok(None)
             }
         }
