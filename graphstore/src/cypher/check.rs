@@ -834,12 +834,11 @@ fn check_expr(e: &Expr, scope: &Scope, cx: Cx<'_>) -> R<()> {
                         not_boolean(a)?;
                         not_boolean(b)?;
                     }
-                    BinOp::In => {
+                    BinOp::In
                         if matches!(b.as_ref(), Expr::Lit(v) if !v.is_null())
-                            || matches!(b.as_ref(), Expr::Map(_))
-                        {
-                            return Err(bad_arg("IN needs a list on its right"));
-                        }
+                            || matches!(b.as_ref(), Expr::Map(_)) =>
+                    {
+                        return Err(bad_arg("IN needs a list on its right"));
                     }
                     _ => {}
                 }
