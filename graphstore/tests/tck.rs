@@ -62,6 +62,26 @@ fn split_row(line: &str) -> Vec<String> {
     cells
 }
 
+/// Reads a `"""` doc string starting at line `i` (left on the closing line), dropping the
+/// opening quotes' indentation.
+fn doc_string(lines: &[&str], i: &mut usize) -> String {
+    let indent = lines[*i].find('"').unwrap_or(0);
+    let mut doc = Vec::new();
+    *i += 1;
+    while *i < lines.len() && !lines[*i].trim().starts_with("\"\"\"") {
+        let raw = lines[*i];
+        let cut = raw
+            .char_indices()
+            .nth(indent)
+            .map(|(b, _)| b)
+            .unwrap_or(raw.len());
+        let cut = if raw[..cut].trim().is_empty() { cut } else { 0 };
+        doc.push(&raw[cut..]);
+        *i += 1;
+    }
+    doc.join("\n")
+}
+
 fn parse_feature(path: &Path) -> Vec<Scenario> {
     let text = std::fs::read_to_string(path).unwrap_or_default();
     let lines: Vec<&str> = text.lines().collect();
@@ -79,22 +99,9 @@ fn parse_feature(path: &Path) -> Vec<Scenario> {
             {
                 let l = lines[i].trim();
                 if l.starts_with("\"\"\"") {
-                    let indent = lines[i].find('"').unwrap_or(0);
-                    let mut doc = Vec::new();
-                    i += 1;
-                    while i < lines.len() && !lines[i].trim().starts_with("\"\"\"") {
-                        let raw = lines[i];
-                        let cut = raw
-                            .char_indices()
-                            .nth(indent)
-                            .map(|(b, _)| b)
-                            .unwrap_or(raw.len());
-                        let cut = if raw[..cut].trim().is_empty() { cut } else { 0 };
-                        doc.push(&raw[cut..]);
-                        i += 1;
-                    }
+                    let doc = doc_string(&lines, &mut i);
                     if let Some(s) = background.last_mut() {
-                        s.doc = Some(doc.join("\n"));
+                        s.doc = Some(doc);
                     }
                 } else {
                     for kw in ["Given ", "And "] {
@@ -142,22 +149,9 @@ fn parse_feature(path: &Path) -> Vec<Scenario> {
                 continue;
             }
             if l.starts_with("\"\"\"") {
-                let indent = lines[i].find('"').unwrap_or(0);
-                let mut doc = Vec::new();
-                i += 1;
-                while i < lines.len() && !lines[i].trim().starts_with("\"\"\"") {
-                    let raw = lines[i];
-                    let cut = raw
-                        .char_indices()
-                        .nth(indent)
-                        .map(|(b, _)| b)
-                        .unwrap_or(raw.len());
-                    let cut = if raw[..cut].trim().is_empty() { cut } else { 0 };
-                    doc.push(&raw[cut..]);
-                    i += 1;
-                }
+                let doc = doc_string(&lines, &mut i);
                 if let Some(s) = steps.last_mut() {
-                    s.doc = Some(doc.join("\n"));
+                    s.doc = Some(doc);
                 }
                 i += 1;
                 continue;

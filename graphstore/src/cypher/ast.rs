@@ -298,87 +298,8 @@ impl Expr {
     /// Calls `f` on this expression and every sub-expression.
     pub fn walk(&self, f: &mut dyn FnMut(&Expr)) {
         f(self);
-        match self {
-            Expr::Lit(_) | Expr::Param(..) | Expr::Var(..) | Expr::CountStar | Expr::AggRef(_) => {}
-            Expr::Prop(e, _)
-            | Expr::Not(e)
-            | Expr::Neg(e)
-            | Expr::IsNull(e, _)
-            | Expr::HasLabels(e, _) => e.walk(f),
-            Expr::Index(a, b) | Expr::Bin(_, a, b) => {
-                a.walk(f);
-                b.walk(f);
-            }
-            Expr::Slice(a, b, c) => {
-                a.walk(f);
-                if let Some(b) = b {
-                    b.walk(f);
-                }
-                if let Some(c) = c {
-                    c.walk(f);
-                }
-            }
-            Expr::List(l) | Expr::Chain(l, _) => l.iter().for_each(|e| e.walk(f)),
-            Expr::Func { args, .. } => args.iter().for_each(|e| e.walk(f)),
-            Expr::Map(m) => m.iter().for_each(|(_, e)| e.walk(f)),
-            Expr::Case {
-                subject,
-                whens,
-                else_,
-            } => {
-                if let Some(s) = subject {
-                    s.walk(f);
-                }
-                for (a, b) in whens {
-                    a.walk(f);
-                    b.walk(f);
-                }
-                if let Some(e) = else_ {
-                    e.walk(f);
-                }
-            }
-            Expr::ListComp {
-                list, filter, map, ..
-            } => {
-                list.walk(f);
-                if let Some(e) = filter {
-                    e.walk(f);
-                }
-                if let Some(e) = map {
-                    e.walk(f);
-                }
-            }
-            Expr::Quantified { list, pred, .. } => {
-                list.walk(f);
-                pred.walk(f);
-            }
-            Expr::Reduce {
-                init, list, expr, ..
-            } => {
-                init.walk(f);
-                list.walk(f);
-                expr.walk(f);
-            }
-            Expr::Pattern(p) => p.walk_exprs(f),
-            Expr::PatternComp {
-                pattern,
-                filter,
-                map,
-            } => {
-                pattern.walk_exprs(f);
-                if let Some(e) = filter {
-                    e.walk(f);
-                }
-                map.walk(f);
-            }
-            Expr::MapProj(e, items) => {
-                e.walk(f);
-                for it in items {
-                    if let MapProjItem::Lit(_, e) = it {
-                        e.walk(f);
-                    }
-                }
-            }
+        for c in self.children() {
+            c.walk(f);
         }
     }
 }

@@ -76,14 +76,7 @@ fn check_single(q: &SingleQuery, in_union: bool) -> R<Vec<String>> {
             }
             Clause::Unwind { expr: e, var } => {
                 expr(e, &scope, false)?;
-                if scope.contains_key(var) {
-                    return Err(syn(
-                        "VariableAlreadyBound",
-                        format!("variable `{var}` is already defined"),
-                        pos,
-                    ));
-                }
-                scope.insert(var.clone(), Kind::Any);
+                bind_new(&mut scope, var, pos)?;
             }
             Clause::With(p) | Clause::Return(p) => {
                 let is_return = matches!(c, Clause::Return(_));
@@ -261,14 +254,7 @@ fn check_single(q: &SingleQuery, in_union: bool) -> R<Vec<String>> {
                         if alias == "*" {
                             continue;
                         }
-                        if scope.contains_key(alias) {
-                            return Err(syn(
-                                "VariableAlreadyBound",
-                                format!("variable `{alias}` is already defined"),
-                                pos,
-                            ));
-                        }
-                        scope.insert(alias.clone(), Kind::Any);
+                        bind_new(&mut scope, alias, pos)?;
                     }
                 }
                 if let Some(w) = where_ {
@@ -301,6 +287,19 @@ fn check_single(q: &SingleQuery, in_union: bool) -> R<Vec<String>> {
         }
     }
     Ok(columns)
+}
+
+/// Declares a variable that must not exist yet (UNWIND ... AS x, YIELD x).
+fn bind_new(scope: &mut Scope, var: &str, pos: Option<Pos>) -> R<()> {
+    if scope.contains_key(var) {
+        return Err(syn(
+            "VariableAlreadyBound",
+            format!("variable `{var}` is already defined"),
+            pos,
+        ));
+    }
+    scope.insert(var.to_string(), Kind::Any);
+    Ok(())
 }
 
 fn count_literal(what: &str, e: &Expr) -> R<()> {

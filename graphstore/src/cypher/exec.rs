@@ -1275,14 +1275,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             }
             SetItem::Replace { var, value, pos } | SetItem::Merge { var, value, pos } => {
                 let replace = matches!(it, SetItem::Replace { .. });
-                let t = row.get(var).cloned().ok_or_else(|| {
-                    QueryError::new(
-                        ErrorKind::Semantic,
-                        "UndefinedVariable",
-                        format!("variable `{var}` is not defined"),
-                        Some(*pos),
-                    )
-                })?;
+                let t = Self::var_of(row, var, *pos)?;
                 if t.is_null() {
                     return Ok(());
                 }
@@ -1315,35 +1308,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 Ok(())
             }
             SetItem::Labels { var, labels, pos } => {
-                let t = row.get(var).cloned().ok_or_else(|| {
-                    QueryError::new(
-                        ErrorKind::Semantic,
-                        "UndefinedVariable",
-                        format!("variable `{var}` is not defined"),
-                        Some(*pos),
-                    )
-                })?;
-                match t {
-                    Val::Null => Ok(()),
-                    Val::Node(id) => {
-                        let have = self.labels_of(id)?;
-                        let w = self.w()?;
-                        let mut added = 0;
-                        for l in labels {
-                            if !have.contains(l) {
-                                let lid = w.label_id(l)?;
-                                w.add_label(id, lid)?;
-                                added += 1;
-                            }
-                        }
-                        self.stats.labels_added += added;
-                        Ok(())
-                    }
-                    o => Err(type_err(format!(
-                        "cannot set labels on a {}",
-                        o.type_name()
-                    ))),
-                }
+                self.change_labels(row, var, labels, *pos, true)
             }
         }
     }
@@ -1363,38 +1328,64 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 Ok(())
             }
             RemoveItem::Labels { var, labels, pos } => {
-                let t = row.get(var).cloned().ok_or_else(|| {
-                    QueryError::new(
-                        ErrorKind::Semantic,
-                        "UndefinedVariable",
-                        format!("variable `{var}` is not defined"),
-                        Some(*pos),
-                    )
-                })?;
-                match t {
-                    Val::Null => Ok(()),
-                    Val::Node(id) => {
-                        let have = self.labels_of(id)?;
-                        let w = self.w()?;
-                        let mut removed = 0;
-                        for l in labels {
-                            if have.contains(l)
-                                && let Some(lid) = GraphRead::label(&*w, l)
-                            {
-                                w.remove_label(id, lid)?;
-                                removed += 1;
-                            }
-                        }
-                        self.stats.labels_removed += removed;
-                        Ok(())
-                    }
-                    o => Err(type_err(format!(
-                        "cannot remove labels from a {}",
-                        o.type_name()
-                    ))),
-                }
+                self.change_labels(row, var, labels, *pos, false)
             }
         }
+    }
+
+    /// The value of a variable a write clause names.
+    fn var_of(row: &Row, var: &str, pos: super::Pos) -> R<Val> {
+        row.get(var).cloned().ok_or_else(|| {
+            QueryError::new(
+                ErrorKind::Semantic,
+                "UndefinedVariable",
+                format!("variable `{var}` is not defined"),
+                Some(pos),
+            )
+        })
+    }
+
+    /// `SET n:A:B` (add) or `REMOVE n:A:B`; a null target is skipped.
+    fn change_labels(
+        &mut self,
+        row: &Row,
+        var: &str,
+        labels: &[String],
+        pos: super::Pos,
+        add: bool,
+    ) -> R<()> {
+        let id = match Self::var_of(row, var, pos)? {
+            Val::Null => return Ok(()),
+            Val::Node(id) => id,
+            o => {
+                return Err(type_err(format!(
+                    "cannot change the labels of a {}",
+                    o.type_name()
+                )));
+            }
+        };
+        let have = self.labels_of(id)?;
+        let w = self.w()?;
+        let mut changed = 0;
+        for l in labels {
+            if add && !have.contains(l) {
+                let lid = w.label_id(l)?;
+                w.add_label(id, lid)?;
+                changed += 1;
+            } else if !add
+                && have.contains(l)
+                && let Some(lid) = GraphRead::label(&*w, l)
+            {
+                w.remove_label(id, lid)?;
+                changed += 1;
+            }
+        }
+        if add {
+            self.stats.labels_added += changed;
+        } else {
+            self.stats.labels_removed += changed;
+        }
+        Ok(())
     }
 
     fn delete(&mut self, mut nodes: Vec<u64>, mut rels: Vec<u64>, detach: bool) -> R<()> {

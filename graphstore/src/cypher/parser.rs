@@ -281,20 +281,14 @@ impl Parser<'_> {
                 let target = self.postfix_expr()?;
                 match target {
                     Expr::Prop(t, key) => items.push(RemoveItem::Prop { target: *t, key }),
-                    Expr::HasLabels(v, labels) => match *v {
-                        Expr::Var(var, _) => items.push(RemoveItem::Labels {
+                    Expr::HasLabels(v, labels) => {
+                        let var = label_target(*v, ipos, "REMOVE")?;
+                        items.push(RemoveItem::Labels {
                             var,
                             labels,
                             pos: ipos,
-                        }),
-                        _ => {
-                            return Err(QueryError::syntax(
-                                "UnexpectedSyntax",
-                                "REMOVE of labels needs a variable",
-                                Some(ipos),
-                            ));
-                        }
-                    },
+                        });
+                    }
                     _ => {
                         return Err(QueryError::syntax(
                             "UnexpectedSyntax",
@@ -428,20 +422,14 @@ impl Parser<'_> {
                             value,
                         });
                     }
-                    Expr::HasLabels(v, labels) => match *v {
-                        Expr::Var(var, _) => items.push(SetItem::Labels {
+                    Expr::HasLabels(v, labels) => {
+                        let var = label_target(*v, ipos, "SET")?;
+                        items.push(SetItem::Labels {
                             var,
                             labels,
                             pos: ipos,
-                        }),
-                        _ => {
-                            return Err(QueryError::syntax(
-                                "UnexpectedSyntax",
-                                "SET of labels needs a variable",
-                                Some(ipos),
-                            ));
-                        }
-                    },
+                        });
+                    }
                     _ => {
                         return Err(QueryError::syntax(
                             "UnexpectedSyntax",
@@ -1287,6 +1275,18 @@ impl Parser<'_> {
             whens,
             else_,
         })
+    }
+}
+
+/// The variable whose labels SET or REMOVE change.
+fn label_target(e: Expr, pos: Pos, clause: &str) -> R<String> {
+    match e {
+        Expr::Var(var, _) => Ok(var),
+        _ => Err(QueryError::syntax(
+            "UnexpectedSyntax",
+            format!("{clause} of labels needs a variable"),
+            Some(pos),
+        )),
     }
 }
 
