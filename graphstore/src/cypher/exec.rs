@@ -1499,14 +1499,10 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 let q = a[2]
                     .as_f32s()
                     .ok_or_else(|| type_err(format!("{name}: vector must be a list of numbers")))?;
-                let hits = g.vector_top_k(&idx, &q, k)?;
                 // Neo4j reports cosine similarity as (1 + cos) / 2
-                Ok((
-                    vec!["node", "score"],
-                    hits.into_iter()
-                        .map(|h| vec![Val::Node(h.node), Val::Float((1.0 + h.score) / 2.0)])
-                        .collect(),
-                ))
+                Ok(scored(g.vector_top_k(&idx, &q, k)?, "score", |c| {
+                    (1.0 + c) / 2.0
+                }))
             }
             "db.index.fulltext.querynodes" => {
                 if a.len() != 2 && a.len() != 3 {
@@ -1515,13 +1511,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 let idx = s(&a[0], "indexName")?;
                 let q = s(&a[1], "queryString")?;
                 let k = if a.len() == 3 { int(&a[2], "k")? } else { 100 };
-                let hits = g.text_search(&idx, &q, k)?;
-                Ok((
-                    vec!["node", "score"],
-                    hits.into_iter()
-                        .map(|h| vec![Val::Node(h.node), Val::Float(h.score)])
-                        .collect(),
-                ))
+                Ok(scored(g.text_search(&idx, &q, k)?, "score", |b| b))
             }
             "db.index.spatial.withindistance" => {
                 arity(3, "(indexName, point, radiusMetres)")?;
@@ -1530,26 +1520,14 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 let r = a[2]
                     .as_f64()
                     .ok_or_else(|| type_err(format!("{name}: radius must be a number")))?;
-                let hits = g.spatial_within(&idx, c, r)?;
-                Ok((
-                    vec!["node", "distance"],
-                    hits.into_iter()
-                        .map(|h| vec![Val::Node(h.node), Val::Float(h.score)])
-                        .collect(),
-                ))
+                Ok(scored(g.spatial_within(&idx, c, r)?, "distance", |d| d))
             }
             "db.index.spatial.nearest" => {
                 arity(3, "(indexName, point, k)")?;
                 let idx = s(&a[0], "indexName")?;
                 let c = pt(&a[1], "point")?;
                 let k = int(&a[2], "k")?;
-                let hits = g.spatial_nearest(&idx, c, k)?;
-                Ok((
-                    vec!["node", "distance"],
-                    hits.into_iter()
-                        .map(|h| vec![Val::Node(h.node), Val::Float(h.score)])
-                        .collect(),
-                ))
+                Ok(scored(g.spatial_nearest(&idx, c, k)?, "distance", |d| d))
             }
             "db.index.spatial.inbox" => {
                 arity(3, "(indexName, minPoint, maxPoint)")?;
@@ -1588,6 +1566,19 @@ impl<'a, 'b> Ctx<'a, 'b> {
             )),
         }
     }
+}
+
+/// Index hits as procedure rows `(node, <score column>)`.
+fn scored(
+    hits: Vec<crate::Hit>,
+    column: &'static str,
+    scale: fn(f64) -> f64,
+) -> (Vec<&'static str>, Vec<Vec<Val>>) {
+    let rows = hits
+        .into_iter()
+        .map(|h| vec![Val::Node(h.node), Val::Float(scale(h.score))])
+        .collect();
+    (vec!["node", column], rows)
 }
 
 fn bound(v: Value, inclusive: bool) -> crate::ValueBound {

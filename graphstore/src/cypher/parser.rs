@@ -858,41 +858,25 @@ impl Parser<'_> {
         }
         Ok(l)
     }
-    fn add_expr(&mut self) -> R<Expr> {
-        let mut l = self.mul_expr()?;
-        loop {
-            let op = if self.is_sym("+") {
-                BinOp::Add
-            } else if self.is_sym("-") {
-                BinOp::Sub
-            } else {
-                break;
-            };
+    /// A left-associative chain of `next` operands joined by any of `ops`.
+    fn left_chain(&mut self, ops: &[(&str, BinOp)], next: fn(&mut Self) -> R<Expr>) -> R<Expr> {
+        let mut l = next(self)?;
+        while let Some((_, op)) = ops.iter().find(|(sym, _)| self.is_sym(sym)) {
             self.advance();
             self.grow()?;
-            let r = self.mul_expr()?;
-            l = Expr::Bin(op, Box::new(l), Box::new(r));
+            let r = next(self)?;
+            l = Expr::Bin(*op, Box::new(l), Box::new(r));
         }
         Ok(l)
     }
+    fn add_expr(&mut self) -> R<Expr> {
+        self.left_chain(&[("+", BinOp::Add), ("-", BinOp::Sub)], Self::mul_expr)
+    }
     fn mul_expr(&mut self) -> R<Expr> {
-        let mut l = self.pow_expr()?;
-        loop {
-            let op = if self.is_sym("*") {
-                BinOp::Mul
-            } else if self.is_sym("/") {
-                BinOp::Div
-            } else if self.is_sym("%") {
-                BinOp::Mod
-            } else {
-                break;
-            };
-            self.advance();
-            self.grow()?;
-            let r = self.pow_expr()?;
-            l = Expr::Bin(op, Box::new(l), Box::new(r));
-        }
-        Ok(l)
+        self.left_chain(
+            &[("*", BinOp::Mul), ("/", BinOp::Div), ("%", BinOp::Mod)],
+            Self::pow_expr,
+        )
     }
     fn pow_expr(&mut self) -> R<Expr> {
         let mut l = self.unary_expr()?;
