@@ -734,31 +734,13 @@ impl Parser<'_> {
     }
 
     fn or_expr(&mut self) -> R<Expr> {
-        let mut l = self.xor_expr()?;
-        while self.eat_kw("or") {
-            self.grow()?;
-            let r = self.xor_expr()?;
-            l = Expr::Bin(BinOp::Or, Box::new(l), Box::new(r));
-        }
-        Ok(l)
+        self.left_chain(&[("or", BinOp::Or)], Self::xor_expr)
     }
     fn xor_expr(&mut self) -> R<Expr> {
-        let mut l = self.and_expr()?;
-        while self.eat_kw("xor") {
-            self.grow()?;
-            let r = self.and_expr()?;
-            l = Expr::Bin(BinOp::Xor, Box::new(l), Box::new(r));
-        }
-        Ok(l)
+        self.left_chain(&[("xor", BinOp::Xor)], Self::and_expr)
     }
     fn and_expr(&mut self) -> R<Expr> {
-        let mut l = self.not_expr()?;
-        while self.eat_kw("and") {
-            self.grow()?;
-            let r = self.not_expr()?;
-            l = Expr::Bin(BinOp::And, Box::new(l), Box::new(r));
-        }
-        Ok(l)
+        self.left_chain(&[("and", BinOp::And)], Self::not_expr)
     }
     fn not_expr(&mut self) -> R<Expr> {
         if self.eat_kw("not") {
@@ -858,10 +840,11 @@ impl Parser<'_> {
         }
         Ok(l)
     }
-    /// A left-associative chain of `next` operands joined by any of `ops`.
+    /// A left-associative chain of `next` operands joined by any of `ops` (symbols, or
+    /// keywords matched without case).
     fn left_chain(&mut self, ops: &[(&str, BinOp)], next: fn(&mut Self) -> R<Expr>) -> R<Expr> {
         let mut l = next(self)?;
-        while let Some((_, op)) = ops.iter().find(|(sym, _)| self.is_sym(sym)) {
+        while let Some((_, op)) = ops.iter().find(|(t, _)| self.is_sym(t) || self.is_kw(t)) {
             self.advance();
             self.grow()?;
             let r = next(self)?;
