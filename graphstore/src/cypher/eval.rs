@@ -366,10 +366,7 @@ impl Ctx<'_, '_> {
                 ));
             }
             Expr::Func {
-                name,
-                args,
-                distinct,
-                pos,
+                name, args, pos, ..
             } => {
                 let lower = name.to_ascii_lowercase();
                 if super::ast::AGGREGATES.contains(&lower.as_str()) {
@@ -380,7 +377,6 @@ impl Ctx<'_, '_> {
                         Some(*pos),
                     ));
                 }
-                let _ = distinct;
                 if lower == "exists" {
                     return self.exists(args, row, aggs);
                 }

@@ -426,11 +426,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
     ) -> R<(Vec<String>, Vec<(Vec<Val>, Option<usize>)>)> {
         let mut items: Vec<Item> = Vec::new();
         if p.star {
-            let mut vars: Vec<String> = scope
-                .iter()
-                .filter(|v| !v.starts_with("  "))
-                .cloned()
-                .collect();
+            let mut vars: Vec<String> = scope.to_vec();
             vars.sort();
             vars.dedup();
             for v in vars {
@@ -689,7 +685,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             let stop = self.expand(p, &moves, 0, r, &mut st, used, &mut |ctx, row, st, used| {
                 let mut row = row;
                 if let Some(pv) = &p.var {
-                    row.set(pv, st.path(p));
+                    row.set(pv, st.path());
                 }
                 ctx.match_from(row, pats, i + 1, where_, conj, used, out, limit)
             })?;
@@ -1626,7 +1622,7 @@ pub(crate) struct PathState {
 }
 
 impl PathState {
-    fn path(&self, _p: &PathPattern) -> Val {
+    fn path(&self) -> Val {
         let mut nodes = vec![self.nodes[0]];
         let mut rels = Vec::new();
         for seg in &self.segs {

@@ -772,13 +772,11 @@ impl Parser<'_> {
                 Tok::Sym(">=") => BinOp::Ge,
                 Tok::Sym("<-") => {
                     // `a<-1` lexes as `<-`: it is `a < -1`
-                    let pos = self.pos();
                     self.advance();
                     self.grow()?;
                     let rhs = self.predicate_expr()?;
                     ops.push(BinOp::Lt);
                     operands.push(Expr::Neg(Box::new(rhs)));
-                    let _ = pos;
                     continue;
                 }
                 _ => break,
