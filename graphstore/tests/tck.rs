@@ -983,3 +983,40 @@ fn opencypher_tck() {
         );
     }
 }
+
+/// The runner's own pieces: values are read as the TCK writes them and compared strictly.
+#[test]
+fn tck_values_parse_and_compare_strictly() {
+    let node = parse_t("(:A:B {name: 'x', n: [1, 2.5, null]})").expect("node");
+    let same = parse_t("(:B:A {n: [1, 2.5, null], name: 'x'})").expect("node");
+    assert!(t_eq(&node, &same, false));
+    assert!(!t_eq(
+        &node,
+        &parse_t("(:A {name: 'x', n: [1, 2.5, null]})").expect("node"),
+        false
+    ));
+    // 1 and 1.0 are different values in a TCK table
+    assert!(!t_eq(
+        &parse_t("1").expect("int"),
+        &parse_t("1.0").expect("float"),
+        false
+    ));
+    assert!(t_eq(
+        &parse_t("NaN").expect("nan"),
+        &T::Float(f64::NAN),
+        false
+    ));
+    let path = parse_t("<(:A)-[:T {k: 1}]->(:B)<-[:U]-()>").expect("path");
+    assert!(matches!(&path, T::Path(_, steps) if steps.len() == 2 && steps[0].1 && !steps[1].1));
+    // list order matters unless the step says otherwise
+    let (a, b) = (
+        parse_t("[1, 2]").expect("list"),
+        parse_t("[2, 1]").expect("list"),
+    );
+    assert!(!t_eq(&a, &b, false) && t_eq(&a, &b, true));
+    assert_eq!(
+        split_row(r"| 'a\|b' | x |"),
+        vec!["'a|b'".to_string(), "x".to_string()]
+    );
+    assert!(parse_t("(:A").is_err() && parse_t("[1, 2").is_err() && parse_t("1 2").is_err());
+}
