@@ -354,6 +354,20 @@ fn procedures_query_the_vector_spatial_and_text_indexes() {
         &QueryOptions::default(),
     );
     assert_eq!(e.code, "ProcedureNotFound");
+    // a list of numbers written to a schema vector property becomes a vector the index sees
+    let mut o = QueryOptions::default();
+    let mut v = vec![Val::Float(0.0); graphstore::FEATURE_DIM];
+    v[100] = Val::Float(1.0);
+    o.params.insert("v".into(), Val::List(v));
+    s.query("MATCH (i:Instance {instance_id: 9}) SET i.feature = $v", &o)
+        .expect("set feature");
+    let r = s
+        .query(
+            "CALL db.index.vector.queryNodes('instance_feature', 1, $v) YIELD node RETURN node.instance_id",
+            &o,
+        )
+        .expect("vector");
+    assert_eq!(r.rows, vec![vec![Val::Int(9)]]);
 }
 
 #[test]

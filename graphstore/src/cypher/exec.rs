@@ -1146,6 +1146,36 @@ impl<'a, 'b> Ctx<'a, 'b> {
         Ok(())
     }
 
+    /// A list of numbers becomes a vector where the schema declares `key` a vector for one of
+    /// the node's labels (so Cypher can write `Instance.feature`).
+    fn schema_vector(&self, labels: &[String], key: &str, v: Value) -> Value {
+        let Value::List(items) = &v else { return v };
+        if items.is_empty()
+            || !items
+                .iter()
+                .all(|x| matches!(x, Value::Int(_) | Value::Float(_)))
+        {
+            return v;
+        }
+        let schema = &self.g().view().raw.base().schema.schema;
+        let wants = labels.iter().any(|l| {
+            schema.labels.get(l).is_some_and(|r| {
+                r.properties
+                    .iter()
+                    .any(|p| p.key == key && p.ty == crate::ValueType::Vector)
+            })
+        });
+        if !wants {
+            return v;
+        }
+        Value::Vector(
+            items
+                .iter()
+                .map(|x| x.as_f64().unwrap_or(0.0) as f32)
+                .collect(),
+        )
+    }
+
     fn create_node(&mut self, row: &mut Row, np: &NodePat) -> R<u64> {
         if let Some(v) = &np.var
             && let Some(b) = row.get(v)
@@ -1162,7 +1192,14 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 ))),
             };
         }
-        let props = self.eval_props(&np.props, row)?;
+        let props: Vec<(String, Value)> = self
+            .eval_props(&np.props, row)?
+            .into_iter()
+            .map(|(k, v)| {
+                let v = self.schema_vector(&np.labels, &k, v);
+                (k, v)
+            })
+            .collect();
         let w = self.w()?;
         let mut labels = Vec::new();
         for l in &np.labels {
@@ -1239,6 +1276,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             Val::Null => return Ok(()),
             Val::Node(id) => {
                 let id = *id;
+                let value = self.schema_vector(&self.labels_of(id)?, key, value);
                 let w = self.w()?;
                 let k = w.prop_key_id(key)?;
                 w.set_node_prop(id, k, value)?;
