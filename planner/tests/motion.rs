@@ -145,18 +145,31 @@ fn ompl_path_avoids_a_blocking_box() {
     );
     check_path(&path, &validity, &cfg, [5.0, 0.0], [95.0, 0.0]);
     for p in &path.poses {
-        let inside = p[0] >= truck.min[0]
-            && p[0] <= truck.max[0]
-            && p[1] >= truck.min[1]
-            && p[1] <= truck.max[1];
-        assert!(!inside, "pose {p:?} drives through the truck");
         assert!(validity.is_valid([p[0], p[1]]));
     }
-    // the path really swerved: somewhere along the truck it is left of it
+    // walk the path in 5 cm steps: it passes the truck's stretch of road and never enters the
+    // truck, so it swerved (left or right, whichever RRT* found)
+    let mut alongside = 0;
+    for w in path.poses.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let n = (((b[0] - a[0]).hypot(b[1] - a[1])) / 0.05).ceil().max(1.0) as usize;
+        for i in 0..=n {
+            let t = i as f64 / n as f64;
+            let (x, y) = (a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t);
+            let inside =
+                x >= truck.min[0] && x <= truck.max[0] && y >= truck.min[1] && y <= truck.max[1];
+            assert!(
+                !inside,
+                "the path drives through the truck at ({x:.2}, {y:.2})"
+            );
+            if x > truck.min[0] && x < truck.max[0] {
+                alongside += 1;
+            }
+        }
+    }
     assert!(
-        path.poses
-            .iter()
-            .any(|p| p[0] > 40.0 && p[0] < 48.0 && p[1] > 1.0)
+        alongside > 0,
+        "the path never passes the truck's stretch of road"
     );
 }
 
