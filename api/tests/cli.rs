@@ -1,19 +1,15 @@
 //! The `opengraph` binary: demo, info, export and its exit codes.
 
 mod common;
-use common::og;
+use common::{og, ok, s};
 
 #[test]
 fn demo_info_export_roundtrip() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("demo.og");
-    let db_s = db.to_str().unwrap();
+    let db_s = s(&db);
     let out = og(&["demo", "--db", db_s]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let out = og(&["info", "--db", db_s, "--json"]);
     assert_eq!(out.status.code(), Some(0));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -33,9 +29,9 @@ fn demo_info_export_roundtrip() {
         "--format",
         "node-link",
         "--out",
-        json.to_str().unwrap(),
+        s(&json),
     ]);
-    assert!(out.status.success());
+    ok(&out);
     let g: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(g["directed"], true);
     assert_eq!(g["multigraph"], true);
@@ -50,9 +46,9 @@ fn demo_info_export_roundtrip() {
         "--edges-key",
         "links",
         "--out",
-        json.to_str().unwrap(),
+        s(&json),
     ]);
-    assert!(out.status.success());
+    ok(&out);
     let g: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(g["links"].as_array().unwrap().len(), 19);
 
@@ -64,9 +60,9 @@ fn demo_info_export_roundtrip() {
         "--format",
         "graphml",
         "--out",
-        gml.to_str().unwrap(),
+        s(&gml),
     ]);
-    assert!(out.status.success());
+    ok(&out);
     let xml = std::fs::read_to_string(&gml).unwrap();
     assert_eq!(xml.matches("<node ").count(), 17);
     assert_eq!(xml.matches("<edge ").count(), 19);
@@ -77,32 +73,24 @@ fn demo_info_export_roundtrip() {
 fn bad_input_exits_2_with_a_message() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("missing.og");
-    let out = og(&["info", "--db", missing.to_str().unwrap()]);
+    let out = og(&["info", "--db", s(&missing)]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no such file"));
 
     let junk = dir.path().join("junk.og");
     std::fs::write(&junk, vec![7u8; 4096]).unwrap();
-    let out = og(&["info", "--db", junk.to_str().unwrap(), "--json"]);
+    let out = og(&["info", "--db", s(&junk), "--json"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("junk.og"));
 
-    let out = og(&[
-        "export",
-        "--db",
-        junk.to_str().unwrap(),
-        "--format",
-        "csv",
-        "--out",
-        "x",
-    ]);
+    let out = og(&["export", "--db", s(&junk), "--format", "csv", "--out", "x"]);
     assert_eq!(out.status.code(), Some(2), "clap rejects an unknown format");
     let out = og(&["info"]);
     assert_eq!(out.status.code(), Some(2));
 
     let db = dir.path().join("d.og");
-    assert!(og(&["demo", "--db", db.to_str().unwrap()]).status.success());
-    let out = og(&["demo", "--db", db.to_str().unwrap()]);
+    ok(&og(&["demo", "--db", s(&db)]));
+    let out = og(&["demo", "--db", s(&db)]);
     assert_eq!(out.status.code(), Some(2), "demo refuses to overwrite");
 }
 
@@ -139,18 +127,14 @@ fn lanes_json_geojson_png_and_hierarchy() {
     let out = og(&[
         "lanes",
         "--poses",
-        poses.to_str().unwrap(),
+        s(&poses),
         "--out",
-        gj.to_str().unwrap(),
+        s(&gj),
         "--png",
-        png.to_str().unwrap(),
+        s(&png),
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let kinds: Vec<&str> = v["nodes"]
         .as_array()
@@ -172,22 +156,10 @@ fn lanes_json_geojson_png_and_hierarchy() {
     assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
 
     let db = dir.path().join("h.og");
-    let out = og(&[
-        "hierarchy",
-        "--db",
-        db.to_str().unwrap(),
-        "--poses",
-        poses.to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = og(&["hierarchy", "--db", s(&db), "--poses", s(&poses), "--json"]);
+    ok(&out);
     let info: serde_json::Value =
-        serde_json::from_slice(&og(&["info", "--db", db.to_str().unwrap(), "--json"]).stdout)
-            .unwrap();
+        serde_json::from_slice(&og(&["info", "--db", s(&db), "--json"]).stdout).unwrap();
     assert_eq!(info["nodes"]["Environment"], 1);
     assert_eq!(info["nodes"]["LaneNode"], 4);
     assert_eq!(info["relationships"]["LANE"], 3);
@@ -202,7 +174,7 @@ fn lanes_bad_poses_name_the_line() {
     let out = og(&[
         "lanes",
         "--poses",
-        poses.to_str().unwrap(),
+        s(&poses),
         "--out",
         dir.path().join("o").to_str().unwrap(),
     ]);
@@ -225,9 +197,9 @@ fn plan_json_png_fallback_and_errors() {
     let poses = dir.path().join("poses.txt");
     t_junction_poses(&poses);
     let db = dir.path().join("p.og");
-    let d = db.to_str().unwrap();
+    let d = s(&db);
     assert!(
-        og(&["hierarchy", "--db", d, "--poses", poses.to_str().unwrap()])
+        og(&["hierarchy", "--db", d, "--poses", s(&poses)])
             .status
             .success()
     );
@@ -245,13 +217,9 @@ fn plan_json_png_fallback_and_errors() {
         "3000",
         "--json",
         "--png",
-        png.to_str().unwrap(),
+        s(&png),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["route"]["nodes"][0], "start");
     assert!(v["route"]["length_m"].as_f64().unwrap() > 40.0);
@@ -278,7 +246,7 @@ fn plan_json_png_fallback_and_errors() {
         "0",
         "--json",
     ]);
-    assert!(out.status.success());
+    ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["path"]["planner"], "fallback:route");
     assert!(String::from_utf8_lossy(&out.stderr).contains("warning"));
