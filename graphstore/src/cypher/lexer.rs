@@ -65,6 +65,33 @@ impl Cursor<'_> {
         }
         Some(c)
     }
+    /// Letters, digits and underscores from here.
+    fn word(&mut self) -> String {
+        let mut s = String::new();
+        while let Some(ch) = self.peek().filter(|ch| ch.is_alphanumeric() || *ch == '_') {
+            s.push(ch);
+            self.bump();
+        }
+        s
+    }
+
+    /// A backtick-quoted name starting here; a doubled backtick stands for one.
+    fn quoted(&mut self, pos: Pos, unterminated: &'static str) -> Result<String, QueryError> {
+        self.bump();
+        let mut s = String::new();
+        loop {
+            match self.bump() {
+                None => return Err(syntax(pos, "UnexpectedSyntax", unterminated)),
+                Some('`') if self.peek() == Some('`') => {
+                    self.bump();
+                    s.push('`');
+                }
+                Some('`') => return Ok(s),
+                Some(ch) => s.push(ch),
+            }
+        }
+    }
+
     fn pos(&self) -> Pos {
         Pos {
             line: self.line,
@@ -137,37 +164,9 @@ pub(crate) fn lex(src: &str) -> Result<Vec<Token>, QueryError> {
             return Ok(out);
         };
         let tok = if ch.is_alphabetic() || ch == '_' {
-            let mut s = String::new();
-            while let Some(ch) = c.peek() {
-                if ch.is_alphanumeric() || ch == '_' {
-                    s.push(ch);
-                    c.bump();
-                } else {
-                    break;
-                }
-            }
-            Tok::Ident(s)
+            Tok::Ident(c.word())
         } else if ch == '`' {
-            c.bump();
-            let mut s = String::new();
-            loop {
-                match c.bump() {
-                    None => {
-                        return Err(syntax(
-                            pos,
-                            "UnexpectedSyntax",
-                            "unterminated `quoted name`",
-                        ));
-                    }
-                    Some('`') if c.peek() == Some('`') => {
-                        c.bump();
-                        s.push('`');
-                    }
-                    Some('`') => break,
-                    Some(ch) => s.push(ch),
-                }
-            }
-            Tok::Quoted(s)
+            Tok::Quoted(c.quoted(pos, "unterminated `quoted name`")?)
         } else if ch.is_ascii_digit()
             || (ch == '.' && c.peek2().is_some_and(|d| d.is_ascii_digit()))
         {
@@ -238,32 +237,11 @@ pub(crate) fn lex(src: &str) -> Result<Vec<Token>, QueryError> {
             Tok::Str(s)
         } else if ch == '$' {
             c.bump();
-            let mut s = String::new();
-            if c.peek() == Some('`') {
-                c.bump();
-                loop {
-                    match c.bump() {
-                        None => {
-                            return Err(syntax(
-                                pos,
-                                "UnexpectedSyntax",
-                                "unterminated parameter name",
-                            ));
-                        }
-                        Some('`') => break,
-                        Some(ch) => s.push(ch),
-                    }
-                }
+            let s = if c.peek() == Some('`') {
+                c.quoted(pos, "unterminated parameter name")?
             } else {
-                while let Some(ch) = c.peek() {
-                    if ch.is_alphanumeric() || ch == '_' {
-                        s.push(ch);
-                        c.bump();
-                    } else {
-                        break;
-                    }
-                }
-            }
+                c.word()
+            };
             if s.is_empty() {
                 return Err(syntax(
                     pos,

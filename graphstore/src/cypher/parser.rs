@@ -1275,6 +1275,17 @@ mod tests {
     }
 
     #[test]
+    fn backtick_names_and_parameters_read_alike() {
+        let s = parse("MATCH (`a``b`) RETURN $`p``q` AS `x y`").unwrap();
+        let Clause::Return(p) = &s.parts[0].clauses[1] else {
+            panic!()
+        };
+        assert!(matches!(&p.items[0].expr, Expr::Param(n, _) if n == "p`q"));
+        assert_eq!(p.items[0].name, "x y");
+        assert!(parse("RETURN $`open").is_err() && parse("MATCH (`open) RETURN 1").is_err());
+    }
+
+    #[test]
     fn unary_minus_binds_tighter_than_power() {
         let s = parse("RETURN -2 ^ 2").unwrap();
         let Clause::Return(p) = &s.parts[0].clauses[0] else {
