@@ -268,6 +268,11 @@ fn the_planner_uses_indexes_and_explain_shows_it() {
     );
     let plan = s.explain("MATCH (n:Instance) RETURN n").expect("explain");
     assert!(plan.contains("NodeByLabelScan n:Instance"), "{plan}");
+    // of two label scans the smaller label (20 lane nodes against 50 instances) goes first
+    let plan = s
+        .explain("MATCH (a:Instance)-[:NEAR]-(b:LaneNode) RETURN a")
+        .expect("explain");
+    assert!(plan.contains("NodeByLabelScan b:LaneNode"), "{plan}");
     let r = q(&s, "EXPLAIN MATCH (n) RETURN n");
     assert!(
         r.plan

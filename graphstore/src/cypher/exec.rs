@@ -48,6 +48,8 @@ pub(crate) struct Ctx<'a, 'b> {
     pub clause_pos: Option<super::Pos>,
     /// Cap on the rows any clause may produce.
     pub max_rows: usize,
+    /// Nodes per label, read once per statement when the planner compares label scans.
+    label_counts: std::cell::OnceCell<BTreeMap<String, u64>>,
 }
 
 fn sem(code: &'static str, msg: impl Into<String>) -> QueryError {
@@ -72,6 +74,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             deleted_rel_types: BTreeMap::new(),
             clause_pos: None,
             max_rows: usize::MAX,
+            label_counts: std::cell::OnceCell::new(),
             stats: Stats::default(),
         }
     }
@@ -155,6 +158,15 @@ impl<'a, 'b> Ctx<'a, 'b> {
         }
         let g = self.g();
         Ok(g.rel(rel)?.and_then(|r| g.name_of(r.ty.0)))
+    }
+
+    /// How many nodes carry a label, as of the statement's first look (it only steers the
+    /// choice between label scans, so writes later in the statement need not refresh it).
+    fn label_count(&self, label: &str) -> u64 {
+        let counts = self
+            .label_counts
+            .get_or_init(|| self.g().counts().map(|c| c.nodes).unwrap_or_default());
+        counts.get(label).copied().unwrap_or(0)
     }
 
     pub fn deleted_node(&self, id: u64) -> bool {
@@ -665,6 +677,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             &|v| row.get(v).is_some(),
             &|e| expr_bound(e, &row),
             g,
+            &|l| self.label_count(l),
         );
         let candidates = self.candidates(&anchor, &row)?;
         let k = p.steps.len();

@@ -64,61 +64,31 @@ pub(crate) fn choose_anchor<'e>(
     is_bound: &dyn Fn(&str) -> bool,
     can_eval: &dyn Fn(&Expr) -> bool,
     g: &dyn GraphRead,
+    label_count: &dyn Fn(&str) -> u64,
 ) -> Anchor<'e> {
-    let mut best: Option<(u8, u64, Anchor<'e>)> = None;
-    let mut counts: Option<std::collections::BTreeMap<String, u64>> = None;
-    let consider =
-        |score: u8, count: u64, a: Anchor<'e>, best: &mut Option<(u8, u64, Anchor<'e>)>| {
-            if best
-                .as_ref()
-                .is_none_or(|(s, c, _)| (score, count) < (*s, *c))
-            {
-                *best = Some((score, count, a));
-            }
-        };
-    // any bound node or inline indexed equality makes label counts irrelevant
-    let has_index_anchor = (0..=p.steps.len()).any(|i| {
-        let np = node_pat(p, i);
-        np.var.as_deref().is_some_and(is_bound)
-            || np.labels.iter().any(|l| match &np.props {
-                Some(Expr::Map(entries)) => entries
-                    .iter()
-                    .any(|(k, e)| g.has_property_index(l, k) && can_eval(e)),
-                _ => false,
-            })
-    });
+    // (score, anchor): lower scores are cheaper; ties go to the earlier node
+    let mut cands: Vec<(u8, Anchor<'e>)> = Vec::new();
     for i in 0..=p.steps.len() {
         let np = node_pat(p, i);
+        let mut push =
+            |score: u8, source: Source<'e>| cands.push((score, Anchor { index: i, source }));
         if let Some(v) = &np.var
             && is_bound(v)
         {
-            consider(
-                0,
-                0,
-                Anchor {
-                    index: i,
-                    source: Source::Bound(v.clone()),
-                },
-                &mut best,
-            );
+            push(0, Source::Bound(v.clone()));
             continue;
         }
         for l in &np.labels {
             if let Some(Expr::Map(entries)) = &np.props {
                 for (k, e) in entries {
                     if g.has_property_index(l, k) && can_eval(e) {
-                        consider(
+                        push(
                             1,
-                            0,
-                            Anchor {
-                                index: i,
-                                source: Source::IndexEq {
-                                    label: l.clone(),
-                                    key: k.clone(),
-                                    value: e,
-                                },
+                            Source::IndexEq {
+                                label: l.clone(),
+                                key: k.clone(),
+                                value: e,
                             },
-                            &mut best,
                         );
                     }
                 }
@@ -149,18 +119,13 @@ pub(crate) fn choose_anchor<'e>(
                         continue;
                     }
                     match op {
-                        BinOp::Eq => consider(
+                        BinOp::Eq => push(
                             1,
-                            0,
-                            Anchor {
-                                index: i,
-                                source: Source::IndexEq {
-                                    label: l.clone(),
-                                    key: key.to_string(),
-                                    value,
-                                },
+                            Source::IndexEq {
+                                label: l.clone(),
+                                key: key.to_string(),
+                                value,
                             },
-                            &mut best,
                         ),
                         BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
                             if range_key.is_some_and(|k| k != key) {
@@ -178,54 +143,46 @@ pub(crate) fn choose_anchor<'e>(
                     }
                 }
                 if let Some(k) = range_key {
-                    consider(
+                    push(
                         2,
-                        0,
-                        Anchor {
-                            index: i,
-                            source: Source::IndexRange {
-                                label: l.clone(),
-                                key: k.to_string(),
-                                lower,
-                                upper,
-                            },
+                        Source::IndexRange {
+                            label: l.clone(),
+                            key: k.to_string(),
+                            lower,
+                            upper,
                         },
-                        &mut best,
                     );
                 }
             }
-            // label sizes only matter when a label scan may win
-            let n = if (np.labels.len() > 1 || !p.steps.is_empty()) && !has_index_anchor {
-                let c =
-                    counts.get_or_insert_with(|| g.counts().map(|c| c.nodes).unwrap_or_default());
-                c.get(l).copied().unwrap_or(0)
-            } else {
-                0
-            };
-            consider(
-                3,
-                n,
-                Anchor {
-                    index: i,
-                    source: Source::Label(l.clone()),
-                },
-                &mut best,
-            );
+            push(3, Source::Label(l.clone()));
         }
-        consider(
-            4,
-            0,
-            Anchor {
-                index: i,
-                source: Source::All,
-            },
-            &mut best,
-        );
+        push(4, Source::All);
     }
-    best.map(|(_, _, a)| a).unwrap_or(Anchor {
+    let best = cands.iter().map(|(s, _)| *s).min().unwrap_or(4);
+    let mut winners = cands
+        .into_iter()
+        .filter(|(s, _)| *s == best)
+        .map(|(_, a)| a);
+    let first = winners.next().unwrap_or(Anchor {
         index: 0,
         source: Source::All,
-    })
+    });
+    if best != 3 {
+        return first;
+    }
+    // several label scans: the smallest label wins (sizes are read only here)
+    let size = |a: &Anchor<'_>| match &a.source {
+        Source::Label(l) => label_count(l),
+        _ => u64::MAX,
+    };
+    let mut pick = (size(&first), first);
+    for a in winners {
+        let n = size(&a);
+        if n < pick.0 {
+            pick = (n, a);
+        }
+    }
+    pick.1
 }
 
 /// A short rendering of an expression for plans.
@@ -317,6 +274,11 @@ fn vars_of(e: &Expr) -> BTreeSet<String> {
 
 /// The plan of a statement as text: one block per clause, operators indented below it.
 pub(crate) fn explain(stmt: &Statement, g: &dyn GraphRead) -> String {
+    let counts = std::cell::OnceCell::new();
+    let label_count = |l: &str| {
+        let c = counts.get_or_init(|| g.counts().map(|c| c.nodes).unwrap_or_default());
+        c.get(l).copied().unwrap_or(0)
+    };
     let mut out = String::new();
     for (qi, q) in stmt.parts.iter().enumerate() {
         if qi > 0 {
@@ -342,6 +304,7 @@ pub(crate) fn explain(stmt: &Statement, g: &dyn GraphRead) -> String {
                             &|v| sc.contains(v),
                             &|e| vars_of(e).iter().all(|v| sc.contains(v)),
                             g,
+                            &label_count,
                         );
                         let np = node_pat(p, a.index);
                         let v = np.var.as_deref().unwrap_or("_");
