@@ -1160,16 +1160,25 @@ impl<'a, 'b> Ctx<'a, 'b> {
     }
 
     /// A list of numbers becomes a vector where the schema declares `key` a vector for one of
-    /// the node's labels (so Cypher can write `Instance.feature`).
-    fn schema_vector(&self, labels: &[String], key: &str, v: Value) -> Value {
-        let Value::List(items) = &v else { return v };
+    /// the node's labels (so Cypher can write `Instance.feature`). The labels are only looked
+    /// up for such lists.
+    fn schema_vector(
+        &self,
+        labels: impl FnOnce() -> R<Vec<String>>,
+        key: &str,
+        v: Value,
+    ) -> R<Value> {
+        let Value::List(items) = &v else {
+            return Ok(v);
+        };
         if items.is_empty()
             || !items
                 .iter()
                 .all(|x| matches!(x, Value::Int(_) | Value::Float(_)))
         {
-            return v;
+            return Ok(v);
         }
+        let labels = labels()?;
         let schema = &self.g().view().raw.base().schema.schema;
         let wants = labels.iter().any(|l| {
             schema.labels.get(l).is_some_and(|r| {
@@ -1179,14 +1188,14 @@ impl<'a, 'b> Ctx<'a, 'b> {
             })
         });
         if !wants {
-            return v;
+            return Ok(v);
         }
-        Value::Vector(
+        Ok(Value::Vector(
             items
                 .iter()
                 .map(|x| x.as_f64().unwrap_or(0.0) as f32)
                 .collect(),
-        )
+        ))
     }
 
     fn create_node(&mut self, row: &mut Row, np: &NodePat) -> R<u64> {
@@ -1209,10 +1218,10 @@ impl<'a, 'b> Ctx<'a, 'b> {
             .eval_props(&np.props, row)?
             .into_iter()
             .map(|(k, v)| {
-                let v = self.schema_vector(&np.labels, &k, v);
-                (k, v)
+                let v = self.schema_vector(|| Ok(np.labels.clone()), &k, v)?;
+                Ok((k, v))
             })
-            .collect();
+            .collect::<R<_>>()?;
         let w = self.w()?;
         let mut labels = Vec::new();
         for l in &np.labels {
@@ -1289,7 +1298,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             Val::Null => return Ok(()),
             Val::Node(id) => {
                 let id = *id;
-                let value = self.schema_vector(&self.labels_of(id)?, key, value);
+                let value = self.schema_vector(|| self.labels_of(id), key, value)?;
                 let w = self.w()?;
                 let k = w.prop_key_id(key)?;
                 w.set_node_prop(id, k, value)?;
