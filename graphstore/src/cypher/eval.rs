@@ -639,12 +639,11 @@ impl Ctx<'_, '_> {
 
     /// Applies a binary operator to two evaluated operands.
     fn apply(&self, op: BinOp, x: &Val, y: &Val) -> R<Val> {
-        let (x, y) = (x.clone(), y.clone());
         match op {
             BinOp::And | BinOp::Or | BinOp::Xor => match op {
-                BinOp::And => and3(&x, &y),
+                BinOp::And => and3(x, y),
                 BinOp::Or => {
-                    let (p, q) = (to_bool(&x, "OR")?, to_bool(&y, "OR")?);
+                    let (p, q) = (to_bool(x, "OR")?, to_bool(y, "OR")?);
                     Ok(match (p, q) {
                         (Some(true), _) | (_, Some(true)) => Val::Bool(true),
                         (Some(false), Some(false)) => Val::Bool(false),
@@ -652,7 +651,7 @@ impl Ctx<'_, '_> {
                     })
                 }
                 _ => {
-                    let (p, q) = (to_bool(&x, "XOR")?, to_bool(&y, "XOR")?);
+                    let (p, q) = (to_bool(x, "XOR")?, to_bool(y, "XOR")?);
                     Ok(match (p, q) {
                         (Some(p), Some(q)) => Val::Bool(p != q),
                         _ => Val::Null,
@@ -661,14 +660,14 @@ impl Ctx<'_, '_> {
             },
             _ => match op {
                 BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
-                    Ok(cmp_op(op, &x, &y))
+                    Ok(cmp_op(op, x, y))
                 }
-                BinOp::In => match &y {
+                BinOp::In => match y {
                     Val::Null => Ok(Val::Null),
                     Val::List(l) => {
                         let mut unknown = false;
                         for it in l {
-                            match equals(&x, it) {
+                            match equals(x, it) {
                                 Some(true) => return Ok(Val::Bool(true)),
                                 None => unknown = true,
                                 Some(false) => {}
@@ -681,7 +680,7 @@ impl Ctx<'_, '_> {
                         o.type_name()
                     ))),
                 },
-                BinOp::StartsWith | BinOp::EndsWith | BinOp::Contains => match (&x, &y) {
+                BinOp::StartsWith | BinOp::EndsWith | BinOp::Contains => match (x, y) {
                     (Val::Str(s), Val::Str(t)) => Ok(Val::Bool(match op {
                         BinOp::StartsWith => s.starts_with(t.as_str()),
                         BinOp::EndsWith => s.ends_with(t.as_str()),
@@ -689,7 +688,7 @@ impl Ctx<'_, '_> {
                     })),
                     _ => Ok(Val::Null),
                 },
-                BinOp::Regex => match (&x, &y) {
+                BinOp::Regex => match (x, y) {
                     (Val::Str(s), Val::Str(p)) => {
                         let re = regex::Regex::new(&format!("^(?:{p})$")).map_err(|e| {
                             arg_err(
@@ -701,7 +700,7 @@ impl Ctx<'_, '_> {
                     }
                     _ => Ok(Val::Null),
                 },
-                _ => arith(op, &x, &y),
+                _ => arith(op, x, y),
             },
         }
     }
