@@ -349,11 +349,6 @@ impl QueryResult {
             }
         };
         match v {
-            Val::Null => J::Null,
-            Val::Bool(b) => json!(b),
-            Val::Int(i) => json!(i),
-            Val::Float(f) => json!(f),
-            Val::Str(s) => json!(s),
             Val::List(l) => J::Array(l.iter().map(|x| self.to_json(x)).collect()),
             Val::Map(m) => J::Object(
                 m.iter()
@@ -388,10 +383,8 @@ impl QueryResult {
                 "nodes": nodes.iter().map(|n| self.to_json(&Val::Node(*n))).collect::<Vec<_>>(),
                 "relationships": rels.iter().map(|r| self.to_json(&Val::Rel(*r))).collect::<Vec<_>>(),
             }),
-            Val::Point2D([x, y]) => json!({"x": x, "y": y}),
-            Val::Point3D([x, y, z]) => json!({"x": x, "y": y, "z": z}),
-            Val::Vector(v) => json!(v),
-            Val::Bytes(b) => json!(b),
+            // everything else is a storable value: the store's JSON form
+            other => other.to_value().map_or(J::Null, |x| x.to_json()),
         }
     }
 
