@@ -264,18 +264,9 @@ fn t_eq(a: &T, b: &T, unordered_lists: bool) -> bool {
                 x.iter().zip(y).all(|(p, q)| t_eq(p, q, false))
             }
         }
-        (T::Map(x), T::Map(y)) => {
-            x.len() == y.len()
-                && x.iter()
-                    .zip(y)
-                    .all(|((k1, v1), (k2, v2))| k1 == k2 && t_eq(v1, v2, unordered_lists))
-        }
-        (T::Node(l1, p1), T::Node(l2, p2)) => {
-            l1 == l2 && t_eq(&T::Map(p1.clone()), &T::Map(p2.clone()), unordered_lists)
-        }
-        (T::Rel(t1, p1), T::Rel(t2, p2)) => {
-            t1 == t2 && t_eq(&T::Map(p1.clone()), &T::Map(p2.clone()), unordered_lists)
-        }
+        (T::Map(x), T::Map(y)) => maps_eq(x, y, unordered_lists),
+        (T::Node(l1, p1), T::Node(l2, p2)) => l1 == l2 && maps_eq(p1, p2, unordered_lists),
+        (T::Rel(t1, p1), T::Rel(t2, p2)) => t1 == t2 && maps_eq(p1, p2, unordered_lists),
         (T::Path(s1, e1), T::Path(s2, e2)) => {
             t_eq(s1, s2, false)
                 && e1.len() == e2.len()
@@ -285,6 +276,13 @@ fn t_eq(a: &T, b: &T, unordered_lists: bool) -> bool {
         }
         _ => false,
     }
+}
+
+fn maps_eq(x: &BTreeMap<String, T>, y: &BTreeMap<String, T>, unordered_lists: bool) -> bool {
+    x.len() == y.len()
+        && x.iter()
+            .zip(y)
+            .all(|((k1, v1), (k2, v2))| k1 == k2 && t_eq(v1, v2, unordered_lists))
 }
 
 struct VP<'a> {
