@@ -13,24 +13,16 @@
 //! number of rows. Scale with OG_BENCH_NODES (default 1,000,000) and OG_BENCH_QUERIES
 //! (default 2,000). One thread.
 
+mod common;
+
 use std::time::{Duration, Instant};
+
+use common::{env_usize, pct};
 
 use graphstore::cypher::{QueryOptions, Val};
 use graphstore::{PropertyIndexSpec, Schema, Store, Value};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-fn env_usize(k: &str, d: usize) -> usize {
-    std::env::var(k)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(d)
-}
-
-fn pct(v: &mut [Duration], p: f64) -> Duration {
-    v.sort();
-    v[((v.len() as f64 - 1.0) * p).round() as usize]
-}
 
 fn us(d: Duration) -> f64 {
     d.as_secs_f64() * 1e6
@@ -180,8 +172,8 @@ fn main() -> anyhow::Result<()> {
         rows_store, rows_sql,
         "both engines must return the same rows"
     );
-    let (p50a, p99a) = (pct(&mut t_store, 0.5), pct(&mut t_store, 0.99));
-    let (p50b, p99b) = (pct(&mut t_sql, 0.5), pct(&mut t_sql, 0.99));
+    let (p50a, p99a) = (pct(t_store.clone(), 0.5), pct(t_store.clone(), 0.99));
+    let (p50b, p99b) = (pct(t_sql.clone(), 0.5), pct(t_sql.clone(), 0.99));
     println!(
         "{queries} queries, {:.1} result rows per query on average (same in both)",
         rows_store as f64 / queries as f64

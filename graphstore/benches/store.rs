@@ -9,23 +9,15 @@
 //! Everything runs on one thread. Scale with OG_BENCH_NODES (default 1,000,000) and
 //! OG_BENCH_VECTORS (default 100,000).
 
+mod common;
+
 use std::time::{Duration, Instant};
+
+use common::{env_usize, pct};
 
 use graphstore::{Direction, GraphRead, Schema, SpatialIndexSpec, Store, Value, VectorIndexSpec};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-fn env_usize(k: &str, d: usize) -> usize {
-    std::env::var(k)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(d)
-}
-
-fn pct(mut v: Vec<Duration>, p: f64) -> Duration {
-    v.sort();
-    v[((v.len() as f64 - 1.0) * p).round() as usize]
-}
 
 fn ms(d: Duration) -> f64 {
     d.as_secs_f64() * 1e3
