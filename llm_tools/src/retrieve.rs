@@ -127,25 +127,32 @@ pub fn find<R: GraphRead>(
 /// The vector index over instance features (see the OpenGraph schema).
 const INDEX: &str = "instance_feature";
 
-fn passes<R: GraphRead>(r: &R, id: u64, opts: &FindOptions) -> Result<bool> {
+/// Whether a node's class and centroid pass the filters; `class` and `centroid` are its
+/// properties of those names.
+fn fits(class: Option<&Value>, centroid: Option<&Value>, opts: &FindOptions) -> bool {
     if let Some(c) = &opts.class
-        && r.node_prop(id, "class")?.as_ref().and_then(Value::as_str) != Some(c.as_str())
+        && class.and_then(Value::as_str) != Some(c.as_str())
     {
-        return Ok(false);
+        return false;
     }
     if let Some((g, radius_m)) = opts.near {
-        let Some(p) = r
-            .node_prop(id, "centroid")?
-            .as_ref()
-            .and_then(Value::as_point3)
-        else {
-            return Ok(false);
+        let Some(p) = centroid.and_then(Value::as_point3) else {
+            return false;
         };
         if (p[0] - g[0]).hypot(p[2] - g[1]) > radius_m {
-            return Ok(false);
+            return false;
         }
     }
-    Ok(true)
+    true
+}
+
+/// [`fits`] for a node id, reading the node once.
+fn passes<R: GraphRead>(r: &R, id: u64, opts: &FindOptions) -> Result<bool> {
+    let Some(node) = r.node(id)? else {
+        return Ok(false);
+    };
+    let get = |k: &str| r.prop_key(k).and_then(|k| node.get(k));
+    Ok(fits(get("class"), get("centroid"), opts))
 }
 
 /// Top-k through the vector index. With filters it ranks a prefix of the whole ranking and
@@ -206,18 +213,8 @@ fn scan<R: GraphRead>(r: &R, q: &[f32], opts: &FindOptions) -> Result<Vec<(f64, 
                 q.len()
             )));
         }
-        if let Some(c) = &opts.class
-            && get(k_class).and_then(Value::as_str) != Some(c.as_str())
-        {
+        if !fits(get(k_class), get(k_centroid), opts) {
             continue;
-        }
-        if let Some((g, radius_m)) = opts.near {
-            let Some(p) = get(k_centroid).and_then(Value::as_point3) else {
-                continue;
-            };
-            if (p[0] - g[0]).hypot(p[2] - g[1]) > radius_m {
-                continue;
-            }
         }
         scored.push((cosine(q, f), id));
     }
