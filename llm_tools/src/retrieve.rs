@@ -101,21 +101,24 @@ pub fn find<R: GraphRead>(
     scored.truncate(opts.k);
     let mut out = Vec::with_capacity(scored.len());
     for (score, id) in scored {
-        let text = |k: &str| -> Result<String> {
-            Ok(r.node_prop(id, k)?
-                .as_ref()
+        // one read of the winner's record for all three properties
+        let node = r.node(id)?;
+        let get = |k: &str| {
+            let key = r.prop_key(k)?;
+            node.as_ref()?.get(key)
+        };
+        let text = |k: &str| {
+            get(k)
                 .and_then(Value::as_str)
                 .unwrap_or_default()
-                .to_string())
+                .to_string()
         };
         out.push(Found {
             id,
-            caption: text("caption")?,
-            class: text("class")?,
+            caption: text("caption"),
+            class: text("class"),
             score,
-            centroid: r
-                .node_prop(id, "centroid")?
-                .as_ref()
+            centroid: get("centroid")
                 .and_then(Value::as_point3)
                 .unwrap_or([f64::NAN; 3]),
         });
