@@ -88,7 +88,8 @@ enum Command {
         /// The store file.
         #[arg(long)]
         db: PathBuf,
-        /// Start: X,Y (ground plane), lane:ID, segment:ID or instance:ID.
+        /// Start: X,Y (ground plane), or lane:ID, segment:ID, instance:ID, node:ID with a node id
+        /// (the id `find`, `query` and exports print).
         #[arg(long, allow_hyphen_values = true)]
         from: String,
         /// Goal, in the same forms.
@@ -533,7 +534,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let g = planner::RoadGraph::from_store(&r)?;
             let ground = planner::graph::ground_of_store(&r)?;
             let (a, b) = (from.parse::<planner::Spec>()?, to.parse::<planner::Spec>()?);
-            let (a, b) = (
+            let ((a, from_t), (b, to_t)) = (
                 planner::resolve(&g, &r, ground, &a, snap_m)?,
                 planner::resolve(&g, &r, ground, &b, snap_m)?,
             );
@@ -557,11 +558,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             if json {
                 let v = serde_json::json!({
+                    "from": from_t,
+                    "to": to_t,
                     "route": {"nodes": route.nodes, "length_m": route.length_m},
                     "path": {"poses": path.poses, "length_m": path.length_m, "planner": path.planner},
                 });
                 println!("{}", serde_json::to_string_pretty(&v)?);
             } else {
+                let end = |t: &planner::Target| match t.node {
+                    Some(n) => format!("{} node {n} at ({:.1}, {:.1})", t.kind, t.xy[0], t.xy[1]),
+                    None => format!("point ({:.1}, {:.1})", t.xy[0], t.xy[1]),
+                };
+                println!("from: {}\nto:   {}", end(&from_t), end(&to_t));
                 println!(
                     "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes)",
                     route.nodes.len(),

@@ -1,7 +1,7 @@
 //! The `opengraph` binary: demo, info, export and its exit codes.
 
 mod common;
-use common::{og, ok, s};
+use common::{first_lane_node, og, ok, s};
 
 #[test]
 fn demo_info_export_roundtrip() {
@@ -204,6 +204,7 @@ fn plan_json_png_fallback_and_errors() {
             .success()
     );
     let png = dir.path().join("plan.png");
+    let lane0 = format!("lane:{}", first_lane_node(&db));
     // KITTI ground plane is (x, z): the west arm is at negative x
     let out = og(&[
         "plan",
@@ -212,7 +213,7 @@ fn plan_json_png_fallback_and_errors() {
         "--from",
         "-100,0",
         "--to",
-        "lane:0",
+        &lane0,
         "--budget-ms",
         "3000",
         "--json",
@@ -241,7 +242,7 @@ fn plan_json_png_fallback_and_errors() {
         "--from",
         "-100,0",
         "--to",
-        "lane:0",
+        &lane0,
         "--budget-ms",
         "0",
         "--json",
@@ -251,12 +252,14 @@ fn plan_json_png_fallback_and_errors() {
     assert_eq!(v["path"]["planner"], "fallback:route");
     assert!(String::from_utf8_lossy(&out.stderr).contains("warning"));
     // bad input: unknown id, a point too far from every lane, a malformed spec
+    let lane_as_segment = format!("segment:{}", &lane0[5..]);
     for (from, msg) in [
-        ("lane:999", "no lane with id 999"),
+        ("lane:99999", "no node with id 99999"),
+        (lane_as_segment.as_str(), "not a Segment"),
         ("500,500", "snap limit"),
         ("lane:x", "bad location"),
     ] {
-        let out = og(&["plan", "--db", d, "--from", from, "--to", "lane:0"]);
+        let out = og(&["plan", "--db", d, "--from", from, "--to", &lane0]);
         assert_eq!(out.status.code(), Some(2), "{from}");
         assert!(
             String::from_utf8_lossy(&out.stderr).contains(msg),

@@ -3,7 +3,7 @@
 //! arguments. Needs no data beside the checkout.
 
 mod common;
-use common::{json, og, ok, s};
+use common::{assert_route_ends_at, first_lane_node, json, og, ok, s, xyz};
 
 #[test]
 fn sim_build_find_plan_eval() {
@@ -67,15 +67,17 @@ fn sim_build_find_plan_eval() {
     let out = og(&["find", "--db", s(&db), "a car", "--embedder", "minilm"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("built with the hash embedder"));
-    // a route from the start of the drive to the best answer
+    // the main job's chain: a route from the start of the drive to the object `find` answered,
+    // by the id `find` printed; the route must end beside that object, not at another one
     let id = hits[0]["id"].as_u64().unwrap();
     let png = dir.path().join("city.png");
+    let start = format!("lane:{}", first_lane_node(&db));
     let p = json(&og(&[
         "plan",
         "--db",
         s(&db),
         "--from",
-        "lane:0",
+        &start,
         "--to",
         &format!("instance:{id}"),
         "--png",
@@ -83,6 +85,38 @@ fn sim_build_find_plan_eval() {
         "--json",
     ]));
     assert!(p["route"]["length_m"].as_f64().unwrap() > 0.0, "{p}");
+    // objects stand beside the road: the simulator's widest road is 14 m and objects stand
+    // within a few metres of its edge
+    assert_route_ends_at(&p, id, xyz(&hits[0]["centroid"]), 25.0);
+    // the same id names the same object in Cypher
+    let q = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--read-only",
+        "--json",
+        "--param",
+        &format!("id={id}"),
+        "MATCH (i:Instance) WHERE id(i) = $id RETURN i.caption AS caption",
+    ]));
+    assert_eq!(q[0]["caption"], hits[0]["caption"]);
+    // an id of another kind is refused with what it is, not routed to another object
+    let lane_as_instance = og(&[
+        "plan",
+        "--db",
+        s(&db),
+        "--from",
+        &start,
+        "--to",
+        &format!("instance:{}", &start[5..]),
+    ]);
+    assert_eq!(lane_as_instance.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&lane_as_instance.stderr)
+            .contains("is a LaneNode node, not an Instance"),
+        "{}",
+        String::from_utf8_lossy(&lane_as_instance.stderr)
+    );
     assert!(std::fs::metadata(&png).unwrap().len() > 1000);
     // the simulator's labels score the map
     let e = json(&og(&[

@@ -7,20 +7,36 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum Error {
     /// A start/goal spec that cannot be parsed.
-    #[error("bad location {spec:?}: {detail} (use X,Y or lane:ID, segment:ID, instance:ID)")]
+    #[error(
+        "bad location {spec:?}: {detail} (use X,Y or lane:ID, segment:ID, instance:ID, node:ID with a node id as `find` and `query` print it)"
+    )]
     BadSpec {
         /// What was given.
         spec: String,
         /// What is wrong.
         detail: String,
     },
-    /// An id that does not exist.
-    #[error("no {kind} with id {id}")]
+    /// A node id that does not exist.
+    #[error(
+        "no node with id {id} (asked for {kind}:{id}; ids are node ids as `find` and `query` print them)"
+    )]
     UnknownId {
-        /// lane, segment or instance.
+        /// lane, segment, instance or node.
         kind: &'static str,
-        /// The id.
-        id: i64,
+        /// The node id.
+        id: u64,
+    },
+    /// A node id whose node is not of the kind asked for.
+    #[error("node {id} is a {labels} node, not {wanted} (asked for {kind}:{id})")]
+    WrongKind {
+        /// lane, segment, instance or node.
+        kind: &'static str,
+        /// What the kind accepts, in words (`an Instance`).
+        wanted: &'static str,
+        /// The node id.
+        id: u64,
+        /// The node's labels, joined with `:`.
+        labels: String,
     },
     /// A point too far from every lane.
     #[error(
@@ -44,6 +60,11 @@ pub enum Error {
         "the store has no lane graph (no LaneNode/LANE); run `opengraph hierarchy` or `build` first"
     )]
     NoLaneGraph,
+    /// The store does not say which world axes are the ground plane; none is guessed.
+    #[error(
+        "{0}: the ground frame is unknown, so positions cannot be placed on the lane graph; run `opengraph hierarchy` (it writes the Environment with its ground_frame) or set Environment.ground_frame to \"kitti_cam\" or \"enu\""
+    )]
+    NoGroundFrame(String),
     /// A map file that cannot be read.
     #[error("{}: {detail}", path.display())]
     Map {

@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 /// A graph vertex.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RoadNode {
-    /// Stable name: `lane:ID` (store) or `av2:N` (map junction point).
+    /// Stable name: `lane:ID` with the store's node id, or `av2:N` (map junction point).
     pub key: String,
     /// Ground-plane position.
     pub xy: [f64; 2],
@@ -125,25 +125,21 @@ impl RoadGraph {
     /// Loads the lane-graph layer of a store (`LaneNode` + `LANE`). Lanes are two-way unless
     /// their `directed` property is true.
     pub fn from_store(r: &impl GraphRead) -> Result<RoadGraph> {
-        let ground = ground_of_store(r)?;
         let lane_ids = r.nodes_with_label("LaneNode")?;
         if lane_ids.is_empty() {
             return Err(Error::NoLaneGraph);
         }
+        let ground = ground_of_store(r)?;
         let mut nodes = Vec::with_capacity(lane_ids.len());
         let mut index = HashMap::new();
         for id in &lane_ids {
-            let lane_id = r
-                .node_prop(*id, "lane_id")?
-                .and_then(|v| v.as_int())
-                .ok_or(Error::NoLaneGraph)?;
             let p = r
                 .node_prop(*id, "position")?
                 .and_then(|v| v.as_point3())
                 .ok_or(Error::NoLaneGraph)?;
             index.insert(*id, nodes.len());
             nodes.push(RoadNode {
-                key: format!("lane:{lane_id}"),
+                key: format!("lane:{id}"),
                 xy: ground.of(p),
             });
         }
@@ -355,20 +351,30 @@ pub(crate) fn point_at(p: &[[f64; 2]], s: f64) -> [f64; 2] {
     *p.last().expect("non-empty polyline")
 }
 
-/// The ground plane recorded on the store's Environment node (`ground_frame`); ENU-like when
-/// absent.
+/// The ground plane recorded on the store's Environment node (`ground_frame`).
+///
+/// Errors: [`Error::NoGroundFrame`] when there is no Environment node, or its `ground_frame` is
+/// missing or unknown; no frame is guessed.
 pub fn ground_of_store(r: &impl GraphRead) -> Result<Ground> {
     let env = r.nodes_with_label("Environment")?;
-    let name = match env.first() {
-        Some(id) => r
-            .node_prop(*id, "ground_frame")?
-            .and_then(|v| v.as_str().map(str::to_string)),
-        None => None,
+    let Some(id) = env.first() else {
+        return Err(Error::NoGroundFrame(
+            "the store has no Environment node".into(),
+        ));
     };
-    Ok(name
-        .as_deref()
-        .and_then(Ground::from_name)
-        .unwrap_or(Ground::XY))
+    let name = r
+        .node_prop(*id, "ground_frame")?
+        .and_then(|v| v.as_str().map(str::to_string));
+    match name.as_deref() {
+        Some(n) => Ground::from_name(n).ok_or_else(|| {
+            Error::NoGroundFrame(format!(
+                "Environment node {id} has ground_frame {n:?}; known: \"kitti_cam\" (x, z) and \"enu\" (x, y)"
+            ))
+        }),
+        None => Err(Error::NoGroundFrame(format!(
+            "Environment node {id} has no ground_frame"
+        ))),
+    }
 }
 
 #[cfg(test)]

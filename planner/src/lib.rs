@@ -10,4 +10,6 @@ pub mod route;
 pub use error::{Error, Result};
 pub use graph::{Ground, RoadEdge, RoadGraph, RoadNode};
 pub use motion::{MotionConfig, MotionPath, Obstacle, Validity, plan_path};
-pub use route::{Anchor, Route, Spec, astar, closest_on_segment, resolve, snap, unit_cost_route};
+pub use route::{
+    Anchor, Route, Spec, Target, astar, closest_on_segment, resolve, snap, target, unit_cost_route,
+};

@@ -10,16 +10,45 @@ use crate::error::{Error, Result};
 use crate::graph::{Ground, RoadGraph, dist, point_at};
 
 /// A start or goal as the user gives it.
+///
+/// Every id is a **node id**: the one `find` prints, Cypher's `id(n)` returns, `info`, exports,
+/// HTTP and MCP use. The kind prefix says which label the node must have, so a mistyped id
+/// fails ("node 7 is a Segment, not an Instance") instead of naming another object.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Spec {
     /// A ground-plane point, snapped to the nearest lane within the snap limit.
     Point([f64; 2]),
-    /// A lane-graph node (`lane_id`).
-    Lane(i64),
-    /// A segment (`segment_id`): its centroid, snapped to the nearest lane.
-    Segment(i64),
-    /// An instance (`instance_id`): the nearest lane point to its centroid.
-    Instance(i64),
+    /// A lane-graph node (`LaneNode`), by node id.
+    Lane(u64),
+    /// A segment (`Segment`), by node id: its centroid, snapped to the nearest lane.
+    Segment(u64),
+    /// An instance (`Instance`), by node id: the nearest lane point to its centroid.
+    Instance(u64),
+    /// Any node with a position: a `LaneNode`, a `Segment` or an `Instance`, by node id.
+    Node(u64),
+}
+
+/// The labels a spec kind accepts, by kind name.
+fn labels_of(kind: &str) -> &'static [&'static str] {
+    match kind {
+        "lane" => &["LaneNode"],
+        "segment" => &["Segment"],
+        "instance" => &["Instance"],
+        _ => &["LaneNode", "Segment", "Instance"],
+    }
+}
+
+/// A spec resolved to a place on the ground plane, before snapping to the road graph.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Target {
+    /// The spec as given (`instance:1233`, `3.5,-2`).
+    pub spec: String,
+    /// The node it names (None for a point).
+    pub node: Option<u64>,
+    /// The node's label that matched (`Instance`, `Segment`, `LaneNode`), or `point`.
+    pub kind: String,
+    /// The ground-plane position the route goes to (for an instance or segment, its centroid).
+    pub xy: [f64; 2],
 }
 
 impl std::str::FromStr for Spec {
@@ -30,14 +59,15 @@ impl std::str::FromStr for Spec {
             detail: d.to_string(),
         };
         if let Some((kind, id)) = s.split_once(':') {
-            let id: i64 = id
+            let id: u64 = id
                 .trim()
                 .parse()
-                .map_err(|_| bad("the id is not an integer"))?;
+                .map_err(|_| bad("the id is not a node id (a non-negative integer)"))?;
             return match kind.trim() {
                 "lane" => Ok(Spec::Lane(id)),
                 "segment" => Ok(Spec::Segment(id)),
                 "instance" => Ok(Spec::Instance(id)),
+                "node" => Ok(Spec::Node(id)),
                 _ => Err(bad("unknown kind")),
             };
         }
@@ -148,45 +178,82 @@ pub fn snap(g: &RoadGraph, p: [f64; 2], limit_m: f64) -> Result<Anchor> {
     Ok(Anchor::OnEdge { edge, s, xy })
 }
 
-/// Resolves a spec against a store-backed graph.
+/// Resolves a spec to its node (checking the label) and ground-plane position.
+///
+/// Errors: [`Error::UnknownId`] when no node has the id, [`Error::WrongKind`] when the node has
+/// none of the labels the spec's kind accepts, [`Error::Invalid`] when it has no position.
+pub fn target(r: &impl GraphRead, ground: Ground, spec: &Spec) -> Result<Target> {
+    let (kind, id) = match spec {
+        Spec::Point(p) => {
+            return Ok(Target {
+                spec: format!("{},{}", p[0], p[1]),
+                node: None,
+                kind: "point".into(),
+                xy: *p,
+            });
+        }
+        Spec::Lane(id) => ("lane", *id),
+        Spec::Segment(id) => ("segment", *id),
+        Spec::Instance(id) => ("instance", *id),
+        Spec::Node(id) => ("node", *id),
+    };
+    let node = r.node(id)?.ok_or(Error::UnknownId { kind, id })?;
+    let names: Vec<String> = node.labels.iter().filter_map(|l| r.name_of(l.0)).collect();
+    let label = labels_of(kind)
+        .iter()
+        .find(|l| names.iter().any(|n| n == *l))
+        .ok_or_else(|| Error::WrongKind {
+            id,
+            kind,
+            wanted: match kind {
+                "lane" => "a LaneNode",
+                "segment" => "a Segment",
+                "instance" => "an Instance",
+                _ => "a LaneNode, Segment or Instance",
+            },
+            labels: if names.is_empty() {
+                "no label".into()
+            } else {
+                names.join(":")
+            },
+        })?;
+    let key = if *label == "LaneNode" {
+        "position"
+    } else {
+        "centroid"
+    };
+    let p = r
+        .node_prop(id, key)?
+        .and_then(|v| v.as_point3())
+        .ok_or_else(|| Error::Invalid(format!("node {id} ({label}) has no {key}")))?;
+    Ok(Target {
+        spec: format!("{kind}:{id}"),
+        node: Some(id),
+        kind: (*label).to_string(),
+        xy: ground.of(p),
+    })
+}
+
+/// Resolves a spec against a store-backed graph: a lane node is that graph node; a point is
+/// snapped within `snap_limit_m`; an instance or segment goes to the lane point nearest to its
+/// centroid. Returns the anchor and the resolved [`Target`].
 pub fn resolve(
     g: &RoadGraph,
     r: &impl GraphRead,
     ground: Ground,
     spec: &Spec,
     snap_limit_m: f64,
-) -> Result<Anchor> {
-    let find = |label: &str, key: &str, id: i64, kind: &'static str| -> Result<u64> {
-        r.find_nodes(label, key, &graphstore::Value::Int(id))?
-            .first()
-            .copied()
-            .ok_or(Error::UnknownId { kind, id })
-    };
-    let centre = |node: u64, key: &str| -> Result<[f64; 2]> {
-        let p = r
-            .node_prop(node, key)?
-            .and_then(|v| v.as_point3())
-            .ok_or_else(|| Error::Invalid(format!("node {node} has no {key}")))?;
-        Ok(ground.of(p))
-    };
-    match spec {
-        Spec::Point(p) => snap(g, *p, snap_limit_m),
-        Spec::Lane(id) => g
+) -> Result<(Anchor, Target)> {
+    let t = target(r, ground, spec)?;
+    let anchor = match (t.node, t.kind.as_str()) {
+        (None, _) => snap(g, t.xy, snap_limit_m)?,
+        (Some(id), "LaneNode") => g
             .node_by_key(&format!("lane:{id}"))
             .map(Anchor::Node)
-            .ok_or(Error::UnknownId {
-                kind: "lane",
-                id: *id,
-            }),
-        Spec::Segment(id) => {
-            let n = find("Segment", "segment_id", *id, "segment")?;
-            snap(g, centre(n, "centroid")?, f64::INFINITY)
-        }
-        Spec::Instance(id) => {
-            let n = find("Instance", "instance_id", *id, "instance")?;
-            snap(g, centre(n, "centroid")?, f64::INFINITY)
-        }
-    }
+            .ok_or(Error::UnknownId { kind: "lane", id })?,
+        _ => snap(g, t.xy, f64::INFINITY)?,
+    };
+    Ok((anchor, t))
 }
 
 #[derive(PartialEq)]
@@ -558,7 +625,9 @@ mod tests {
         assert_eq!("3.5, -2".parse::<Spec>().unwrap(), Spec::Point([3.5, -2.0]));
         assert_eq!("lane:7".parse::<Spec>().unwrap(), Spec::Lane(7));
         assert_eq!("instance:12".parse::<Spec>().unwrap(), Spec::Instance(12));
+        assert_eq!("node:3".parse::<Spec>().unwrap(), Spec::Node(3));
         assert!("lane:x".parse::<Spec>().is_err());
+        assert!("instance:-1".parse::<Spec>().is_err());
         assert!("1,2,3".parse::<Spec>().is_err());
         assert!("nan,1".parse::<Spec>().is_err());
     }

@@ -33,3 +33,48 @@ pub fn json(out: &Output) -> serde_json::Value {
     ok(out);
     serde_json::from_slice(&out.stdout).unwrap()
 }
+
+/// The node id of the lane-graph node with `lane_id` 0 (the start of the drive), asked in
+/// Cypher: specs such as `lane:ID` take node ids.
+pub fn first_lane_node(db: &Path) -> u64 {
+    let v = json(&og(&[
+        "query",
+        "--db",
+        s(db),
+        "--read-only",
+        "--json",
+        "MATCH (l:LaneNode {lane_id: 0}) RETURN id(l) AS id",
+    ]));
+    v[0]["id"].as_u64().expect("a LaneNode with lane_id 0")
+}
+
+/// Checks that a `plan --json` answer goes to node `id` (an Instance) at `centroid` (KITTI
+/// world frame, ground plane x, z) and that its path ends on the road beside it, within
+/// `max_gap_m` of the centroid.
+pub fn assert_route_ends_at(plan: &serde_json::Value, id: u64, centroid: [f64; 3], max_gap_m: f64) {
+    assert_eq!(plan["to"]["node"].as_u64(), Some(id), "{plan}");
+    assert_eq!(plan["to"]["kind"], "Instance", "{plan}");
+    let xy = [
+        plan["to"]["xy"][0].as_f64().unwrap(),
+        plan["to"]["xy"][1].as_f64().unwrap(),
+    ];
+    assert!(
+        (xy[0] - centroid[0]).abs() < 1e-6 && (xy[1] - centroid[2]).abs() < 1e-6,
+        "the route goes to {xy:?}, the object is at {centroid:?}"
+    );
+    let last = plan["path"]["poses"]
+        .as_array()
+        .and_then(|p| p.last())
+        .expect("a path");
+    let end = [last[0].as_f64().unwrap(), last[1].as_f64().unwrap()];
+    let gap = (end[0] - centroid[0]).hypot(end[1] - centroid[2]);
+    assert!(
+        gap <= max_gap_m,
+        "the path ends {gap:.1} m from the object that was found (limit {max_gap_m} m)"
+    );
+}
+
+/// A JSON `[x, y, z]` array as numbers.
+pub fn xyz(v: &serde_json::Value) -> [f64; 3] {
+    [0, 1, 2].map(|i| v[i].as_f64().expect("a number"))
+}
