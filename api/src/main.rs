@@ -159,6 +159,10 @@ enum Command {
         /// for tests; captures no meaning).
         #[arg(long, default_value = "minilm", value_parser = ["minilm", "hash"])]
         embedder: String,
+        /// The language model that merges each object's captions after mapping (overrides the
+        /// config's [llm] table; default none: the medoid caption).
+        #[command(flatten)]
+        llm: LlmArgs,
         /// Print the report as JSON.
         #[arg(long)]
         json: bool,
@@ -213,6 +217,47 @@ enum Command {
         /// Worker threads (the output does not depend on it); default: all cores.
         #[arg(long)]
         threads: Option<usize>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Label relations between close objects with a language model (the paper's LLM relation
+    /// inference): RELATED {source: "llm", relation, confidence, model, prompt} beside the
+    /// geometric edges. Resumable: pairs already labelled by the same model and prompt are
+    /// skipped, and every answer is cached in the map.
+    Relations {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Stop starting new pairs after this many seconds (run again to continue).
+        #[arg(long, value_parser = parse_budget)]
+        budget_secs: Option<f64>,
+        /// Label at most this many pairs in this run.
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+        max_pairs: Option<u64>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Merge each object's captions into one with a language model (the paper's LLM caption
+    /// merge); `build --llm` runs the same pass after mapping. Resumable and cached.
+    Captions {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// How many of an object's latest captions are merged.
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(2..=16))]
+        recent: u64,
+        /// Stop starting new merges after this many seconds (run again to continue).
+        #[arg(long, value_parser = parse_budget)]
+        budget_secs: Option<f64>,
+        /// Merge at most this many objects in this run.
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+        max_items: Option<u64>,
         /// Print the report as JSON.
         #[arg(long)]
         json: bool,
@@ -281,6 +326,19 @@ enum Command {
 
 #[derive(Debug, Subcommand)]
 enum EvalCommand {
+    /// Attribute accuracy of the map's object captions (colour, material, noun) against the
+    /// simulator's ground truth; after an LLM merge, the medoid captions on the same objects.
+    Captions {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Per-class IoU, mean IoU and macro F1 of the map against SemanticKITTI labels.
     Semseg {
         /// The store file.
@@ -302,6 +360,88 @@ enum EvalCommand {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// Which language model to use: the same three flags on every command that needs one.
+#[derive(clap::Args, Debug, Clone, Default)]
+struct LlmArgs {
+    /// Language model: local (llama.cpp on a GGUF file), openai (an OpenAI-compatible server:
+    /// OPENAI_BASE_URL, OPENAI_MODEL, OPENAI_API_KEY) or none.
+    #[arg(long, value_parser = ["local", "openai", "none"])]
+    llm: Option<String>,
+    /// For local: the GGUF file (default: the default model that scripts/setup.sh fetched);
+    /// for openai: the model name.
+    #[arg(long)]
+    llm_model: Option<String>,
+    /// For openai: the server's base URL, e.g. http://127.0.0.1:8080/v1.
+    #[arg(long)]
+    llm_url: Option<String>,
+}
+
+impl LlmArgs {
+    /// The flags laid over `base` (the `[llm]` table of a config, or the default).
+    fn config(
+        &self,
+        mut base: llm_tools::LlmConfig,
+        default_backend: &str,
+    ) -> llm_tools::LlmConfig {
+        if let Some(b) = &self.llm {
+            base.backend = b.clone();
+        } else if base.backend == "none" {
+            base.backend = default_backend.to_string();
+        }
+        if let Some(m) = &self.llm_model {
+            if base.backend == "local" {
+                base.model_path = Some(PathBuf::from(m));
+            } else {
+                base.model = Some(m.clone());
+            }
+        }
+        if let Some(u) = &self.llm_url {
+            base.url = Some(u.clone());
+        }
+        base
+    }
+}
+
+/// Opens the language model `cfg` names; a usage error when it names none.
+fn open_llm(
+    cfg: &llm_tools::LlmConfig,
+    what: &str,
+) -> anyhow::Result<Box<dyn llm_tools::ChatModel>> {
+    match llm_tools::chat::open(cfg)? {
+        Some(m) => {
+            eprintln!("language model: {}", m.model_id());
+            Ok(m)
+        }
+        None => Err(UsageError(format!(
+            "{what} needs a language model: pass --llm local (or openai with --llm-url)"
+        ))
+        .into()),
+    }
+}
+
+fn parse_budget(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number of seconds"))?;
+    if v.is_finite() && v > 0.0 && v <= 7.0 * 86400.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{s}: the budget must be a finite number of seconds in (0, 604800]"
+        ))
+    }
+}
+
+fn print_pass(name: &str, r: &ingest::llm::PassReport) {
+    println!(
+        "{name}: {} done in this run ({} from the cache), {} done before, {} left of {}; {:.0} ms per question, {:.1} s in all\nmodel {}, prompt {}",
+        r.done, r.cached, r.already_done, r.left, r.total, r.ms_per_item, r.secs, r.model, r.prompt
+    );
+    for (label, n) in &r.labels {
+        println!("  {label:<24} {n}");
+    }
 }
 
 fn parse_near(s: &str) -> Result<([f64; 2], f64), String> {
@@ -365,14 +505,32 @@ fn is_input_error(e: &anyhow::Error) -> bool {
                 planner::Error::Render(_) | planner::Error::Store(graphstore::Error::Storage(_))
             );
         }
+        if let Some(l) = c.downcast_ref::<llm_tools::Error>() {
+            return llm_input_error(l);
+        }
         if let Some(i) = c.downcast_ref::<ingest::Error>() {
-            return !matches!(
-                i,
-                ingest::Error::Render(_) | ingest::Error::Store(graphstore::Error::Storage(_))
-            );
+            return match i {
+                ingest::Error::Llm(l) => llm_input_error(l),
+                _ => !matches!(
+                    i,
+                    ingest::Error::Render(_) | ingest::Error::Store(graphstore::Error::Storage(_))
+                ),
+            };
         }
         c.downcast_ref::<UsageError>().is_some()
     })
+}
+
+/// Missing or bad model files, bad settings and requests a server refuses are the user's to
+/// fix (exit 2); a model or server failing on a good request is not.
+fn llm_input_error(e: &llm_tools::Error) -> bool {
+    matches!(
+        e,
+        llm_tools::Error::ModelMissing { .. }
+            | llm_tools::Error::BadModel { .. }
+            | llm_tools::Error::Invalid(_)
+            | llm_tools::Error::LlmHttp { .. }
+    )
 }
 
 fn parse_param(s: &str) -> Result<(String, graphstore::cypher::Val), String> {
@@ -596,6 +754,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             resume,
             name,
             embedder,
+            llm,
             json,
         } => {
             use ingest::build::{BuildArgs, BuildConfig, Progress, Source};
@@ -603,6 +762,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Some(p) => BuildConfig::from_toml_file(p)?,
                 None => BuildConfig::default(),
             };
+            // the language model is opened before any mapping, so a bad [llm] or --llm fails
+            // at once instead of after the whole build
+            let llm_cfg = llm.config(cfg.llm.clone(), "none");
+            let mut chat = llm_tools::chat::open(&llm_cfg)?;
+            if let Some(m) = &chat {
+                eprintln!("language model for the caption merge: {}", m.model_id());
+            }
             if let Some(a) = accumulate {
                 cfg.mapping.accumulate = a as usize;
             }
@@ -667,13 +833,94 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 &mut on_progress,
             )?;
             bar.finish_and_clear();
+            let merge = match chat.as_mut() {
+                Some(m) => Some(ingest::llm::merge_captions(
+                    &store,
+                    m.as_mut(),
+                    emb.as_mut(),
+                    args.config.mapping.merge_captions.max(2),
+                    &ingest::llm::PassOptions::default(),
+                )?),
+                None => None,
+            };
             let rss = peak_rss_mib();
             if json {
                 let mut v = serde_json::to_value(&report)?;
                 v["peak_rss_mib"] = serde_json::json!(rss);
+                v["caption_merge"] = match &merge {
+                    Some(m) => serde_json::to_value(m)?,
+                    None => serde_json::json!({"model": "none", "method": "medoid"}),
+                };
                 println!("{}", serde_json::to_string_pretty(&v)?);
             } else {
                 print!("{}", build_summary(&report, rss));
+                match &merge {
+                    Some(m) => print_pass("caption merge", m),
+                    None => {
+                        println!("captions: medoid of each object's latest captions (no --llm)")
+                    }
+                }
+            }
+        }
+        Command::Relations {
+            db,
+            llm,
+            budget_secs,
+            max_pairs,
+            json,
+        } => {
+            let cfg = llm.config(llm_tools::LlmConfig::default(), "local");
+            let mut m = open_llm(&cfg, "relations")?;
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let opts = ingest::llm::PassOptions {
+                budget: budget_secs.map(std::time::Duration::from_secs_f64),
+                max_items: max_pairs.map(|n| n as usize),
+                ..ingest::llm::PassOptions::default()
+            };
+            let r = ingest::llm::infer_relations(
+                &store,
+                m.as_mut(),
+                &ingest::hierarchy::relations::RelationConfig::default(),
+                &opts,
+            )?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                print_pass("relations", &r);
+            }
+        }
+        Command::Captions {
+            db,
+            llm,
+            recent,
+            budget_secs,
+            max_items,
+            json,
+        } => {
+            let cfg = llm.config(llm_tools::LlmConfig::default(), "local");
+            let mut m = open_llm(&cfg, "captions")?;
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let name = llm_tools::retrieve::map_embedder(&store.read()?)?
+                .unwrap_or_else(|| "minilm".into());
+            let mut emb = make_embedder(&name)?;
+            let opts = ingest::llm::PassOptions {
+                budget: budget_secs.map(std::time::Duration::from_secs_f64),
+                max_items: max_items.map(|n| n as usize),
+                ..ingest::llm::PassOptions::default()
+            };
+            let r = ingest::llm::merge_captions(
+                &store,
+                m.as_mut(),
+                emb.as_mut(),
+                recent as usize,
+                &opts,
+            )?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                print_pass("caption merge", &r);
             }
         }
         Command::Sim {
@@ -942,6 +1189,40 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     "in camera view: {} points ({} missed), mIoU {:.3}, macro F1 {:.3}",
                     r.in_view.points, r.in_view.missed, r.in_view.miou, r.in_view.f1
                 );
+            }
+        }
+        Command::Eval {
+            what: EvalCommand::Captions { db, sim, json },
+        } => {
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = ingest::eval_llm::eval_captions(&store.read()?, &sim)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                println!(
+                    "{} object instances, {} matched to a ground-truth object; captions by {}",
+                    r.object_instances, r.matched, r.caption_source
+                );
+                let row = |name: &str, c: &ingest::eval_llm::CaptionScores| {
+                    println!(
+                        "{name:<8} colour {:.3} (wrong {:.3}, missing {:.3}, n={})  material {:.3} (wrong {:.3}, missing {:.3}, n={})  noun {:.3}  {:.1} words",
+                        c.colour.accuracy,
+                        c.colour.contradiction,
+                        c.colour.missing,
+                        c.colour.judged,
+                        c.material.accuracy,
+                        c.material.contradiction,
+                        c.material.missing,
+                        c.material.judged,
+                        c.noun_accuracy,
+                        c.mean_words
+                    );
+                };
+                row("caption", &r.caption);
+                if let Some(m) = &r.medoid {
+                    row("medoid", m);
+                }
             }
         }
         Command::Demo { db } => {

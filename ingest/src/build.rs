@@ -33,6 +33,11 @@ pub struct BuildConfig {
     pub oracle: OracleConfig,
     /// Hierarchy (lanes, segments, relations).
     pub hierarchy: HierarchyConfig,
+    /// The language model for the caption merge after mapping (`[llm]`: backend `local`,
+    /// `openai` or `none`, the default). Not part of the build's resume arguments: the merge
+    /// is its own resumable pass ([`crate::llm::merge_captions`]).
+    #[serde(skip_serializing)]
+    pub llm: llm_tools::LlmConfig,
 }
 
 impl BuildConfig {

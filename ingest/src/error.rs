@@ -38,6 +38,9 @@ pub enum Error {
     /// The store refused a write or a read failed.
     #[error(transparent)]
     Store(#[from] graphstore::Error),
+    /// A language model or embedder failed.
+    #[error(transparent)]
+    Llm(#[from] llm_tools::Error),
     /// Drawing or encoding an image failed.
     #[error("rendering failed: {0}")]
     Render(String),

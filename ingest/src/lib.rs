@@ -5,7 +5,9 @@ pub mod classes;
 pub mod cluster;
 mod error;
 pub mod eval;
+pub mod eval_llm;
 pub mod hierarchy;
+pub mod llm;
 pub mod mapping;
 pub mod sources;
 

@@ -27,6 +27,20 @@ pub enum Error {
     /// ONNX Runtime failed.
     #[error("onnx runtime: {0}")]
     Runtime(String),
+    /// A language model failed (loading, decoding, or a remote server that gave up).
+    #[error("language model: {0}")]
+    Llm(String),
+    /// A language model's answer that cannot be used (not JSON, wrong shape, unknown tool).
+    #[error("language model answer: {0}")]
+    LlmAnswer(String),
+    /// An OpenAI-compatible server refused the request (a 4xx other than 429).
+    #[error("language model server answered HTTP {status}: {message}")]
+    LlmHttp {
+        /// HTTP status.
+        status: u16,
+        /// The server's message.
+        message: String,
+    },
     /// Invalid input.
     #[error("invalid input: {0}")]
     Invalid(String),

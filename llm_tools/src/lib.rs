@@ -1,11 +1,16 @@
 #![doc = include_str!("../README.md")]
 
+pub mod chat;
 pub mod embed;
 mod error;
 pub mod hash_embed;
+pub mod prompts;
 pub mod retrieve;
 pub mod wordpiece;
 
+pub use chat::{
+    ChatModel, ChatRequest, ChatResponse, LlmConfig, Message, Role, ToolCall, ToolSpec,
+};
 pub use embed::{Embedder, MiniLm};
 pub use error::{Error, Result};
 pub use hash_embed::HashEmbedder;

@@ -137,7 +137,7 @@ pub fn spanning_tree(
 
 /// Pairs `(i, j, distance)` with `i < j` whose boxes are within `max_m`, found through a
 /// ground-plane grid over box centres and measured exactly with parry3d.
-fn candidate_pairs(
+pub fn candidate_pairs(
     boxes: &[InstanceBox],
     frame: GroundFrame,
     max_m: f64,

@@ -1,0 +1,528 @@
+//! The map's language-model passes (paper: "LLaMA merges the captions of an object's
+//! detections" and "captions, poses and boxes of object pairs go into an LLM to infer their
+//! relations"), run over a built map, resumable, with every answer cached in the map.
+//!
+//! - [`merge_captions`]: each object's latest captions become one caption that keeps what they
+//!   agree on (post-processing, once per final instance, not once per frame). The medoid
+//!   caption stays as `caption_medoid`; `caption_model` and `caption_prompt` record who wrote
+//!   the new one, and the instance's feature is recomputed from it.
+//! - [`infer_relations`]: for the instance layer's spanning-tree edges and close pairs among
+//!   objects (never road, sidewalk, parking, terrain or other-ground surfaces), an
+//!   open-vocabulary relation with a confidence, written as
+//!   `RELATED {source: "llm", relation, confidence, model, prompt, distance_m}` beside the
+//!   geometric edges, which stay.
+//!
+//! Answers are cached as `LlmAnswer {key, model, prompt, answer}` nodes keyed by the sha256 of
+//! (model id, prompt id, input), written in the same transaction as the facts they made, so a
+//! resumed or repeated pass never asks again.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::time::{Duration, Instant};
+
+use graphstore::{Direction, GraphRead, Store, Value};
+use llm_tools::prompts::{self, Prompt};
+use llm_tools::{ChatModel, ChatRequest, Embedder, Message};
+use sha2::{Digest, Sha256};
+
+use crate::error::{Error, Result};
+use crate::hierarchy::frame::GroundFrame;
+use crate::hierarchy::relations::{
+    InstanceBox, RelationConfig, box_distance, candidate_pairs, spanning_tree,
+};
+
+/// Classes that are surfaces, never one side of an LLM relation.
+pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
+
+/// The cached answers of a map, by key.
+#[derive(Debug, Default)]
+pub struct LlmCache {
+    answers: HashMap<String, serde_json::Value>,
+}
+
+impl LlmCache {
+    /// Reads every `LlmAnswer` node.
+    pub fn load(r: &impl GraphRead) -> Result<LlmCache> {
+        let mut answers = HashMap::new();
+        for id in r.nodes_with_label("LlmAnswer")? {
+            let key = r
+                .node_prop(id, "key")?
+                .and_then(|v| v.as_str().map(str::to_string));
+            let ans = r
+                .node_prop(id, "answer")?
+                .and_then(|v| v.as_str().map(str::to_string));
+            if let (Some(k), Some(a)) = (key, ans)
+                && let Ok(v) = serde_json::from_str(&a)
+            {
+                answers.insert(k, v);
+            }
+        }
+        Ok(LlmCache { answers })
+    }
+
+    /// The key of one question: sha256 hex of model id, prompt id and input.
+    pub fn key(model: &str, prompt: &Prompt, input: &str) -> String {
+        let mut h = Sha256::new();
+        for part in [model, &prompt.id(), input] {
+            h.update((part.len() as u64).to_le_bytes());
+            h.update(part.as_bytes());
+        }
+        h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    }
+
+    /// A cached answer.
+    pub fn get(&self, key: &str) -> Option<&serde_json::Value> {
+        self.answers.get(key)
+    }
+
+    /// Number of cached answers.
+    pub fn len(&self) -> usize {
+        self.answers.len()
+    }
+
+    /// Whether nothing is cached.
+    pub fn is_empty(&self) -> bool {
+        self.answers.is_empty()
+    }
+}
+
+/// One answer to write: (key, answer) when it was not cached yet.
+type NewAnswer = Option<(String, serde_json::Value)>;
+
+/// Asks `model` (or the cache) one structured question.
+fn ask(
+    model: &mut dyn ChatModel,
+    cache: &LlmCache,
+    prompt: &Prompt,
+    input: &str,
+    schema: serde_json::Value,
+    max_tokens: u32,
+) -> Result<(serde_json::Value, NewAnswer)> {
+    let key = LlmCache::key(&model.model_id(), prompt, input);
+    if let Some(v) = cache.get(&key) {
+        return Ok((v.clone(), None));
+    }
+    let req = ChatRequest::new(vec![Message::system(prompt.text), Message::user(input)])
+        .with_schema(schema)
+        .with_max_tokens(max_tokens);
+    let r = model.chat(&req)?;
+    let v = r
+        .json
+        .ok_or_else(|| Error::Invalid("the model gave no structured answer".into()))?;
+    Ok((v.clone(), Some((key, v))))
+}
+
+fn write_answers(
+    tx: &mut graphstore::WriteTxn<'_>,
+    model: &str,
+    prompt: &Prompt,
+    answers: &[(String, serde_json::Value)],
+) -> graphstore::Result<()> {
+    for (k, v) in answers {
+        tx.create_node_named(
+            &["LlmAnswer"],
+            &[
+                ("key", Value::String(k.clone())),
+                ("model", Value::String(model.to_string())),
+                ("prompt", Value::String(prompt.id())),
+                ("answer", Value::String(v.to_string())),
+            ],
+        )?;
+    }
+    Ok(())
+}
+
+fn str_prop(r: &impl GraphRead, id: u64, key: &str) -> Result<Option<String>> {
+    Ok(r.node_prop(id, key)?
+        .and_then(|v| v.as_str().map(str::to_string)))
+}
+
+/// Whether an instance is an object (not a surface or a background tile).
+fn is_object(r: &impl GraphRead, id: u64) -> Result<bool> {
+    let class = str_prop(r, id, "class")?.unwrap_or_default();
+    Ok(!SURFACE_CLASSES.contains(&class.as_str()) && r.node_prop(id, "tile")?.is_none())
+}
+
+/// Options of a pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassOptions {
+    /// Stop starting new questions after this long (the pass is resumable).
+    pub budget: Option<Duration>,
+    /// Answers written per transaction.
+    pub chunk: usize,
+    /// Ask at most this many questions (the rest is left for a later run).
+    pub max_items: Option<usize>,
+}
+
+impl Default for PassOptions {
+    fn default() -> Self {
+        PassOptions {
+            budget: None,
+            chunk: 16,
+            max_items: None,
+        }
+    }
+}
+
+/// What a pass did.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct PassReport {
+    /// The model's id.
+    pub model: String,
+    /// The prompt's id (`task@vN`).
+    pub prompt: String,
+    /// Items the pass covers (instances with several captions, or candidate pairs).
+    pub total: usize,
+    /// Items already done before this run (same model and prompt).
+    pub already_done: usize,
+    /// Items done in this run.
+    pub done: usize,
+    /// Of those, answered from the cache without asking.
+    pub cached: usize,
+    /// Items still to do (budget or limit reached).
+    pub left: usize,
+    /// Mean milliseconds per question asked (cache hits excluded).
+    pub ms_per_item: f64,
+    /// Wall time of the run, seconds.
+    pub secs: f64,
+    /// For relations: labels written, by relation.
+    pub labels: BTreeMap<String, usize>,
+}
+
+/// The question for a caption merge: the latest `recent` captions, numbered.
+pub fn merge_input(captions: &[String], recent: usize) -> String {
+    let tail = &captions[captions.len().saturating_sub(recent)..];
+    let mut s = String::from("Captions of one object:\n");
+    for (i, c) in tail.iter().enumerate() {
+        s.push_str(&format!("{}. {}\n", i + 1, c.trim()));
+    }
+    s.push_str("Reply with the merged caption.");
+    s
+}
+
+/// Merges each object's latest `recent` captions with `model` (see the module docs); the
+/// instance feature becomes `normalize(0.5·embed(caption) + 0.5·detection_feature)` with
+/// `embedder`, which must be the map's. Instances with one caption keep it.
+pub fn merge_captions(
+    store: &Store,
+    model: &mut dyn ChatModel,
+    embedder: &mut dyn Embedder,
+    recent: usize,
+    opts: &PassOptions,
+) -> Result<PassReport> {
+    let t0 = Instant::now();
+    let prompt = prompts::MERGE_CAPTIONS;
+    let model_id = model.model_id();
+    let (todo, cache, already) = {
+        let r = store.read()?;
+        let mut todo = Vec::new();
+        let mut already = 0;
+        for id in r.nodes_with_label("Instance")? {
+            if !is_object(&r, id)? {
+                continue;
+            }
+            let captions: Vec<String> = match r.node_prop(id, "captions")? {
+                Some(Value::List(l)) => l
+                    .iter()
+                    .filter_map(|v| v.as_str().map(str::to_string))
+                    .collect(),
+                _ => Vec::new(),
+            };
+            if captions.len() < 2 {
+                continue;
+            }
+            if str_prop(&r, id, "caption_prompt")?.as_deref() == Some(prompt.id().as_str())
+                && str_prop(&r, id, "caption_model")?.as_deref() == Some(model_id.as_str())
+            {
+                already += 1;
+                continue;
+            }
+            let medoid = str_prop(&r, id, "caption_medoid")?
+                .or(str_prop(&r, id, "caption")?)
+                .unwrap_or_default();
+            let df = match r.node_prop(id, "detection_feature")? {
+                Some(Value::Vector(v)) => v,
+                _ => Vec::new(),
+            };
+            todo.push((id, captions, medoid, df));
+        }
+        (todo, LlmCache::load(&r)?, already)
+    };
+    let mut report = PassReport {
+        model: model_id.clone(),
+        prompt: prompt.id(),
+        total: todo.len() + already,
+        already_done: already,
+        ..PassReport::default()
+    };
+    let mut asked_ms = 0.0;
+    let mut asked = 0usize;
+    let mut i = 0;
+    while i < todo.len() {
+        let mut writes = Vec::new();
+        let mut new_answers = Vec::new();
+        while i < todo.len() && writes.len() < opts.chunk.max(1) {
+            if opts.budget.is_some_and(|b| t0.elapsed() >= b)
+                || opts.max_items.is_some_and(|m| report.done >= m)
+            {
+                break;
+            }
+            let (id, captions, medoid, df) = &todo[i];
+            let input = merge_input(captions, recent);
+            let t = Instant::now();
+            let (v, new) = ask(
+                model,
+                &cache,
+                &prompt,
+                &input,
+                prompts::merge_captions_schema(),
+                64,
+            )?;
+            match new {
+                Some(a) => {
+                    asked += 1;
+                    asked_ms += t.elapsed().as_secs_f64() * 1e3;
+                    new_answers.push(a);
+                }
+                None => report.cached += 1,
+            }
+            let caption = v["caption"].as_str().unwrap_or("").trim().to_string();
+            let e = embedder.embed(&[caption.as_str()])?.remove(0);
+            writes.push((*id, caption, medoid.clone(), instance_feature(&e, df)));
+            report.done += 1;
+            i += 1;
+        }
+        if writes.is_empty() {
+            break;
+        }
+        store.write(|tx| {
+            let kc = tx.prop_key_id("caption")?;
+            let km = tx.prop_key_id("caption_medoid")?;
+            let kmod = tx.prop_key_id("caption_model")?;
+            let kp = tx.prop_key_id("caption_prompt")?;
+            let kf = tx.prop_key_id("feature")?;
+            for (id, caption, medoid, feature) in &writes {
+                tx.set_node_prop(*id, kc, Value::String(caption.clone()))?;
+                tx.set_node_prop(*id, km, Value::String(medoid.clone()))?;
+                tx.set_node_prop(*id, kmod, Value::String(model_id.clone()))?;
+                tx.set_node_prop(*id, kp, Value::String(prompt.id()))?;
+                tx.set_node_prop(*id, kf, Value::Vector(feature.clone()))?;
+            }
+            write_answers(tx, &model_id, &prompt, &new_answers)
+        })?;
+    }
+    report.left = todo.len() - i;
+    report.ms_per_item = if asked > 0 {
+        asked_ms / asked as f64
+    } else {
+        0.0
+    };
+    report.secs = t0.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// `normalize(0.5·e/|e| + 0.5·d/|d|)`, or `e` when `d` has another dimension.
+pub fn instance_feature(e: &[f32], d: &[f32]) -> Vec<f32> {
+    let n = |v: &[f32]| v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
+    if d.len() != e.len() {
+        let ne = n(e);
+        return e.iter().map(|x| x / ne).collect();
+    }
+    let (ne, nd) = (n(e), n(d));
+    let f: Vec<f32> = e
+        .iter()
+        .zip(d)
+        .map(|(a, b)| 0.5 * a / ne + 0.5 * b / nd)
+        .collect();
+    let nf = n(&f);
+    f.iter().map(|x| x / nf).collect()
+}
+
+fn ground_frame_of(r: &impl GraphRead) -> Result<GroundFrame> {
+    match planner::graph::ground_of_store(r) {
+        Ok(planner::Ground::XZ) => Ok(GroundFrame::KittiCam),
+        Ok(planner::Ground::XY) => Ok(GroundFrame::Enu),
+        Err(e) => Err(Error::Invalid(e.to_string())),
+    }
+}
+
+/// The question for one pair: captions, A's box centre relative to B's, both sizes (ground
+/// x, ground y, up), and the distance between the boxes.
+pub fn relation_input(
+    frame: GroundFrame,
+    a: (&str, &InstanceBox),
+    b: (&str, &InstanceBox),
+) -> String {
+    let local = |p: [f64; 3]| {
+        let g = frame.ground(p);
+        [g[0], g[1], frame.height(p)]
+    };
+    let centre = |x: &InstanceBox| local([0, 1, 2].map(|i| (x.min[i] + x.max[i]) / 2.0));
+    let size = |x: &InstanceBox| {
+        let (lo, hi) = (local(x.min), local(x.max));
+        [0, 1, 2].map(|i| (hi[i] - lo[i]).abs())
+    };
+    let (ca, cb) = (centre(a.1), centre(b.1));
+    let rel = [0, 1, 2].map(|i| ca[i] - cb[i]);
+    let f = |v: [f64; 3]| format!("({:.1}, {:.1}, {:.1})", v[0], v[1], v[2]);
+    format!(
+        "Object A: {}\n  centre relative to B: {}, size: {}\nObject B: {}\n  centre: (0.0, 0.0, 0.0), size: {}\nGap between the boxes: {:.1} m\nWhat is A relative to B?",
+        a.0.trim(),
+        f(rel),
+        f(size(a.1)),
+        b.0.trim(),
+        f(size(b.1)),
+        box_distance(a.1, b.1)
+    )
+}
+
+/// Candidate pairs `(a, b)` of node ids, each object's caption and box by node id, and the
+/// map's ground frame.
+pub type RelationPairs = (
+    Vec<(u64, u64)>,
+    HashMap<u64, (String, InstanceBox)>,
+    GroundFrame,
+);
+
+/// The candidate pairs of the relation pass, as node ids `(a, b)` with `a < b`: the spanning
+/// tree over the objects' boxes plus every pair within `cfg.near_m`.
+pub fn relation_pairs(r: &impl GraphRead, cfg: &RelationConfig) -> Result<RelationPairs> {
+    let frame = ground_frame_of(r)?;
+    let mut ids = Vec::new();
+    let mut boxes = Vec::new();
+    let mut info = HashMap::new();
+    for id in r.nodes_with_label("Instance")? {
+        if !is_object(r, id)? {
+            continue;
+        }
+        let Some((min, max)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
+            continue;
+        };
+        let b = InstanceBox { min, max };
+        ids.push(id);
+        boxes.push(b);
+        info.insert(id, (str_prop(r, id, "caption")?.unwrap_or_default(), b));
+    }
+    let mut pairs: BTreeSet<(u64, u64)> = BTreeSet::new();
+    for (i, j, _) in spanning_tree(&boxes, frame, cfg) {
+        pairs.insert((ids[i].min(ids[j]), ids[i].max(ids[j])));
+    }
+    for (i, j, _) in candidate_pairs(&boxes, frame, cfg.near_m) {
+        pairs.insert((ids[i].min(ids[j]), ids[i].max(ids[j])));
+    }
+    Ok((pairs.into_iter().collect(), info, frame))
+}
+
+/// Labels the candidate pairs with `model` (see the module docs). Pairs that already have an
+/// LLM `RELATED` edge from this model and prompt are skipped, so the pass resumes.
+pub fn infer_relations(
+    store: &Store,
+    model: &mut dyn ChatModel,
+    cfg: &RelationConfig,
+    opts: &PassOptions,
+) -> Result<PassReport> {
+    let t0 = Instant::now();
+    let prompt = prompts::RELATION;
+    let model_id = model.model_id();
+    let (todo, info, frame, cache, already) = {
+        let r = store.read()?;
+        let (pairs, info, frame) = relation_pairs(&r, cfg)?;
+        let mut done: BTreeSet<(u64, u64)> = BTreeSet::new();
+        if let Some(t) = r.rel_type("RELATED") {
+            for &a in info.keys() {
+                for adj in r.neighbours(a, Direction::Outgoing, Some(t))? {
+                    let Some(rel) = r.rel(adj.rel)? else { continue };
+                    let get = |k: &str| r.prop_key(k).and_then(|k| rel.get(k).cloned());
+                    if get("source") == Some(Value::from("llm"))
+                        && get("model") == Some(Value::String(model_id.clone()))
+                        && get("prompt") == Some(Value::String(prompt.id()))
+                    {
+                        done.insert((rel.start.min(rel.end), rel.start.max(rel.end)));
+                    }
+                }
+            }
+        }
+        let already = pairs.iter().filter(|p| done.contains(p)).count();
+        let todo: Vec<(u64, u64)> = pairs.into_iter().filter(|p| !done.contains(p)).collect();
+        (todo, info, frame, LlmCache::load(&r)?, already)
+    };
+    let mut report = PassReport {
+        model: model_id.clone(),
+        prompt: prompt.id(),
+        total: todo.len() + already,
+        already_done: already,
+        ..PassReport::default()
+    };
+    let (mut asked, mut asked_ms) = (0usize, 0.0);
+    let mut i = 0;
+    while i < todo.len() {
+        let mut writes = Vec::new();
+        let mut new_answers = Vec::new();
+        while i < todo.len() && writes.len() < opts.chunk.max(1) {
+            if opts.budget.is_some_and(|b| t0.elapsed() >= b)
+                || opts.max_items.is_some_and(|m| report.done >= m)
+            {
+                break;
+            }
+            let (a, b) = todo[i];
+            let (ia, ib) = (&info[&a], &info[&b]);
+            let input = relation_input(frame, (&ia.0, &ia.1), (&ib.0, &ib.1));
+            let t = Instant::now();
+            let (v, new) = ask(
+                model,
+                &cache,
+                &prompt,
+                &input,
+                prompts::relation_schema(),
+                40,
+            )?;
+            match new {
+                Some(x) => {
+                    asked += 1;
+                    asked_ms += t.elapsed().as_secs_f64() * 1e3;
+                    new_answers.push(x);
+                }
+                None => report.cached += 1,
+            }
+            let relation = v["relation"]
+                .as_str()
+                .unwrap_or("")
+                .trim()
+                .to_lowercase()
+                .replace('_', " ");
+            let confidence = v["confidence"].as_f64().unwrap_or(0.0).clamp(0.0, 1.0);
+            *report.labels.entry(relation.clone()).or_default() += 1;
+            writes.push((a, b, relation, confidence, box_distance(&ia.1, &ib.1)));
+            report.done += 1;
+            i += 1;
+        }
+        if writes.is_empty() {
+            break;
+        }
+        store.write(|tx| {
+            for (a, b, relation, confidence, d) in &writes {
+                tx.create_rel_named(
+                    *a,
+                    "RELATED",
+                    *b,
+                    &[
+                        ("relation", Value::String(relation.clone())),
+                        ("confidence", Value::Float(*confidence)),
+                        ("distance_m", Value::Float(*d)),
+                        ("source", Value::from("llm")),
+                        ("model", Value::String(model_id.clone())),
+                        ("prompt", Value::String(prompt.id())),
+                    ],
+                )?;
+            }
+            write_answers(tx, &model_id, &prompt, &new_answers)
+        })?;
+    }
+    report.left = todo.len() - i;
+    report.ms_per_item = if asked > 0 {
+        asked_ms / asked as f64
+    } else {
+        0.0
+    };
+    report.secs = t0.elapsed().as_secs_f64();
+    Ok(report)
+}

@@ -1,0 +1,52 @@
+//! The prompts, one file per task in `llm_tools/prompts/`, each with a version. A prompt's
+//! text never changes under the same version: change the text, bump the version (and the file
+//! name), so that every LLM-made fact records which prompt made it and cached answers of an
+//! older prompt are never reused.
+
+/// A versioned system prompt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Prompt {
+    /// Task name (`merge_captions`, `relation`).
+    pub task: &'static str,
+    /// Version, bumped on every change of the text.
+    pub version: u32,
+    /// The system prompt.
+    pub text: &'static str,
+}
+
+impl Prompt {
+    /// `task@vN`, as recorded with each fact.
+    pub fn id(&self) -> String {
+        format!("{}@v{}", self.task, self.version)
+    }
+}
+
+/// Merges the captions of one object's detections (the paper's LLM caption merge).
+pub const MERGE_CAPTIONS: Prompt = Prompt {
+    task: "merge_captions",
+    version: 1,
+    text: include_str!("../prompts/merge_captions.v1.txt"),
+};
+
+/// Labels the relation between two objects from their captions and boxes (the paper's LLM
+/// relation inference).
+pub const RELATION: Prompt = Prompt {
+    task: "relation",
+    version: 1,
+    text: include_str!("../prompts/relation.v1.txt"),
+};
+
+/// The JSON Schema of a merged caption.
+pub fn merge_captions_schema() -> serde_json::Value {
+    serde_json::json!({"type": "object",
+        "properties": {"caption": {"type": "string", "minLength": 3, "maxLength": 140}},
+        "required": ["caption"], "additionalProperties": false})
+}
+
+/// The JSON Schema of a relation label.
+pub fn relation_schema() -> serde_json::Value {
+    serde_json::json!({"type": "object",
+        "properties": {"relation": {"type": "string", "minLength": 2, "maxLength": 40},
+                       "confidence": {"type": "number", "minimum": 0, "maximum": 1}},
+        "required": ["relation", "confidence"], "additionalProperties": false})
+}
