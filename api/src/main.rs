@@ -1,5 +1,31 @@
 //! The `opengraph` command-line tool.
 
+/// `println!` that returns an error instead of panicking when stdout is closed (`| head`);
+/// `main` turns that error into a quiet exit.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($t)*)?
+    }};
+}
+
+/// `print!` with the same closed-pipe handling as [`outln!`].
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($t)*)?
+    }};
+}
+
+/// `eprintln!` that never panics: a log line is dropped when stderr is gone, so a build never
+/// stops because its log reader left.
+macro_rules! errln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -232,7 +258,7 @@ enum Command {
         #[command(flatten)]
         llm: LlmArgs,
         /// Stop starting new pairs after this many seconds (run again to continue).
-        #[arg(long, value_parser = parse_budget)]
+        #[arg(long, value_parser = parse_budget, allow_hyphen_values = true)]
         budget_secs: Option<f64>,
         /// Label at most this many pairs in this run.
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
@@ -253,7 +279,7 @@ enum Command {
         #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(2..=16))]
         recent: u64,
         /// Stop starting new merges after this many seconds (run again to continue).
-        #[arg(long, value_parser = parse_budget)]
+        #[arg(long, value_parser = parse_budget, allow_hyphen_values = true)]
         budget_secs: Option<f64>,
         /// Merge at most this many objects in this run.
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
@@ -326,6 +352,20 @@ enum Command {
 
 #[derive(Debug, Subcommand)]
 enum EvalCommand {
+    /// Agreement of the map's LLM relations, and of the geometric labels of the same pairs,
+    /// with the relations that follow from the simulator's ground-truth boxes (inside, on,
+    /// under, next to, near).
+    Relations {
+        /// The store file (built from the simulator's detections, after `relations`).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Attribute accuracy of the map's object captions (colour, material, noun) against the
     /// simulator's ground truth; after an LLM merge, the medoid captions on the same objects.
     Captions {
@@ -411,7 +451,7 @@ fn open_llm(
 ) -> anyhow::Result<Box<dyn llm_tools::ChatModel>> {
     match llm_tools::chat::open(cfg)? {
         Some(m) => {
-            eprintln!("language model: {}", m.model_id());
+            errln!("language model: {}", m.model_id());
             Ok(m)
         }
         None => Err(UsageError(format!(
@@ -434,14 +474,23 @@ fn parse_budget(s: &str) -> Result<f64, String> {
     }
 }
 
-fn print_pass(name: &str, r: &ingest::llm::PassReport) {
-    println!(
+fn print_pass(name: &str, r: &ingest::llm::PassReport) -> anyhow::Result<()> {
+    outln!(
         "{name}: {} done in this run ({} from the cache), {} done before, {} left of {}; {:.0} ms per question, {:.1} s in all\nmodel {}, prompt {}",
-        r.done, r.cached, r.already_done, r.left, r.total, r.ms_per_item, r.secs, r.model, r.prompt
+        r.done,
+        r.cached,
+        r.already_done,
+        r.left,
+        r.total,
+        r.ms_per_item,
+        r.secs,
+        r.model,
+        r.prompt
     );
     for (label, n) in &r.labels {
-        println!("  {label:<24} {n}");
+        outln!("  {label:<24} {n}");
     }
+    Ok(())
 }
 
 fn parse_near(s: &str) -> Result<([f64; 2], f64), String> {
@@ -488,6 +537,14 @@ fn peak_rss_mib() -> Option<f64> {
     let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb / 1024.0)
+}
+
+/// Whether an error is a write to a closed pipe.
+fn is_closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// Errors caused by what the user gave us (exit code 2), as opposed to internal failures (1).
@@ -571,7 +628,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             } else {
                 info::table(&store)?
             };
-            print!("{text}");
+            out!("{text}");
         }
         Command::Export {
             db,
@@ -595,7 +652,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             use std::io::Write;
             w.flush()
                 .with_context(|| format!("writing {}", out.display()))?;
-            eprintln!(
+            errln!(
                 "exported {n} nodes and {m} relationships to {}",
                 out.display()
             );
@@ -629,14 +686,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 render::write_png(png, &full, &g, Some(&segs))?;
             }
             if json {
-                println!("{}", serde_json::to_string_pretty(&render::lanes_json(&g))?);
+                outln!("{}", serde_json::to_string_pretty(&render::lanes_json(&g))?);
             } else {
                 let kinds: Vec<String> = g
                     .kind_counts()
                     .iter()
                     .map(|(k, n)| format!("{} {n}", k.as_str()))
                     .collect();
-                println!(
+                outln!(
                     "{} poses -> {} lane nodes ({}), {} lane edges ({:.0} m), {} segments, in {:.1} ms",
                     full.len(),
                     g.nodes.len(),
@@ -669,9 +726,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 &ingest::hierarchy::HierarchyConfig::default(),
             )?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&report)?);
+                outln!("{}", serde_json::to_string_pretty(&report)?);
             } else {
-                println!("{report:?}");
+                outln!("{report:?}");
             }
         }
         Command::Plan {
@@ -708,7 +765,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let path = planner::plan_path(&route, &obstacles, &cfg)?;
             let t_all = t0.elapsed();
             if let Some(w) = &path.warning {
-                eprintln!("warning: {w}");
+                errln!("warning: {w}");
             }
             if let Some(p) = &png {
                 let all = planner::render::instance_footprints(&r, ground)?;
@@ -721,14 +778,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     "route": {"nodes": route.nodes, "length_m": route.length_m},
                     "path": {"poses": path.poses, "length_m": path.length_m, "planner": path.planner},
                 });
-                println!("{}", serde_json::to_string_pretty(&v)?);
+                outln!("{}", serde_json::to_string_pretty(&v)?);
             } else {
                 let end = |t: &planner::Target| match t.node {
                     Some(n) => format!("{} node {n} at ({:.1}, {:.1})", t.kind, t.xy[0], t.xy[1]),
                     None => format!("point ({:.1}, {:.1})", t.xy[0], t.xy[1]),
                 };
-                println!("from: {}\nto:   {}", end(&from_t), end(&to_t));
-                println!(
+                outln!("from: {}\nto:   {}", end(&from_t), end(&to_t));
+                outln!(
                     "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes)",
                     route.nodes.len(),
                     route.length_m,
@@ -767,7 +824,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let llm_cfg = llm.config(cfg.llm.clone(), "none");
             let mut chat = llm_tools::chat::open(&llm_cfg)?;
             if let Some(m) = &chat {
-                eprintln!("language model for the caption merge: {}", m.model_id());
+                errln!("language model for the caption merge: {}", m.model_id());
             }
             if let Some(a) = accumulate {
                 cfg.mapping.accumulate = a as usize;
@@ -816,7 +873,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     bar.set_message(format!("frame {frame}"));
                 }
                 Progress::Committed { frame } => {
-                    bar.suspend(|| eprintln!("committed through frame {frame}"));
+                    bar.suspend(|| errln!("committed through frame {frame}"));
                     if pause_ms > 0 {
                         std::thread::sleep(std::time::Duration::from_millis(pause_ms));
                     }
@@ -851,13 +908,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     Some(m) => serde_json::to_value(m)?,
                     None => serde_json::json!({"model": "none", "method": "medoid"}),
                 };
-                println!("{}", serde_json::to_string_pretty(&v)?);
+                outln!("{}", serde_json::to_string_pretty(&v)?);
             } else {
-                print!("{}", build_summary(&report, rss));
+                out!("{}", build_summary(&report, rss));
                 match &merge {
-                    Some(m) => print_pass("caption merge", m),
+                    Some(m) => print_pass("caption merge", m)?,
                     None => {
-                        println!("captions: medoid of each object's latest captions (no --llm)")
+                        outln!("captions: medoid of each object's latest captions (no --llm)")
                     }
                 }
             }
@@ -885,9 +942,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 &opts,
             )?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&r)?);
+                outln!("{}", serde_json::to_string_pretty(&r)?);
             } else {
-                print_pass("relations", &r);
+                print_pass("relations", &r)?;
             }
         }
         Command::Captions {
@@ -918,9 +975,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 &opts,
             )?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&r)?);
+                outln!("{}", serde_json::to_string_pretty(&r)?);
             } else {
-                print_pass("caption merge", &r);
+                print_pass("caption merge", &r)?;
             }
         }
         Command::Sim {
@@ -980,9 +1037,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let r = generate(&out, &cfg, &progress)?;
             bar.finish_and_clear();
             if json {
-                println!("{}", serde_json::to_string_pretty(&r)?);
+                outln!("{}", serde_json::to_string_pretty(&r)?);
             } else {
-                print!("{}", sim_summary(&r));
+                out!("{}", sim_summary(&r));
             }
         }
         Command::Find {
@@ -1012,14 +1069,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let opts = llm_tools::retrieve::FindOptions { k, class, near };
             let (hits, t) = llm_tools::retrieve::find(&r, emb.as_mut(), &text, &opts)?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&hits)?);
+                outln!("{}", serde_json::to_string_pretty(&hits)?);
             } else {
-                println!(
+                outln!(
                     "{:>8}  {:>6}  {:<16} {:>26}  caption",
-                    "id", "score", "class", "centroid [x, y, z] m"
+                    "id",
+                    "score",
+                    "class",
+                    "centroid [x, y, z] m"
                 );
                 for h in &hits {
-                    println!(
+                    outln!(
                         "{:>8}  {:>6.3}  {:<16} {:>26}  {}",
                         h.id,
                         h.score,
@@ -1031,7 +1091,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         h.caption
                     );
                 }
-                eprintln!(
+                errln!(
                     "{} results; embedding {:.1} ms, ranking {:.1} ms ({name} embedder)",
                     hits.len(),
                     t.embed_ms,
@@ -1067,11 +1127,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let r = store.query(&cypher, &opts)?;
             let ms = t0.elapsed().as_secs_f64() * 1e3;
             if let Some(plan) = &r.plan {
-                print!("{plan}");
+                out!("{plan}");
                 return Ok(());
             }
             if json {
-                println!("{}", serde_json::to_string_pretty(&r.rows_json())?);
+                outln!("{}", serde_json::to_string_pretty(&r.rows_json())?);
             } else {
                 let cells: Vec<Vec<String>> = r
                     .rows
@@ -1093,11 +1153,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     format!("| {} |", parts.join(" | "))
                 };
                 if !r.columns.is_empty() {
-                    println!("{}", line(&r.columns));
+                    outln!("{}", line(&r.columns));
                     let rule: Vec<String> = width.iter().map(|w| "-".repeat(*w)).collect();
-                    println!("{}", line(&rule));
+                    outln!("{}", line(&rule));
                     for row in &cells {
-                        println!("{}", line(row));
+                        outln!("{}", line(row));
                     }
                 }
             }
@@ -1117,7 +1177,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     wrote.push(format!("{n} {what}"));
                 }
             }
-            eprintln!(
+            errln!(
                 "{} row(s) in {ms:.1} ms{}",
                 r.rows.len(),
                 if wrote.is_empty() {
@@ -1145,7 +1205,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     &d,
                 )?;
             }
-            println!(
+            outln!(
                 "wrote {} oracle detections for {} frames to {}",
                 n,
                 list.len(),
@@ -1174,21 +1234,58 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ingest::mapping::MappingConfig::default().image_size,
             )?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&r)?);
+                outln!("{}", serde_json::to_string_pretty(&r)?);
             } else {
-                println!(
+                outln!(
                     "semseg on {} scans, {} labelled points ({} missed), detections from {}",
-                    r.scans, r.points, r.missed, r.source
+                    r.scans,
+                    r.points,
+                    r.missed,
+                    r.source
                 );
-                println!("{:<14} {:>7} {:>7} {:>9}", "class", "IoU", "F1", "points");
+                outln!("{:<14} {:>7} {:>7} {:>9}", "class", "IoU", "F1", "points");
                 for (c, s) in &r.per_class {
-                    println!("{c:<14} {:>7.3} {:>7.3} {:>9}", s.iou, s.f1, s.support);
+                    outln!("{c:<14} {:>7.3} {:>7.3} {:>9}", s.iou, s.f1, s.support);
                 }
-                println!("mIoU {:.3}   macro F1 {:.3}", r.miou, r.f1);
-                println!(
+                outln!("mIoU {:.3}   macro F1 {:.3}", r.miou, r.f1);
+                outln!(
                     "in camera view: {} points ({} missed), mIoU {:.3}, macro F1 {:.3}",
-                    r.in_view.points, r.in_view.missed, r.in_view.miou, r.in_view.f1
+                    r.in_view.points,
+                    r.in_view.missed,
+                    r.in_view.miou,
+                    r.in_view.f1
                 );
+            }
+        }
+        Command::Eval {
+            what: EvalCommand::Relations { db, sim, json },
+        } => {
+            let store = graphstore::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = ingest::eval_llm::eval_relations(&store.read()?, &sim)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                outln!(
+                    "{} LLM-labelled pairs, {} with a relation that follows from the ground truth; models: {}",
+                    r.llm_pairs,
+                    r.judged,
+                    r.models
+                );
+                for (name, a) in [("llm", &r.llm), ("geometric", &r.geometric)] {
+                    let per: Vec<String> = a
+                        .per_truth
+                        .iter()
+                        .map(|(t, (n, s))| format!("{t} {s:.2} (n={n})"))
+                        .collect();
+                    outln!(
+                        "{name:<10} agreement {:.3} (strict {:.3}) over {} pairs; {}",
+                        a.agreement,
+                        a.strict_agreement,
+                        a.pairs,
+                        per.join(", ")
+                    );
+                }
             }
         }
         Command::Eval {
@@ -1198,14 +1295,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = ingest::eval_llm::eval_captions(&store.read()?, &sim)?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&r)?);
+                outln!("{}", serde_json::to_string_pretty(&r)?);
             } else {
-                println!(
+                outln!(
                     "{} object instances, {} matched to a ground-truth object; captions by {}",
-                    r.object_instances, r.matched, r.caption_source
+                    r.object_instances,
+                    r.matched,
+                    r.caption_source
                 );
                 let row = |name: &str, c: &ingest::eval_llm::CaptionScores| {
-                    println!(
+                    outln!(
                         "{name:<8} colour {:.3} (wrong {:.3}, missing {:.3}, n={})  material {:.3} (wrong {:.3}, missing {:.3}, n={})  noun {:.3}  {:.1} words",
                         c.colour.accuracy,
                         c.colour.contradiction,
@@ -1218,10 +1317,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         c.noun_accuracy,
                         c.mean_words
                     );
+                    anyhow::Ok(())
                 };
-                row("caption", &r.caption);
-                if let Some(m) = &r.medoid {
-                    row("medoid", m);
+                row("all", &r.caption)?;
+                if let Some(m) = &r.merged {
+                    outln!("the {} merged objects, side by side:", m.llm.instances);
+                    row("llm", &m.llm)?;
+                    row("medoid", &m.medoid)?;
                 }
             }
         }
@@ -1236,7 +1338,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let store = graphstore::Store::create(&db)
                 .with_context(|| format!("creating {}", db.display()))?;
             demo::build(&store)?;
-            print!("{}", info::table(&store)?);
+            out!("{}", info::table(&store)?);
         }
     }
     Ok(())
@@ -1345,8 +1447,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // the reader of our output went away (`| head`): nothing is wrong, stop quietly
+        Err(e) if is_closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            errln!("error: {e:#}");
             if is_input_error(&e) {
                 ExitCode::from(2)
             } else {

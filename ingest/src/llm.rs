@@ -188,14 +188,14 @@ pub struct PassReport {
     pub labels: BTreeMap<String, usize>,
 }
 
-/// The question for a caption merge: the latest `recent` captions, numbered.
+/// The question for a caption merge: the latest `recent` captions, numbered, oldest first.
 pub fn merge_input(captions: &[String], recent: usize) -> String {
     let tail = &captions[captions.len().saturating_sub(recent)..];
     let mut s = String::from("Captions of one object:\n");
     for (i, c) in tail.iter().enumerate() {
         s.push_str(&format!("{}. {}\n", i + 1, c.trim()));
     }
-    s.push_str("Reply with the merged caption.");
+    s.push_str("Reply with the kind, colour, material and the merged caption.");
     s
 }
 
@@ -275,7 +275,7 @@ pub fn merge_captions(
                 &prompt,
                 &input,
                 prompts::merge_captions_schema(),
-                64,
+                128,
             )?;
             match new {
                 Some(a) => {
@@ -285,7 +285,11 @@ pub fn merge_captions(
                 }
                 None => report.cached += 1,
             }
-            let caption = v["caption"].as_str().unwrap_or("").trim().to_string();
+            let caption = v["merged_caption"]
+                .as_str()
+                .unwrap_or("")
+                .trim()
+                .to_string();
             let e = embedder.embed(&[caption.as_str()])?.remove(0);
             writes.push((*id, caption, medoid.clone(), instance_feature(&e, df)));
             report.done += 1;
@@ -345,8 +349,10 @@ fn ground_frame_of(r: &impl GraphRead) -> Result<GroundFrame> {
     }
 }
 
-/// The question for one pair: captions, A's box centre relative to B's, both sizes (ground
-/// x, ground y, up), and the distance between the boxes.
+/// The question for one pair: both captions, A's box centre relative to B's and both sizes
+/// (ground x, ground y, up), and facts measured on the boxes: whether A lies within B (90 % of
+/// its volume), whether A rests on top of B (its bottom within 0.3 m of B's top, footprints
+/// overlapping), and the gap between them.
 pub fn relation_input(
     frame: GroundFrame,
     a: (&str, &InstanceBox),
@@ -356,21 +362,36 @@ pub fn relation_input(
         let g = frame.ground(p);
         [g[0], g[1], frame.height(p)]
     };
-    let centre = |x: &InstanceBox| local([0, 1, 2].map(|i| (x.min[i] + x.max[i]) / 2.0));
-    let size = |x: &InstanceBox| {
-        let (lo, hi) = (local(x.min), local(x.max));
-        [0, 1, 2].map(|i| (hi[i] - lo[i]).abs())
+    let lo_hi = |x: &InstanceBox| {
+        let (p, q) = (local(x.min), local(x.max));
+        (
+            [0, 1, 2].map(|i| p[i].min(q[i])),
+            [0, 1, 2].map(|i| p[i].max(q[i])),
+        )
     };
-    let (ca, cb) = (centre(a.1), centre(b.1));
+    let ((alo, ahi), (blo, bhi)) = (lo_hi(a.1), lo_hi(b.1));
+    let centre = |lo: [f64; 3], hi: [f64; 3]| [0, 1, 2].map(|i| (lo[i] + hi[i]) / 2.0);
+    let (ca, cb) = (centre(alo, ahi), centre(blo, bhi));
     let rel = [0, 1, 2].map(|i| ca[i] - cb[i]);
+    let size = |lo: [f64; 3], hi: [f64; 3]| [0, 1, 2].map(|i| hi[i] - lo[i]);
+    let overlap: f64 = (0..3)
+        .map(|i| (ahi[i].min(bhi[i]) - alo[i].max(blo[i])).max(0.0))
+        .product();
+    let volume: f64 = (0..3).map(|i| (ahi[i] - alo[i]).max(1e-3)).product();
+    let within = overlap / volume >= 0.9;
+    let footprints_overlap = (0..2).all(|i| ahi[i] > blo[i] && bhi[i] > alo[i]);
+    let on_top = footprints_overlap && (alo[2] - bhi[2]).abs() <= 0.3 && ca[2] > cb[2];
+    let yes = |b: bool| if b { "yes" } else { "no" };
     let f = |v: [f64; 3]| format!("({:.1}, {:.1}, {:.1})", v[0], v[1], v[2]);
     format!(
-        "Object A: {}\n  centre relative to B: {}, size: {}\nObject B: {}\n  centre: (0.0, 0.0, 0.0), size: {}\nGap between the boxes: {:.1} m\nWhat is A relative to B?",
+        "Object A: {}\n  centre relative to B: {}, size: {}\nObject B: {}\n  size: {}\nMeasured: A lies within B: {}; A rests on top of B: {}; gap between the boxes: {:.1} m\nWhat is A relative to B?",
         a.0.trim(),
         f(rel),
-        f(size(a.1)),
+        f(size(alo, ahi)),
         b.0.trim(),
-        f(size(b.1)),
+        f(size(blo, bhi)),
+        yes(within),
+        yes(on_top),
         box_distance(a.1, b.1)
     )
 }
@@ -489,7 +510,10 @@ pub fn infer_relations(
                 .trim()
                 .to_lowercase()
                 .replace('_', " ");
-            let confidence = v["confidence"].as_f64().unwrap_or(0.0).clamp(0.0, 1.0);
+            let confidence = v["relation_confidence"]
+                .as_f64()
+                .unwrap_or(0.0)
+                .clamp(0.0, 1.0);
             *report.labels.entry(relation.clone()).or_default() += 1;
             writes.push((a, b, relation, confidence, box_distance(&ia.1, &ib.1)));
             report.done += 1;

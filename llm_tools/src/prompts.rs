@@ -21,32 +21,44 @@ impl Prompt {
     }
 }
 
-/// Merges the captions of one object's detections (the paper's LLM caption merge).
+/// Merges the captions of one object's detections (the paper's LLM caption merge). Since v2
+/// the model states the majority colour, kind and material before the caption (v1 asked for
+/// the caption alone); v3 fixes the field order, which v2's schema left alphabetical, caption
+/// first.
 pub const MERGE_CAPTIONS: Prompt = Prompt {
     task: "merge_captions",
-    version: 1,
-    text: include_str!("../prompts/merge_captions.v1.txt"),
+    version: 3,
+    text: include_str!("../prompts/merge_captions.v3.txt"),
 };
 
 /// Labels the relation between two objects from their captions and boxes (the paper's LLM
-/// relation inference).
+/// relation inference). v2 gives facts measured on the boxes (within, on top, gap) beside the
+/// boxes themselves; with v1 (boxes only) Qwen2.5-Coder-0.5B answered "inside" for every pair.
+/// v3 asks for the relation before the confidence (v2's schema put the confidence first).
 pub const RELATION: Prompt = Prompt {
     task: "relation",
-    version: 1,
-    text: include_str!("../prompts/relation.v1.txt"),
+    version: 3,
+    text: include_str!("../prompts/relation.v3.txt"),
 };
 
-/// The JSON Schema of a merged caption.
+/// The JSON Schema of a merged caption: the majority colour, kind and material, then the
+/// caption (the fields before it make a small model count before it writes). The grammar
+/// follows the order of `properties`, and `serde_json` keeps them sorted by name, so the names
+/// sort in the order they are to be written.
 pub fn merge_captions_schema() -> serde_json::Value {
     serde_json::json!({"type": "object",
-        "properties": {"caption": {"type": "string", "minLength": 3, "maxLength": 140}},
-        "required": ["caption"], "additionalProperties": false})
+        "properties": {"colour": {"type": "string", "maxLength": 30},
+                       "kind": {"type": "string", "maxLength": 40},
+                       "material": {"type": "string", "maxLength": 30},
+                       "merged_caption": {"type": "string", "minLength": 3, "maxLength": 120}},
+        "required": ["colour", "kind", "material", "merged_caption"], "additionalProperties": false})
 }
 
-/// The JSON Schema of a relation label.
+/// The JSON Schema of a relation label: the relation, then the confidence (names sorted in
+/// that order, see [`merge_captions_schema`]).
 pub fn relation_schema() -> serde_json::Value {
     serde_json::json!({"type": "object",
         "properties": {"relation": {"type": "string", "minLength": 2, "maxLength": 40},
-                       "confidence": {"type": "number", "minimum": 0, "maximum": 1}},
-        "required": ["relation", "confidence"], "additionalProperties": false})
+                       "relation_confidence": {"type": "number", "minimum": 0, "maximum": 1}},
+        "required": ["relation", "relation_confidence"], "additionalProperties": false})
 }

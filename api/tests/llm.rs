@@ -1,0 +1,183 @@
+//! The language-model commands from the command line: clear errors before any work (no model,
+//! a missing model file, an openai backend without a URL), and, with the smallest real model
+//! (SmolLM2-135M, when `scripts/setup.sh` fetched it), a caption merge and relation labels on a
+//! small simulated map that record their model and prompt and resume without asking again.
+
+mod common;
+use common::{json, og, s};
+
+fn expect_usage_error(args: &[&str], needles: &[&str]) {
+    let out = og(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: {n:?} not in {err}");
+    }
+}
+
+#[test]
+fn llm_commands_fail_clearly_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("d.og");
+    assert!(og(&["demo", "--db", s(&db)]).status.success());
+    expect_usage_error(
+        &["relations", "--db", s(&db), "--llm", "none"],
+        &["relations needs a language model"],
+    );
+    let missing = dir.path().join("no-such-model.gguf");
+    expect_usage_error(
+        &[
+            "captions",
+            "--db",
+            s(&db),
+            "--llm",
+            "local",
+            "--llm-model",
+            s(&missing),
+        ],
+        &["no-such-model.gguf", "scripts/setup.sh"],
+    );
+    let notgguf = dir.path().join("x.gguf");
+    std::fs::write(&notgguf, "hello").unwrap();
+    expect_usage_error(
+        &["relations", "--db", s(&db), "--llm-model", s(&notgguf)],
+        &["x.gguf", "not a GGUF file"],
+    );
+    for b in ["nan", "-1", "0", "inf", "1e12", "soon"] {
+        expect_usage_error(
+            &["relations", "--db", s(&db), "--budget-secs", b],
+            &["budget"],
+        );
+    }
+    // build: an openai backend without a URL fails before any mapping (no store is made)
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args([
+            "build",
+            "--kitti",
+            s(dir.path()),
+            "--oracle-labels",
+            "--db",
+            s(&dir.path().join("b.og")),
+            "--llm",
+            "openai",
+        ])
+        .env_remove("OPENAI_BASE_URL")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("needs a URL"));
+    assert!(!dir.path().join("b.og").exists());
+}
+
+#[test]
+fn smallest_model_merges_captions_and_labels_relations() {
+    let smol = llm_tools::embed::default_models_dir().join(llm_tools::chat::SMALLEST_LOCAL_MODEL);
+    if !smol.exists() {
+        eprintln!(
+            "skipping: {} not found (run scripts/setup.sh)",
+            smol.display()
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let db = dir.path().join("city.og");
+    json(&og(&[
+        "sim",
+        "--out",
+        s(&sim),
+        "--seed",
+        "5",
+        "--frames",
+        "12",
+        "--json",
+    ]));
+    json(&og(&[
+        "build",
+        "--kitti",
+        s(&sim),
+        "--detections",
+        s(&sim.join("detections")),
+        "--db",
+        s(&db),
+        "--embedder",
+        "hash",
+        "--json",
+    ]));
+    let r = json(&og(&[
+        "captions",
+        "--db",
+        s(&db),
+        "--llm",
+        "local",
+        "--llm-model",
+        s(&smol),
+        "--max-items",
+        "3",
+        "--json",
+    ]));
+    assert_eq!(r["done"], 3, "{r}");
+    assert!(r["left"].as_u64().unwrap() > 0, "{r}");
+    assert!(
+        r["model"]
+            .as_str()
+            .unwrap()
+            .starts_with("SmolLM2-135M-Instruct.Q4_1.gguf:")
+    );
+    let q = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--read-only",
+        "--json",
+        "MATCH (i:Instance) WHERE i.caption_model IS NOT NULL RETURN count(*) AS n, collect(DISTINCT i.caption_prompt) AS p",
+    ]));
+    assert_eq!(q[0]["n"], 3);
+    assert_eq!(q[0]["p"][0], llm_tools::prompts::MERGE_CAPTIONS.id());
+    let e = json(&og(&[
+        "eval",
+        "captions",
+        "--db",
+        s(&db),
+        "--sim",
+        s(&sim),
+        "--json",
+    ]));
+    assert!(
+        e["merged"]["llm"]["instances"].as_u64().unwrap() <= 3,
+        "{e}"
+    );
+    let r = json(&og(&[
+        "relations",
+        "--db",
+        s(&db),
+        "--llm-model",
+        s(&smol),
+        "--max-pairs",
+        "2",
+        "--json",
+    ]));
+    assert_eq!(r["done"], 2, "{r}");
+    let q = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--read-only",
+        "--json",
+        "MATCH ()-[r:RELATED {source: 'llm'}]->() RETURN count(*) AS n, collect(DISTINCT r.prompt) AS p",
+    ]));
+    assert_eq!(q[0]["n"], 2);
+    assert_eq!(q[0]["p"][0], llm_tools::prompts::RELATION.id());
+    // the same two pairs are not asked again
+    let r = json(&og(&[
+        "relations",
+        "--db",
+        s(&db),
+        "--llm-model",
+        s(&smol),
+        "--max-pairs",
+        "1",
+        "--json",
+    ]));
+    assert_eq!(r["already_done"], 2, "{r}");
+}
