@@ -268,3 +268,32 @@ fn plan_json_png_fallback_and_errors() {
         );
     }
 }
+
+#[test]
+fn a_closed_stdout_is_a_quiet_exit_and_bad_text_exits_2() {
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("d.og");
+    ok(&og(&["demo", "--db", s(&db)]));
+    // a reader that goes away at once (`| head -c 0`): no panic, exit 0
+    for args in [
+        vec!["query", "--db", s(&db), "--json", "UNWIND range(1, 90000) AS x RETURN x"],
+        vec!["query", "--db", s(&db), "UNWIND range(1, 90000) AS x RETURN x"],
+        vec!["info", "--db", s(&db), "--json"],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
+    }
+    // an empty question is the user's mistake: exit 2
+    let out = og(&["find", "--db", s(&db), "", "--embedder", "hash"]);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+}
