@@ -277,8 +277,19 @@ fn a_closed_stdout_is_a_quiet_exit_and_bad_text_exits_2() {
     ok(&og(&["demo", "--db", s(&db)]));
     // a reader that goes away at once (`| head -c 0`): no panic, exit 0
     for args in [
-        vec!["query", "--db", s(&db), "--json", "UNWIND range(1, 90000) AS x RETURN x"],
-        vec!["query", "--db", s(&db), "UNWIND range(1, 90000) AS x RETURN x"],
+        vec![
+            "query",
+            "--db",
+            s(&db),
+            "--json",
+            "UNWIND range(1, 90000) AS x RETURN x",
+        ],
+        vec![
+            "query",
+            "--db",
+            s(&db),
+            "UNWIND range(1, 90000) AS x RETURN x",
+        ],
         vec!["info", "--db", s(&db), "--json"],
     ] {
         let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
@@ -295,5 +306,10 @@ fn a_closed_stdout_is_a_quiet_exit_and_bad_text_exits_2() {
     }
     // an empty question is the user's mistake: exit 2
     let out = og(&["find", "--db", s(&db), "", "--embedder", "hash"]);
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -36,7 +36,6 @@ pub struct BuildConfig {
     /// The language model for the caption merge after mapping (`[llm]`: backend `local`,
     /// `openai` or `none`, the default). Not part of the build's resume arguments: the merge
     /// is its own resumable pass ([`crate::llm::merge_captions`]).
-    #[serde(skip_serializing)]
     pub llm: llm_tools::LlmConfig,
 }
 
@@ -794,6 +793,16 @@ fn load_points(
     Ok(pts)
 }
 
+/// The configuration as a resumed build must match it: everything but `[llm]`, whose caption
+/// merge is a pass of its own.
+fn resume_config(cfg: &BuildConfig) -> Result<serde_json::Value> {
+    let mut v = serde_json::to_value(cfg).map_err(|e| Error::Invalid(e.to_string()))?;
+    if let Some(o) = v.as_object_mut() {
+        o.remove("llm");
+    }
+    Ok(v)
+}
+
 /// Runs (or, with `resume`, continues) a build into `store`.
 pub fn build(
     store: &Store,
@@ -815,7 +824,7 @@ pub fn build(
             Source::Detections(d) => format!("detections:{}", std::fs::canonicalize(d).unwrap_or_else(|_| d.clone()).display()),
         },
         "frames": frames,
-        "config": cfg,
+        "config": resume_config(cfg)?,
         "environment": args.environment,
         "embedder": embedder.name(),
     })

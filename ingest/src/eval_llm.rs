@@ -306,39 +306,48 @@ pub fn true_relation(a: &TruthObject, b: &TruthObject) -> Option<&'static str> {
     Some(if gap < 1.0 { "next_to" } else { "near" })
 }
 
-/// A free-text relation in one of the five canonical words (None when it fits none).
+/// A free-text relation in one of the five canonical words (None when it fits none). Phrases
+/// are matched before single words ("in front of" is near, not inside; "leaning on" is next
+/// to, not on).
 pub fn canonical_relation(text: &str) -> Option<&'static str> {
     let t = format!(" {} ", text.to_lowercase().replace(['_', '-'], " "));
     let has = |w: &str| t.contains(&format!(" {w} "));
-    if has("inside") || has("in") || has("within") || has("under the roof of") {
-        Some("inside")
-    } else if has("on top of") || has("on") || has("atop") || has("resting on") {
-        Some("on")
-    } else if has("under") || has("beneath") || has("below") || has("underneath") {
-        Some("under")
-    } else if has("next to")
-        || has("beside")
-        || has("adjacent to")
-        || has("by")
-        || has("leaning on")
-        || has("against")
-        || has("attached to")
-        || has("touching")
-    {
-        Some("next_to")
-    } else if has("near")
-        || has("close to")
-        || has("nearby")
-        || has("behind")
-        || has("in front of")
-        || has("left of")
-        || has("right of")
-        || has("across")
-    {
-        Some("near")
-    } else {
-        None
-    }
+    const PHRASES: [(&str, &str); 9] = [
+        ("in front of", "near"),
+        ("across the road from", "near"),
+        ("close to", "near"),
+        ("next to", "next_to"),
+        ("leaning on", "next_to"),
+        ("leaning against", "next_to"),
+        ("attached to", "next_to"),
+        ("adjacent to", "next_to"),
+        ("on top of", "on"),
+    ];
+    const WORDS: [(&str, &str); 18] = [
+        ("inside", "inside"),
+        ("in", "inside"),
+        ("within", "inside"),
+        ("on", "on"),
+        ("atop", "on"),
+        ("under", "under"),
+        ("beneath", "under"),
+        ("below", "under"),
+        ("underneath", "under"),
+        ("beside", "next_to"),
+        ("by", "next_to"),
+        ("against", "next_to"),
+        ("touching", "next_to"),
+        ("near", "near"),
+        ("nearby", "near"),
+        ("behind", "near"),
+        ("left", "near"),
+        ("right", "near"),
+    ];
+    PHRASES
+        .iter()
+        .chain(WORDS.iter())
+        .find(|(w, _)| has(w))
+        .map(|(_, c)| *c)
 }
 
 /// Whether a label agrees with the truth; `next_to` and `near` both mean "close by" and agree
@@ -638,7 +647,7 @@ mod tests {
         assert_eq!(true_relation(&table, &lamp), Some("under"));
         let post = obj([2.8, 0.0], 0.2, (0.0, 4.0));
         assert_eq!(true_relation(&post, &shelter), Some("next_to"));
-        let far = obj([6.0, 0.0], 0.2, (0.0, 4.0));
+        let far = obj([4.5, 0.0], 0.2, (0.0, 4.0));
         assert_eq!(true_relation(&far, &shelter), Some("near"));
         assert_eq!(
             true_relation(&obj([30.0, 0.0], 0.2, (0.0, 1.0)), &shelter),
@@ -657,6 +666,8 @@ mod tests {
         assert_eq!(canonical_relation("on top of"), Some("on"));
         assert_eq!(canonical_relation("next_to"), Some("next_to"));
         assert_eq!(canonical_relation("across the road from"), Some("near"));
+        assert_eq!(canonical_relation("in front of"), Some("near"));
+        assert_eq!(canonical_relation("under"), Some("under"));
         assert_eq!(canonical_relation("unrelated"), None);
         assert!(agrees("near", "next_to") && !agrees("on", "inside"));
     }

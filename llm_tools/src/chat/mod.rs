@@ -222,22 +222,22 @@ pub struct LlmConfig {
     #[serde(default = "default_backend")]
     pub backend: String,
     /// For `local`: the GGUF file (default: the default model in the models folder).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_path: Option<std::path::PathBuf>,
     /// For `openai`: the base URL (else `OPENAI_BASE_URL`), e.g. `http://127.0.0.1:8080/v1`.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub url: Option<String>,
     /// For `openai`: the model name (else `OPENAI_MODEL`).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<String>,
     /// For `openai`: the environment variable holding the API key (default `OPENAI_API_KEY`).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub api_key_env: Option<String>,
     /// For `openai`: seconds per request before it times out (default 60).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timeout_secs: Option<f64>,
     /// For `local`: threads (default: the machine's cores).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub threads: Option<u32>,
 }
 
