@@ -250,18 +250,15 @@ pub fn match_truth(truth: &[TruthObject], c: [f64; 3]) -> Option<usize> {
 
 /// Whether `p` lies inside the convex polygon `poly`.
 fn inside(p: [f64; 2], poly: &[[f64; 2]; 4]) -> bool {
-    let mut sign = 0.0f64;
+    // the point is inside when it is on the same side of every edge (or on an edge)
+    let (mut left, mut right) = (false, false);
     for k in 0..4 {
         let (a, b) = (poly[k], poly[(k + 1) % 4]);
         let cross = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
-        if cross != 0.0 {
-            if sign != 0.0 && cross.signum() != sign {
-                return false;
-            }
-            sign = cross.signum();
-        }
+        left |= cross > 0.0;
+        right |= cross < 0.0;
     }
-    true
+    !(left && right)
 }
 
 /// Distance between two convex footprints (0 when they overlap).
