@@ -621,7 +621,7 @@ struct UsageError(String);
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info { db, json } => {
-            let store = graphstore::Store::open(&db)
+            let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let text = if json {
                 info::json(&store)?
@@ -636,7 +636,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             edges_key,
         } => {
-            let store = graphstore::Store::open(&db)
+            let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let fmt: graphstore::export::ExportFormat = format.parse()?;
             let file = std::fs::File::create(&out)
@@ -742,7 +742,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             png,
         } => {
-            let store = graphstore::Store::open(&db)
+            let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
             let t0 = std::time::Instant::now();
@@ -1051,7 +1051,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             embedder,
             json,
         } => {
-            let store = graphstore::Store::open(&db)
+            let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
             let built = llm_tools::retrieve::map_embedder(&r)?;
@@ -1114,8 +1114,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ))
                 .into());
             }
-            let store = graphstore::Store::open(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = if read_only {
+                graphstore::Store::open_read_only(&db)
+            } else {
+                graphstore::Store::open(&db)
+            }
+            .with_context(|| format!("opening {}", db.display()))?;
             let opts = graphstore::cypher::QueryOptions {
                 params: params.into_iter().collect(),
                 timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
@@ -1223,7 +1227,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     json,
                 },
         } => {
-            let store = graphstore::Store::open(&db)
+            let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = ingest::eval::eval_semseg(
                 &store,
@@ -1260,7 +1264,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval {
             what: EvalCommand::Relations { db, sim, json },
         } => {
-            let store = graphstore::Store::open(&db)
+            let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = ingest::eval_llm::eval_relations(&store.read()?, &sim)?;
             if json {
@@ -1291,7 +1295,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval {
             what: EvalCommand::Captions { db, sim, json },
         } => {
-            let store = graphstore::Store::open(&db)
+            let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = ingest::eval_llm::eval_captions(&store.read()?, &sim)?;
             if json {

@@ -148,3 +148,64 @@ fn query_refuses_writes_when_read_only_and_reports_errors_with_positions() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("1 nodes created"));
     assert_eq!(count(), before + 1);
 }
+
+#[test]
+fn reads_leave_the_file_as_it_was_and_need_no_write_permission() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("d.og");
+    ok(&og(&["demo", "--db", s(&db)]));
+    let mut perm = std::fs::metadata(&db).unwrap().permissions();
+    perm.set_readonly(true);
+    std::fs::set_permissions(&db, perm).unwrap();
+    let before = std::fs::read(&db).unwrap();
+    let out = dir.path().join("e.json");
+    for args in [
+        vec!["info", "--db", s(&db)],
+        vec![
+            "query",
+            "--db",
+            s(&db),
+            "--read-only",
+            "MATCH (n) RETURN count(n) AS n",
+        ],
+        vec![
+            "export",
+            "--db",
+            s(&db),
+            "--format",
+            "node-link",
+            "--out",
+            s(&out),
+        ],
+    ] {
+        ok(&og(&args));
+    }
+    // two readers at once
+    let spawn = || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_opengraph"))
+            .args([
+                "query",
+                "--db",
+                s(&db),
+                "--read-only",
+                "UNWIND range(1, 300000) AS x RETURN count(*) AS n",
+            ])
+            .output()
+    };
+    let (a, b) = std::thread::scope(|sc| {
+        let a = sc.spawn(spawn);
+        let b = sc.spawn(spawn);
+        (a.join().unwrap().unwrap(), b.join().unwrap().unwrap())
+    });
+    ok(&a);
+    ok(&b);
+    assert_eq!(
+        std::fs::read(&db).unwrap(),
+        before,
+        "a read changed the file"
+    );
+    // a write through --read-only is refused by the parser, the file unchanged
+    let w = og(&["query", "--db", s(&db), "--read-only", "CREATE (:X)"]);
+    assert_eq!(w.status.code(), Some(2));
+    assert_eq!(std::fs::read(&db).unwrap(), before);
+}

@@ -14,6 +14,20 @@ pub enum Error {
         /// What redb or the OS said.
         reason: String,
     },
+    /// Another process holds the store for writing (a build, a pass, a server).
+    #[error(
+        "{path} is open for writing by another process (a build, an LLM pass or a server); wait for it to finish, or read a copy of the file"
+    )]
+    InUse {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A write on a store opened read-only.
+    #[error("{path} was opened read-only; this needs a store opened for writing")]
+    ReadOnlyStore {
+        /// The file.
+        path: PathBuf,
+    },
     /// The file is a redb database but not an OpenGraph store.
     #[error("{path} is not an OpenGraph store (no graphstore header table)")]
     NotAStore {

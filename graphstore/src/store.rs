@@ -106,9 +106,34 @@ pub struct Committed {
     pub(crate) mem: Arc<Mem>,
 }
 
+/// The redb handle: read-write, or read-only (never changes the file, opens files the user
+/// may only read, and several processes may hold it at once).
+enum Db {
+    Rw(Database),
+    Ro(redb::ReadOnlyDatabase),
+}
+
+impl std::fmt::Debug for Db {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Db::Rw(_) => "Db::Rw",
+            Db::Ro(_) => "Db::Ro",
+        })
+    }
+}
+
+impl Db {
+    fn begin_read(&self) -> std::result::Result<redb::ReadTransaction, redb::TransactionError> {
+        match self {
+            Db::Rw(d) => d.begin_read(),
+            Db::Ro(d) => d.begin_read(),
+        }
+    }
+}
+
 #[derive(Debug)]
 struct Inner {
-    db: Database,
+    db: Db,
     path: PathBuf,
     writer: Mutex<()>,
     state: Mutex<Arc<Committed>>,
@@ -126,6 +151,9 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 
 fn open_error(path: &Path, e: redb::DatabaseError) -> Error {
     match e {
+        redb::DatabaseError::DatabaseAlreadyOpen => Error::InUse {
+            path: path.to_path_buf(),
+        },
         redb::DatabaseError::Storage(redb::StorageError::Corrupted(d)) => Error::Corrupt {
             what: path.display().to_string(),
             detail: d,
@@ -162,6 +190,50 @@ impl Store {
             });
         }
         Self::open_inner(path, false)
+    }
+
+    /// Opens an existing store for reading only: the file is never written (not even its
+    /// header), a file the user may only read opens, and any number of processes may read it
+    /// at once. While another process holds the store for writing this fails with
+    /// [`Error::InUse`]. A store left unclean by a killed writer is first recovered by one
+    /// read-write open (the only case where opening for a read writes to the file). Writes
+    /// through the returned handle fail with [`Error::ReadOnlyStore`].
+    pub fn open_read_only(path: impl AsRef<Path>) -> Result<Store> {
+        let path = path.as_ref();
+        if !path.exists() {
+            return Err(Error::Open {
+                path: path.to_path_buf(),
+                reason: "no such file".into(),
+            });
+        }
+        let opened = std::panic::catch_unwind(|| redb::ReadOnlyDatabase::open(path));
+        let db = match opened {
+            Ok(Ok(db)) => db,
+            Ok(Err(redb::DatabaseError::RepairAborted)) => {
+                // a writer was killed: recover once with a read-write open (the only write a
+                // read may cause), then open read-only
+                if let Err(e) = Store::open(path) {
+                    return Err(Error::Open {
+                        path: path.to_path_buf(),
+                        reason: format!(
+                            "the store was not closed cleanly (a writer was killed) and needs recovery, which needs write access: {e}"
+                        ),
+                    });
+                }
+                match redb::ReadOnlyDatabase::open(path) {
+                    Ok(db) => db,
+                    Err(e) => return Err(open_error(path, e)),
+                }
+            }
+            Ok(Err(e)) => return Err(open_error(path, e)),
+            Err(_) => {
+                return Err(Error::Corrupt {
+                    what: path.display().to_string(),
+                    detail: "the storage engine could not read the file header".into(),
+                });
+            }
+        };
+        Self::finish_open(Db::Ro(db), path)
     }
 
     fn open_inner(path: &Path, create: bool) -> Result<Store> {
@@ -230,7 +302,15 @@ impl Store {
         } else {
             drop(wtx);
         }
-        let rtx = db.begin_read().map_err(storage)?;
+        Self::finish_open(Db::Rw(db), path)
+    }
+
+    /// Reads the header, tokens and schema, and builds the in-memory indexes.
+    fn finish_open(db: Db, path: &Path) -> Result<Store> {
+        let rtx = match db.begin_read() {
+            Ok(t) => t,
+            Err(e) => return Err(storage(e)),
+        };
         let meta = rtx.open_table(META).map_err(storage)?;
         let get = |k: &str| -> Result<Vec<u8>> {
             meta.get(k)
@@ -298,6 +378,20 @@ impl Store {
         Ok(store)
     }
 
+    /// Whether this handle was opened read-only ([`Store::open_read_only`]).
+    pub fn is_read_only(&self) -> bool {
+        matches!(self.inner.db, Db::Ro(_))
+    }
+
+    fn rw(&self) -> Result<&Database> {
+        match &self.inner.db {
+            Db::Rw(d) => Ok(d),
+            Db::Ro(_) => Err(Error::ReadOnlyStore {
+                path: self.inner.path.clone(),
+            }),
+        }
+    }
+
     /// The file behind this store.
     pub fn path(&self) -> &Path {
         &self.inner.path
@@ -328,7 +422,7 @@ impl Store {
     pub fn write<T>(&self, f: impl FnOnce(&mut WriteTxn<'_>) -> Result<T>) -> Result<T> {
         let _writer = lock(&self.inner.writer);
         let base = self.committed();
-        let wtx = self.inner.db.begin_write().map_err(storage)?;
+        let wtx = self.rw()?.begin_write().map_err(storage)?;
         let outcome = {
             let mut tx = WriteTxn::new(&wtx, base.clone())?;
             match f(&mut tx) {
@@ -372,7 +466,7 @@ impl Store {
         schema.validate()?;
         let _writer = lock(&self.inner.writer);
         let base = self.committed();
-        let wtx = self.inner.db.begin_write().map_err(storage)?;
+        let wtx = self.rw()?.begin_write().map_err(storage)?;
         let outcome = (|| {
             let mut tx = WriteTxn::new(&wtx, base.clone())?;
             let compiled = tx.install_schema(&schema)?;
@@ -431,7 +525,12 @@ impl Store {
     pub fn compact(&mut self) -> Result<bool> {
         let inner = Arc::get_mut(&mut self.inner)
             .ok_or_else(|| Error::Storage("compact needs the only handle to the store".into()))?;
-        inner.db.compact().map_err(storage)
+        match &mut inner.db {
+            Db::Rw(d) => d.compact().map_err(storage),
+            Db::Ro(_) => Err(Error::ReadOnlyStore {
+                path: inner.path.clone(),
+            }),
+        }
     }
 }
 
