@@ -96,7 +96,7 @@ fn main() -> anyhow::Result<()> {
             prompts::MERGE_CAPTIONS.text,
             &merge,
             prompts::merge_captions_schema(),
-            128,
+            64,
         )?;
         let ms_rel = time(
             &mut m,

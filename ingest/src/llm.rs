@@ -195,7 +195,7 @@ pub fn merge_input(captions: &[String], recent: usize) -> String {
     for (i, c) in tail.iter().enumerate() {
         s.push_str(&format!("{}. {}\n", i + 1, c.trim()));
     }
-    s.push_str("Reply with the kind, colour, material and the merged caption.");
+    s.push_str("Reply with the merged caption.");
     s
 }
 
@@ -275,7 +275,7 @@ pub fn merge_captions(
                 &prompt,
                 &input,
                 prompts::merge_captions_schema(),
-                128,
+                64,
             )?;
             match new {
                 Some(a) => {
@@ -285,11 +285,7 @@ pub fn merge_captions(
                 }
                 None => report.cached += 1,
             }
-            let caption = v["merged_caption"]
-                .as_str()
-                .unwrap_or("")
-                .trim()
-                .to_string();
+            let caption = v["caption"].as_str().unwrap_or("").trim().to_string();
             let e = embedder.embed(&[caption.as_str()])?.remove(0);
             writes.push((*id, caption, medoid.clone(), instance_feature(&e, df)));
             report.done += 1;

@@ -126,9 +126,7 @@ fn merger() -> Scripted {
         } else {
             "a thing"
         };
-        Reply::Text(format!(
-            r#"{{"colour": "", "kind": "", "material": "", "merged_caption": "{c}"}}"#
-        ))
+        Reply::Text(format!(r#"{{"caption": "{c}"}}"#))
     })
 }
 
@@ -187,7 +185,7 @@ fn caption_merge_writes_provenance_and_never_asks_twice() {
     // objects with several captions: shelter, bench, lamp post, car 3 (not the road, not the lone car)
     assert_eq!((r.total, r.done, r.cached, r.left), (4, 4, 0, 0), "{r:?}");
     assert_eq!(m.calls(), 4);
-    assert_eq!(r.prompt, "merge_captions@v3");
+    assert_eq!(r.prompt, "merge_captions@v1");
     {
         let rd = store.read().unwrap();
         let bench = rd
@@ -204,7 +202,7 @@ fn caption_merge_writes_provenance_and_never_asks_twice() {
         assert_eq!(s("caption"), "a wooden bench");
         assert_eq!(s("caption_medoid"), "a wooden bench");
         assert_eq!(s("caption_model"), "scripted:merge");
-        assert_eq!(s("caption_prompt"), "merge_captions@v3");
+        assert_eq!(s("caption_prompt"), "merge_captions@v1");
         // the feature is the new caption's embedding (no detection feature here)
         let f = match rd.node_prop(bench, "feature").unwrap() {
             Some(Value::Vector(v)) => v,
