@@ -254,8 +254,70 @@ pub fn merge_captions(
         already_done: already,
         ..PassReport::default()
     };
-    let mut asked_ms = 0.0;
-    let mut asked = 0usize;
+    run_pass(
+        store,
+        model,
+        &cache,
+        opts,
+        &todo,
+        &mut report,
+        t0,
+        |(_, captions, _, _)| {
+            (
+                merge_input(captions, recent),
+                prompts::merge_captions_schema(),
+                64,
+            )
+        },
+        |(id, _, medoid, df), v, _| {
+            let caption = v["caption"].as_str().unwrap_or("").trim().to_string();
+            let e = embedder.embed(&[caption.as_str()])?.remove(0);
+            Ok((*id, caption, medoid.clone(), instance_feature(&e, df)))
+        },
+        |tx, writes| {
+            let kc = tx.prop_key_id("caption")?;
+            let km = tx.prop_key_id("caption_medoid")?;
+            let kmod = tx.prop_key_id("caption_model")?;
+            let kp = tx.prop_key_id("caption_prompt")?;
+            let kf = tx.prop_key_id("feature")?;
+            for (id, caption, medoid, feature) in writes {
+                tx.set_node_prop(*id, kc, Value::String(caption.clone()))?;
+                tx.set_node_prop(*id, km, Value::String(medoid.clone()))?;
+                tx.set_node_prop(*id, kmod, Value::String(model_id.clone()))?;
+                tx.set_node_prop(*id, kp, Value::String(prompt.id()))?;
+                tx.set_node_prop(*id, kf, Value::Vector(feature.clone()))?;
+            }
+            Ok(())
+        },
+    )?;
+    Ok(report)
+}
+
+/// Runs `todo` through `model` (or the cache): one question per item (`question` gives the
+/// input, the schema and the token limit), `make` turns each answer into a write, and `commit`
+/// writes a chunk of `opts.chunk` of them in one transaction with their new cache entries.
+/// Stops starting items when the budget or the item limit is reached; fills in the report's
+/// `done`, `cached`, `left`, `ms_per_item` and `secs`.
+#[allow(clippy::too_many_arguments)]
+fn run_pass<T, W>(
+    store: &Store,
+    model: &mut dyn ChatModel,
+    cache: &LlmCache,
+    opts: &PassOptions,
+    todo: &[T],
+    report: &mut PassReport,
+    t0: Instant,
+    question: impl Fn(&T) -> (String, serde_json::Value, u32),
+    mut make: impl FnMut(&T, &serde_json::Value, &mut PassReport) -> Result<W>,
+    commit: impl Fn(&mut graphstore::WriteTxn<'_>, &[W]) -> graphstore::Result<()>,
+) -> Result<()> {
+    let model_id = model.model_id();
+    let prompt = if report.prompt == prompts::RELATION.id() {
+        prompts::RELATION
+    } else {
+        prompts::MERGE_CAPTIONS
+    };
+    let (mut asked, mut asked_ms) = (0usize, 0.0);
     let mut i = 0;
     while i < todo.len() {
         let mut writes = Vec::new();
@@ -266,17 +328,9 @@ pub fn merge_captions(
             {
                 break;
             }
-            let (id, captions, medoid, df) = &todo[i];
-            let input = merge_input(captions, recent);
+            let (input, schema, max_tokens) = question(&todo[i]);
             let t = Instant::now();
-            let (v, new) = ask(
-                model,
-                &cache,
-                &prompt,
-                &input,
-                prompts::merge_captions_schema(),
-                64,
-            )?;
+            let (v, new) = ask(model, cache, &prompt, &input, schema, max_tokens)?;
             match new {
                 Some(a) => {
                     asked += 1;
@@ -285,9 +339,7 @@ pub fn merge_captions(
                 }
                 None => report.cached += 1,
             }
-            let caption = v["caption"].as_str().unwrap_or("").trim().to_string();
-            let e = embedder.embed(&[caption.as_str()])?.remove(0);
-            writes.push((*id, caption, medoid.clone(), instance_feature(&e, df)));
+            writes.push(make(&todo[i], &v, report)?);
             report.done += 1;
             i += 1;
         }
@@ -295,18 +347,7 @@ pub fn merge_captions(
             break;
         }
         store.write(|tx| {
-            let kc = tx.prop_key_id("caption")?;
-            let km = tx.prop_key_id("caption_medoid")?;
-            let kmod = tx.prop_key_id("caption_model")?;
-            let kp = tx.prop_key_id("caption_prompt")?;
-            let kf = tx.prop_key_id("feature")?;
-            for (id, caption, medoid, feature) in &writes {
-                tx.set_node_prop(*id, kc, Value::String(caption.clone()))?;
-                tx.set_node_prop(*id, km, Value::String(medoid.clone()))?;
-                tx.set_node_prop(*id, kmod, Value::String(model_id.clone()))?;
-                tx.set_node_prop(*id, kp, Value::String(prompt.id()))?;
-                tx.set_node_prop(*id, kf, Value::Vector(feature.clone()))?;
-            }
+            commit(tx, &writes)?;
             write_answers(tx, &model_id, &prompt, &new_answers)
         })?;
     }
@@ -317,7 +358,7 @@ pub fn merge_captions(
         0.0
     };
     report.secs = t0.elapsed().as_secs_f64();
-    Ok(report)
+    Ok(())
 }
 
 /// `normalize(0.5·e/|e| + 0.5·d/|d|)`, or `e` when `d` has another dimension.
@@ -469,37 +510,23 @@ pub fn infer_relations(
         already_done: already,
         ..PassReport::default()
     };
-    let (mut asked, mut asked_ms) = (0usize, 0.0);
-    let mut i = 0;
-    while i < todo.len() {
-        let mut writes = Vec::new();
-        let mut new_answers = Vec::new();
-        while i < todo.len() && writes.len() < opts.chunk.max(1) {
-            if opts.budget.is_some_and(|b| t0.elapsed() >= b)
-                || opts.max_items.is_some_and(|m| report.done >= m)
-            {
-                break;
-            }
-            let (a, b) = todo[i];
-            let (ia, ib) = (&info[&a], &info[&b]);
-            let input = relation_input(frame, (&ia.0, &ia.1), (&ib.0, &ib.1));
-            let t = Instant::now();
-            let (v, new) = ask(
-                model,
-                &cache,
-                &prompt,
-                &input,
+    run_pass(
+        store,
+        model,
+        &cache,
+        opts,
+        &todo,
+        &mut report,
+        t0,
+        |(a, b)| {
+            let (ia, ib) = (&info[a], &info[b]);
+            (
+                relation_input(frame, (&ia.0, &ia.1), (&ib.0, &ib.1)),
                 prompts::relation_schema(),
                 40,
-            )?;
-            match new {
-                Some(x) => {
-                    asked += 1;
-                    asked_ms += t.elapsed().as_secs_f64() * 1e3;
-                    new_answers.push(x);
-                }
-                None => report.cached += 1,
-            }
+            )
+        },
+        |(a, b), v, report| {
             let relation = v["relation"]
                 .as_str()
                 .unwrap_or("")
@@ -511,15 +538,16 @@ pub fn infer_relations(
                 .unwrap_or(0.0)
                 .clamp(0.0, 1.0);
             *report.labels.entry(relation.clone()).or_default() += 1;
-            writes.push((a, b, relation, confidence, box_distance(&ia.1, &ib.1)));
-            report.done += 1;
-            i += 1;
-        }
-        if writes.is_empty() {
-            break;
-        }
-        store.write(|tx| {
-            for (a, b, relation, confidence, d) in &writes {
+            Ok((
+                *a,
+                *b,
+                relation,
+                confidence,
+                box_distance(&info[a].1, &info[b].1),
+            ))
+        },
+        |tx, writes| {
+            for (a, b, relation, confidence, d) in writes {
                 tx.create_rel_named(
                     *a,
                     "RELATED",
@@ -534,15 +562,8 @@ pub fn infer_relations(
                     ],
                 )?;
             }
-            write_answers(tx, &model_id, &prompt, &new_answers)
-        })?;
-    }
-    report.left = todo.len() - i;
-    report.ms_per_item = if asked > 0 {
-        asked_ms / asked as f64
-    } else {
-        0.0
-    };
-    report.secs = t0.elapsed().as_secs_f64();
+            Ok(())
+        },
+    )?;
     Ok(report)
 }
