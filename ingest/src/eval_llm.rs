@@ -527,14 +527,8 @@ pub fn eval_captions(r: &impl GraphRead, sim_dir: &Path) -> Result<CaptionEval> 
     let mut merged: Vec<(String, String, usize)> = Vec::new();
     let mut sources = std::collections::BTreeSet::new();
     for id in r.nodes_with_label("Instance")? {
-        let s = |k: &str| -> Result<Option<String>> {
-            Ok(r.node_prop(id, k)?
-                .and_then(|v| v.as_str().map(str::to_string)))
-        };
-        let class = s("class")?.unwrap_or_default();
-        if crate::llm::SURFACE_CLASSES.contains(&class.as_str())
-            || r.node_prop(id, "tile")?.is_some()
-        {
+        let s = |k: &str| crate::llm::str_prop(r, id, k);
+        if !crate::llm::is_object(r, id)? {
             continue;
         }
         out.object_instances += 1;
@@ -546,10 +540,11 @@ pub fn eval_captions(r: &impl GraphRead, sim_dir: &Path) -> Result<CaptionEval> 
         };
         out.matched += 1;
         let caption = s("caption")?.unwrap_or_default();
-        sources.insert(s("caption_model")?.unwrap_or_else(|| "medoid".into()));
-        if let (Some(m), Some(_)) = (s("caption_medoid")?, s("caption_model")?) {
+        let model = s("caption_model")?;
+        if let (Some(m), Some(_)) = (s("caption_medoid")?, &model) {
             merged.push((caption.clone(), m, ti));
         }
+        sources.insert(model.unwrap_or_else(|| "medoid".into()));
         now.push((caption, ti));
     }
     out.caption_source = sources.into_iter().collect::<Vec<_>>().join(", ");

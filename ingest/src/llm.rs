@@ -131,13 +131,14 @@ fn write_answers(
     Ok(())
 }
 
-fn str_prop(r: &impl GraphRead, id: u64, key: &str) -> Result<Option<String>> {
+/// A string property of a node (None when missing or not a string).
+pub(crate) fn str_prop(r: &impl GraphRead, id: u64, key: &str) -> Result<Option<String>> {
     Ok(r.node_prop(id, key)?
         .and_then(|v| v.as_str().map(str::to_string)))
 }
 
 /// Whether an instance is an object (not a surface or a background tile).
-fn is_object(r: &impl GraphRead, id: u64) -> Result<bool> {
+pub(crate) fn is_object(r: &impl GraphRead, id: u64) -> Result<bool> {
     let class = str_prop(r, id, "class")?.unwrap_or_default();
     Ok(!SURFACE_CLASSES.contains(&class.as_str()) && r.node_prop(id, "tile")?.is_none())
 }
