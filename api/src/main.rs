@@ -379,6 +379,20 @@ enum EvalCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Instance precision and recall against the simulator's objects: map instances (not
+    /// surface tiles) and true objects matched one-to-one by ground-footprint IoU >= 0.5;
+    /// recall per true class, precision per map class.
+    Instances {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Per-class IoU, mean IoU and macro F1 of the map against SemanticKITTI labels.
     Semseg {
         /// The store file.
@@ -1289,6 +1303,35 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         a.pairs,
                         per.join(", ")
                     );
+                }
+            }
+        }
+        Command::Eval {
+            what: EvalCommand::Instances { db, sim, json },
+        } => {
+            let store = graphstore::Store::open_read_only(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = ingest::eval_instances::eval_instances(&store.read()?, &sim)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                outln!(
+                    "{} instances ({} surface tiles not counted), {} true objects, {} matched (footprint IoU >= {}): precision {:.3}, recall {:.3}",
+                    r.instances,
+                    r.surface_tiles,
+                    r.objects,
+                    r.matched,
+                    ingest::eval_instances::MATCH_IOU,
+                    r.precision,
+                    r.recall
+                );
+                outln!("recall per true class:");
+                for (c, k) in &r.recall_per_class {
+                    outln!("  {c:<18} {:>4}/{:<4} {:.3}", k.matched, k.total, k.share);
+                }
+                outln!("precision per map class:");
+                for (c, k) in &r.precision_per_class {
+                    outln!("  {c:<18} {:>4}/{:<4} {:.3}", k.matched, k.total, k.share);
                 }
             }
         }

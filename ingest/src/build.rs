@@ -480,9 +480,14 @@ impl EmbedCache<'_> {
 
 /// The class (1..=19) whose prompt is most similar to `v` (the embedding of a caption's
 /// subject phrase).
-fn argmax_class(v: &[f32], prompts: &[(u8, Vec<f32>)]) -> u8 {
+/// The class whose prompt is closest to `v`, among surface classes when `surface`, else
+/// among the others.
+fn argmax_class(v: &[f32], prompts: &[(u8, Vec<f32>)], surface: bool) -> u8 {
     let mut best = (f64::NEG_INFINITY, 0u8);
-    for (class, p) in prompts {
+    for (class, p) in prompts
+        .iter()
+        .filter(|(c, _)| classes::is_surface(*c) == surface)
+    {
         let c = crate::mapping::associate::cosine(v, p);
         if c > best.0 {
             best = (c, *class);
@@ -491,20 +496,50 @@ fn argmax_class(v: &[f32], prompts: &[(u8, Vec<f32>)]) -> u8 {
     best.1
 }
 
-/// Class of a caption: its subject phrase embedded and compared with the class prompts.
+/// Classes whose objects are joined when their points touch (building, fence, vegetation):
+/// extended things a passing car sees in parts.
+const JOINED_CLASSES: [u8; 3] = [13, 14, 15];
+
+/// The thing class of an object before its caption is merged: the most frequent class of
+/// its recent captions (ties: the lower class id).
+fn object_class(
+    o: &MapObject,
+    cfg: &MappingConfig,
+    emb: &mut EmbedCache<'_>,
+    prompts: &[(u8, Vec<f32>)],
+) -> Result<u8> {
+    let subjects: Vec<&str> = o
+        .recent_captions(cfg.merge_captions)
+        .iter()
+        .map(|c| classes::subject_phrase(c))
+        .collect();
+    let mut votes: BTreeMap<u8, usize> = BTreeMap::new();
+    for e in emb.get_all(&subjects)? {
+        *votes.entry(argmax_class(&e, prompts, false)).or_insert(0) += 1;
+    }
+    Ok(votes
+        .iter()
+        .max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c)))
+        .map_or(0, |(c, _)| *c))
+}
+
+/// Class of each detection: whether it is a surface or a thing is decided by its tags or
+/// caption ([`classes::names_surface`]); its class is then the closest class prompt of that
+/// kind to the caption's embedded subject phrase. Inputs are `(tags, caption)` pairs.
 fn classify(
-    captions: &[&str],
+    detections: &[(&[String], &str)],
     emb: &mut EmbedCache<'_>,
     prompts: &[(u8, Vec<f32>)],
 ) -> Result<Vec<u8>> {
-    let subjects: Vec<&str> = captions
+    let subjects: Vec<&str> = detections
         .iter()
-        .map(|c| classes::subject_phrase(c))
+        .map(|(_, c)| classes::subject_phrase(c))
         .collect();
     Ok(emb
         .get_all(&subjects)?
         .iter()
-        .map(|e| argmax_class(e, prompts))
+        .zip(detections)
+        .map(|(e, (tags, caption))| argmax_class(e, prompts, classes::names_surface(tags, caption)))
         .collect())
 }
 
@@ -525,7 +560,11 @@ fn describe(
     let ce = emb.get_all(&[&caption])?.remove(0);
     let class = match o.tile {
         Some((c, _)) => c,
-        None => classify(&[&caption], emb, prompts)?[0],
+        // an object is a thing whatever its merged caption says
+        None => {
+            let subject = classes::subject_phrase(&caption);
+            argmax_class(&emb.get_all(&[subject])?[0], prompts, false)
+        }
     };
     let feature = if o.feature.len() == ce.len() {
         let n = |v: &[f32]| v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
@@ -985,7 +1024,12 @@ pub fn build(
         let t = Instant::now();
         let captions: Vec<&str> = dets.detections.iter().map(|d| d.caption.as_str()).collect();
         let cap_emb = run.emb.get_all(&captions)?;
-        let det_classes = classify(&captions, &mut run.emb, &run.prompts)?;
+        let tagged: Vec<(&[String], &str)> = dets
+            .detections
+            .iter()
+            .map(|d| (d.tags.as_slice(), d.caption.as_str()))
+            .collect();
+        let det_classes = classify(&tagged, &mut run.emb, &run.prompts)?;
         let features: Vec<Vec<f32>> = dets
             .detections
             .iter()
@@ -1027,6 +1071,20 @@ pub fn build(
     progress(Progress::Finishing);
     if !finished {
         report.post = run.mapper.post_process();
+        // buildings, fences and vegetation: objects that touch are one object
+        let mut by_class: BTreeMap<u8, Vec<u64>> = BTreeMap::new();
+        for (id, o) in run.mapper.objects() {
+            if o.tile.is_none() {
+                let c = object_class(o, &cfg.mapping, &mut run.emb, &run.prompts)?;
+                by_class.entry(c).or_default().push(*id);
+            }
+        }
+        for class in JOINED_CLASSES {
+            if let Some(ids) = by_class.get(&class) {
+                let joined = run.mapper.join_touching(ids, cfg.mapping.join_eps_m);
+                report.post.merged.extend(joined);
+            }
+        }
         let removed: Vec<u64> = report
             .post
             .dropped

@@ -46,6 +46,9 @@ pub struct TruthObject {
     pub centre_xz: [f64; 2],
     /// Half the larger footprint side, metres.
     pub radius_m: f64,
+    /// The simulator's class of the object (`objects.json` `class`: a SemanticKITTI class
+    /// name or an open-vocabulary kind such as `bench`).
+    pub class: String,
     /// True noun phrase.
     pub noun: String,
     /// True colour phrase (may be empty).
@@ -116,6 +119,7 @@ pub fn read_truth(sim_dir: &Path) -> Result<Vec<TruthObject>> {
             ],
             // y points down with the ground at y = 0
             heights: (-(cy + h / 2.0), -(cy - h / 2.0)),
+            class: s("/class"),
             noun: s("/attributes/noun"),
             colour: s("/attributes/colour"),
             material: s("/attributes/material"),
@@ -620,6 +624,7 @@ mod tests {
             id: 0,
             centre_xz: c,
             radius_m: half,
+            class: String::new(),
             noun: String::new(),
             colour: String::new(),
             material: String::new(),
@@ -672,6 +677,7 @@ mod tests {
             id: 1,
             centre_xz: [0.0, 0.0],
             radius_m: 1.0,
+            class: "bench".into(),
             noun: "park bench".into(),
             colour: "green".into(),
             material: "wooden".into(),

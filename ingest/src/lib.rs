@@ -5,6 +5,7 @@ pub mod classes;
 pub mod cluster;
 mod error;
 pub mod eval;
+pub mod eval_instances;
 pub mod eval_llm;
 pub mod hierarchy;
 pub mod llm;

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use super::MappingConfig;
 use super::associate::{TfIdf, Weights, cosine, greedy_assign, phi, words};
-use super::geometry::{Aabb, VoxelKey, largest_cluster, voxel_downsample, voxel_key};
+use super::geometry::{Aabb, VoxelKey, clusters, largest_cluster, voxel_downsample, voxel_key};
 use super::project::{Camera, points_in_mask};
 use crate::classes;
 use crate::hierarchy::frame::GroundFrame;
@@ -183,7 +183,9 @@ pub struct FrameInput<'a> {
     pub detections: &'a DetectionFrame,
     /// Per detection: its feature (its own, or its caption's embedding).
     pub features: &'a [Vec<f32>],
-    /// Per detection: the class (1..=19) its caption is closest to.
+    /// Per detection: its class (1..=19). Surface classes ([`classes::is_surface`]) are
+    /// fused into ground tiles, every other class into objects, so a detection that is a
+    /// thing must never carry a surface class (see [`classes::names_surface`]).
     pub classes: &'a [u8],
 }
 
@@ -244,6 +246,8 @@ pub struct PostReport {
     pub dropped: Vec<u64>,
     /// Merges: (kept, absorbed).
     pub merged: Vec<(u64, u64)>,
+    /// Splits: (object, new object made of one of its other point clusters).
+    pub split: Vec<(u64, u64)>,
 }
 
 /// Object boxes on a uniform 3D grid, for candidate look-ups. Boxes only grow between
@@ -413,7 +417,7 @@ impl Mapper {
                 })
                 .collect();
             let mut pts = voxel_downsample(&pts, cfg.voxel_m);
-            if !classes::is_background(f.classes[i]) {
+            if !classes::is_surface(f.classes[i]) {
                 pts = largest_cluster(&pts, cfg.dbscan_eps_m, cfg.dbscan_min_points);
             }
             st.times.denoise_ms += elapsed_ms(t);
@@ -447,7 +451,7 @@ impl Mapper {
         };
         let mut object_docs: BTreeMap<u64, Vec<(String, f64)>> = BTreeMap::new();
         for (i, pts) in det_points.iter().enumerate() {
-            let (Some(b), false) = (Aabb::of(pts), classes::is_background(f.classes[i])) else {
+            let (Some(b), false) = (Aabb::of(pts), classes::is_surface(f.classes[i])) else {
                 continue;
             };
             let caption = self.tfidf.vector(&f.detections.detections[i].caption);
@@ -488,7 +492,7 @@ impl Mapper {
                 continue;
             }
             let class = f.classes[i];
-            if classes::is_background(class) {
+            if classes::is_surface(class) {
                 st.background += 1;
                 let mut by_tile: BTreeMap<[i64; 2], Vec<[f32; 3]>> = BTreeMap::new();
                 for p in pts {
@@ -562,25 +566,144 @@ impl Mapper {
         self.tfidf.add(caption);
     }
 
-    /// Post-processing: denoise every object (not background tiles), drop those under
-    /// `min_object_points`, then merge pairs whose shared-voxel ratio (over the smaller one)
+    /// Moves object `b` into object `a`: points, feature (weighted by detection counts),
+    /// captions, counts, frames and observations; `b` is removed.
+    fn absorb(&mut self, a: u64, b: u64) {
+        let voxel_m = self.cfg.voxel_m;
+        let Some(absorbed) = self.objects.remove(&b) else {
+            return;
+        };
+        let keep = self.objects.get_mut(&a).expect("present");
+        keep.absorb_points(&absorbed.points, voxel_m);
+        keep.add_feature(&absorbed.feature, absorbed.detection_count);
+        keep.captions.extend(absorbed.captions);
+        keep.detection_count += absorbed.detection_count;
+        keep.first_frame = keep.first_frame.min(absorbed.first_frame);
+        keep.last_frame = keep.last_frame.max(absorbed.last_frame);
+        for (fr, n) in absorbed.observations {
+            *keep.observations.entry(fr).or_insert(0) += n;
+        }
+        keep.dirty = true;
+    }
+
+    /// Joins objects of one class by the geometry of their points: the points of `ids`
+    /// are pooled and clustered (DBSCAN, `eps_m`, `dbscan_min_points`); objects whose points
+    /// share a cluster (at least `dbscan_min_points` points each in it) touch and become one,
+    /// the lowest id surviving. For buildings, fences and vegetation, seen in parts from a
+    /// moving car, one real object becomes one instance. Returns the merges (kept, absorbed).
+    pub fn join_touching(&mut self, ids: &[u64], eps_m: f32) -> Vec<(u64, u64)> {
+        let min = self.cfg.dbscan_min_points.max(1);
+        let mut ids: Vec<u64> = ids
+            .iter()
+            .copied()
+            .filter(|id| self.objects.get(id).is_some_and(|o| o.tile.is_none()))
+            .collect();
+        ids.sort_unstable();
+        ids.dedup();
+        let mut pool = Vec::new();
+        let mut owner = Vec::new();
+        for (k, id) in ids.iter().enumerate() {
+            let o = &self.objects[id];
+            pool.extend_from_slice(&o.points);
+            owner.extend(std::iter::repeat_n(k, o.points.len()));
+        }
+        let labels = super::geometry::dbscan3(&pool, eps_m, min);
+        // points per (cluster, object)
+        let mut counts: BTreeMap<(usize, usize), usize> = BTreeMap::new();
+        for (l, k) in labels.iter().zip(&owner) {
+            if let Some(c) = l {
+                *counts.entry((*c, *k)).or_insert(0) += 1;
+            }
+        }
+        // union-find over objects that share a cluster
+        let mut parent: Vec<usize> = (0..ids.len()).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        let mut first_in: BTreeMap<usize, usize> = BTreeMap::new();
+        for (&(c, k), &n) in &counts {
+            if n < min {
+                continue;
+            }
+            match first_in.get(&c) {
+                None => {
+                    first_in.insert(c, k);
+                }
+                Some(&j) => {
+                    let (ra, rb) = (root(&mut parent, j), root(&mut parent, k));
+                    if ra != rb {
+                        // the lower index (lower id) stays the root
+                        let (lo, hi) = (ra.min(rb), ra.max(rb));
+                        parent[hi] = lo;
+                    }
+                }
+            }
+        }
+        let mut merged = Vec::new();
+        for k in 0..ids.len() {
+            let r = root(&mut parent, k);
+            if r != k {
+                self.absorb(ids[r], ids[k]);
+                merged.push((ids[r], ids[k]));
+                let grown = self.objects[&ids[r]].bbox;
+                self.grid.update(ids[r], &grown);
+            }
+        }
+        merged
+    }
+
+    /// Post-processing: cluster every object's points (not surface tiles; DBSCAN with
+    /// `dbscan_eps_m`, `dbscan_min_points`): the largest cluster stays the object, every other
+    /// cluster with at least `min_object_points` points and `split_min_share` of the object's
+    /// points becomes a new object (with the same captions and feature), the rest is noise;
+    /// drop objects under `min_object_points`, then merge pairs whose shared-voxel ratio (over the smaller one)
     /// exceeds `merge_overlap` and whose feature cosine exceeds `merge_feature_cos`. The
     /// lower id survives and absorbs the other's points, feature, captions and counts.
     pub fn post_process(&mut self) -> PostReport {
         let cfg = self.cfg.clone();
         let mut report = PostReport::default();
         let mut ids = self.object_ids();
-        for id in &ids {
-            let o = self.objects.get_mut(id).expect("listed");
-            let kept = largest_cluster(&o.points, cfg.dbscan_eps_m, cfg.dbscan_min_points);
-            if kept.len() != o.points.len() {
-                report.denoised_points += o.points.len() - kept.len();
+        for id in ids.clone() {
+            let o = self.objects.get_mut(&id).expect("listed");
+            let mut parts = clusters(&o.points, cfg.dbscan_eps_m, cfg.dbscan_min_points);
+            let total = o.points.len();
+            // the largest cluster stays the object; other large ones become objects of their
+            // own (one detection track that covered two hedges or houses), the rest is noise
+            let big = |n: usize| {
+                n >= cfg.min_object_points && n as f64 >= cfg.split_min_share * total as f64
+            };
+            let split_off: Vec<Vec<[f32; 3]>> = if parts.len() > 1 {
+                parts.drain(1..).filter(|p| big(p.len())).collect()
+            } else {
+                Vec::new()
+            };
+            let kept = parts.pop().unwrap_or_default();
+            let kept_total = kept.len() + split_off.iter().map(Vec::len).sum::<usize>();
+            report.denoised_points += total - kept_total;
+            if kept.len() != total {
                 o.set_points(kept, cfg.voxel_m);
                 o.dirty = true;
             }
+            let template = o.clone();
             if o.points.len() < cfg.min_object_points {
-                report.dropped.push(*id);
-                self.objects.remove(id);
+                report.dropped.push(id);
+                self.objects.remove(&id);
+            }
+            for pts in split_off {
+                let new_id = self.next_id;
+                self.next_id += 1;
+                let mut n = template.clone();
+                n.instance_id = new_id;
+                n.tile = None;
+                n.set_points(pts, cfg.voxel_m);
+                n.dirty = true;
+                self.objects.insert(new_id, n);
+                report.split.push((id, new_id));
+                ids.push(new_id);
             }
         }
         // merging, in id order; a merged object can absorb more afterwards
@@ -624,19 +747,8 @@ impl Mapper {
                 if ratio > cfg.merge_overlap
                     && cosine(&oa.feature, &ob.feature) > cfg.merge_feature_cos
                 {
-                    let absorbed = self.objects.remove(b).expect("present");
-                    let keep = self.objects.get_mut(a).expect("present");
-                    keep.absorb_points(&absorbed.points, cfg.voxel_m);
-                    keep.add_feature(&absorbed.feature, absorbed.detection_count);
-                    keep.captions.extend(absorbed.captions);
-                    keep.detection_count += absorbed.detection_count;
-                    keep.first_frame = keep.first_frame.min(absorbed.first_frame);
-                    keep.last_frame = keep.last_frame.max(absorbed.last_frame);
-                    for (fr, n) in absorbed.observations {
-                        *keep.observations.entry(fr).or_insert(0) += n;
-                    }
-                    keep.dirty = true;
-                    let grown = keep.bbox;
+                    self.absorb(*a, *b);
+                    let grown = self.objects[a].bbox;
                     self.grid.update(*a, &grown);
                     gone.insert(*b);
                     report.merged.push((*a, *b));
@@ -796,10 +908,9 @@ mod tests {
     }
 
     #[test]
-    fn background_is_fused_per_class_and_tile() {
-        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+    fn surfaces_are_fused_per_class_and_tile_and_buildings_are_objects() {
         let cam = test_camera();
-        // a wide wall 10..50 m ahead spanning several 20 m tiles along KITTI z (velo x here,
+        // a wide strip 10..50 m ahead spanning several 20 m tiles along KITTI z (velo x here,
         // with an identity pose the world is the velodyne frame: ground = (x, z))
         let mut pts = Vec::new();
         for i in 0..400 {
@@ -807,19 +918,24 @@ mod tests {
                 pts.push([10.05 + i as f32 * 0.1, 0.05, j as f32 * 0.1 + 0.05, 0.0]);
             }
         }
-        let dets = frame_of(vec![full_mask_detection("a brick building")]);
-        let s = m.integrate(&FrameInput {
-            index: 0,
-            world_from_velo: Mat34::IDENTITY,
-            points: &pts,
-            camera: &cam,
-            detections: &dets,
-            features: &[vec![0.0, 1.0]],
-            classes: &[13],
-        });
+        let integrate = |caption: &str, class: u8| {
+            let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+            let dets = frame_of(vec![full_mask_detection(caption)]);
+            let s = m.integrate(&FrameInput {
+                index: 0,
+                world_from_velo: Mat34::IDENTITY,
+                points: &pts,
+                camera: &cam,
+                detections: &dets,
+                features: &[vec![0.0, 1.0]],
+                classes: &[class],
+            });
+            (m, s)
+        };
+        let (m, s) = integrate("the asphalt road", 9);
         assert_eq!(s.background, 1);
         let tiles: Vec<_> = m.objects().values().map(|o| o.tile.unwrap()).collect();
-        assert_eq!(tiles, vec![(13, [0, 0]), (13, [1, 0]), (13, [2, 0])]);
+        assert_eq!(tiles, vec![(9, [0, 0]), (9, [1, 0]), (9, [2, 0])]);
         let total: usize = m.objects().values().map(|o| o.points.len()).sum();
         assert_eq!(total, 2000);
         // each tile's box is that of its own points (regression: it used to include the
@@ -841,6 +957,73 @@ mod tests {
                 );
             }
         }
+        // the same points as a building: one object, no tiles
+        let (m, s) = integrate("a brick building", 13);
+        assert_eq!((s.background, s.created), (0, 1));
+        assert_eq!(m.objects().len(), 1);
+        let o = m.objects().values().next().unwrap();
+        assert!(o.tile.is_none() && o.points.len() == 2000);
+    }
+
+    /// A 2 m x 2 m x 0.5 m block of points on a 0.1 m grid starting at `x0`.
+    fn block(x0: f32, n: usize) -> Vec<[f32; 3]> {
+        let mut v = Vec::new();
+        for i in 0..n {
+            for j in 0..20 {
+                for k in 0..5 {
+                    v.push([
+                        x0 + (i as f32 + 0.5) * 0.1,
+                        (j as f32 + 0.5) * 0.1,
+                        (k as f32 + 0.5) * 0.1,
+                    ]);
+                }
+            }
+        }
+        v
+    }
+
+    fn object_with(m: &mut Mapper, pts: &[[f32; 3]], caption: &str) -> u64 {
+        let id = m.new_object(None, 0);
+        m.fuse(id, pts, &[1.0, 0.0], caption, 0);
+        id
+    }
+
+    #[test]
+    fn post_processing_splits_an_object_into_its_large_clusters() {
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        // two hedges 3 m apart in one object, and a 60-point speck (under 20 % of them)
+        let mut pts = block(0.0, 20);
+        pts.extend(block(5.0, 20));
+        pts.extend(block(12.0, 1).into_iter().take(60));
+        let id = object_with(&mut m, &pts, "a green hedge");
+        let r = m.post_process();
+        assert_eq!(r.split.len(), 1, "{r:?}");
+        assert_eq!(r.split[0].0, id);
+        let new = r.split[0].1;
+        let (a, b) = (&m.objects()[&id], &m.objects()[&new]);
+        assert_eq!((a.points.len(), b.points.len()), (2000, 2000));
+        assert!(a.bbox.max[0] < 2.5 && b.bbox.min[0] > 4.5);
+        assert_eq!(b.captions, vec!["a green hedge".to_string()]);
+        assert_eq!(r.denoised_points, 60);
+    }
+
+    #[test]
+    fn touching_objects_of_a_class_are_joined_and_apart_ones_stay() {
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        // two parts of one facade 0.6 m apart, and a third 5 m away
+        let a = object_with(&mut m, &block(0.0, 20), "a brick building");
+        let b = object_with(&mut m, &block(2.5, 20), "a red brick house");
+        let c = object_with(&mut m, &block(10.0, 20), "a brick building");
+        let merged = m.join_touching(&[c, b, a], 1.0);
+        assert_eq!(merged, vec![(a, b)]);
+        assert_eq!(m.objects()[&a].points.len(), 4000);
+        assert_eq!(m.objects()[&a].captions.len(), 2);
+        assert!(m.objects().contains_key(&c) && !m.objects().contains_key(&b));
+        // with a smaller radius the gap keeps them apart
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        let a = object_with(&mut m, &block(0.0, 20), "a brick building");
+        let b = object_with(&mut m, &block(2.5, 20), "a brick building");
+        assert!(m.join_touching(&[a, b], 0.5).is_empty());
     }
 
     #[test]

@@ -97,23 +97,26 @@ pub fn dbscan3(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<Optio
 /// Keeps the largest DBSCAN cluster (ties: the first). With no cluster at all, returns
 /// nothing.
 pub fn largest_cluster(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<[f32; 3]> {
+    clusters(points, eps_m, min_samples)
+        .into_iter()
+        .next()
+        .unwrap_or_default()
+}
+
+/// The DBSCAN clusters of `points` ([`dbscan3`]), largest first (ties: the cluster found
+/// first); noise points are left out.
+pub fn clusters(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<Vec<[f32; 3]>> {
     let labels = dbscan3(points, eps_m, min_samples);
-    let mut sizes: Vec<usize> = Vec::new();
-    for c in labels.iter().flatten() {
-        if *c >= sizes.len() {
-            sizes.resize(c + 1, 0);
+    let n = labels.iter().flatten().map(|c| c + 1).max().unwrap_or(0);
+    let mut out: Vec<Vec<[f32; 3]>> = vec![Vec::new(); n];
+    for (p, l) in points.iter().zip(&labels) {
+        if let Some(c) = l {
+            out[*c].push(*p);
         }
-        sizes[*c] += 1;
     }
-    let Some(best) = (0..sizes.len()).max_by_key(|c| (sizes[*c], std::cmp::Reverse(*c))) else {
-        return Vec::new();
-    };
-    points
-        .iter()
-        .zip(&labels)
-        .filter(|(_, l)| **l == Some(best))
-        .map(|(p, _)| *p)
-        .collect()
+    // stable: equal sizes keep the order in which DBSCAN found them
+    out.sort_by_key(|c| std::cmp::Reverse(c.len()));
+    out
 }
 
 /// An axis-aligned box.

@@ -35,11 +35,19 @@ pub struct MappingConfig {
     pub merge_captions: usize,
     /// Post-processing: objects with fewer points are dropped.
     pub min_object_points: usize,
+    /// Post-processing: a point cluster of an object other than its largest becomes an
+    /// object of its own when it holds at least this share of the object's points (and
+    /// `min_object_points`); smaller ones are dropped as noise.
+    pub split_min_share: f64,
+    /// Post-processing: buildings, fences and vegetation whose points come within this
+    /// distance of each other (DBSCAN over the class's pooled points) become one object.
+    pub join_eps_m: f32,
     /// Post-processing: merge when the shared-voxel ratio exceeds this ...
     pub merge_overlap: f64,
     /// ... and the feature cosine exceeds this.
     pub merge_feature_cos: f64,
-    /// Background classes are fused per class within square tiles of this size.
+    /// Surface classes (road, parking, sidewalk, other-ground, terrain) are fused per class
+    /// within square ground tiles of this size.
     pub background_tile_m: f64,
     /// Scans accumulated into each key frame (1 = the key frame alone): the key frame and the
     /// `accumulate - 1` scans before it, moved into the key frame's velodyne frame.
@@ -62,6 +70,8 @@ impl Default for MappingConfig {
             sim_threshold: 0.6,
             merge_captions: 4,
             min_object_points: 50,
+            split_min_share: 0.2,
+            join_eps_m: 1.0,
             merge_overlap: 0.1,
             merge_feature_cos: 0.3,
             background_tile_m: 20.0,
@@ -83,6 +93,9 @@ impl MappingConfig {
         if !pos(f64::from(self.dbscan_eps_m)) {
             return bad("dbscan_eps_m must be positive");
         }
+        if !pos(f64::from(self.join_eps_m)) {
+            return bad("join_eps_m must be positive");
+        }
         if !pos(self.background_tile_m) {
             return bad("background_tile_m must be positive");
         }
@@ -92,6 +105,7 @@ impl MappingConfig {
             ("w_fea", self.w_fea),
             ("sim_threshold", self.sim_threshold),
             ("merge_overlap", self.merge_overlap),
+            ("split_min_share", self.split_min_share),
         ] {
             if !(w.is_finite() && w >= 0.0) {
                 return bad(&format!("{n} must be a non-negative number"));

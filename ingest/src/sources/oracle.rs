@@ -2,9 +2,10 @@
 //! perfect open-vocabulary detector had run. For tests and evaluation without vision models;
 //! everything it produces is marked [`Producer::Oracle`].
 //!
-//! Each labelled instance (vehicles, people) is one detection; each background class (road,
-//! sidewalk, building, vegetation, ...) is one detection per frame; poles, trunks and traffic
-//! signs are split into connected components. Points are splatted into the image with a
+//! Each labelled instance (vehicles, people) is one detection; each surface class (road,
+//! parking, sidewalk, other-ground, terrain) is one detection per frame; buildings, fences,
+//! vegetation, poles, trunks and traffic signs are split into connected components on the
+//! ground plane, one detection each. Points are splatted into the image with a
 //! z-buffer (a small rectangle per point, sized to the HDL-64E's beam spacing) and each
 //! object's pixels become its mask. Captions come from a per-class bank with varied attributes;
 //! the attributes are seeded by the instance, the phrasing by the instance and the frame.
@@ -32,7 +33,8 @@ pub struct OracleConfig {
     pub min_mask_px: u64,
     /// Objects with fewer projected points than this are dropped.
     pub min_points: usize,
-    /// Poles, trunks and signs closer than this (metres, ground plane) are one object.
+    /// Points of a building, fence, vegetation, trunk, pole or sign closer than this (metres,
+    /// ground plane) belong to one object.
     pub component_eps_m: f64,
 }
 
@@ -46,6 +48,12 @@ impl Default for OracleConfig {
             component_eps_m: 0.8,
         }
     }
+}
+
+/// Classes without SemanticKITTI instance ids that are still objects: split into connected
+/// components (buildings, fences, vegetation, trunks, poles, traffic signs).
+fn is_component_class(class: u8) -> bool {
+    !classes::is_thing(class) && !classes::is_surface(class)
 }
 
 /// What the oracle knows about each detection it made (ground truth, for tests).
@@ -100,15 +108,15 @@ pub fn oracle_detections(
         } else {
             0
         };
-        if matches!(class, 16 | 18 | 19) {
+        if is_component_class(class) {
             let q = points[p.point as usize];
             split.push((j, [f64::from(q[0]), f64::from(q[1])]));
         }
         keys.push(Some(Key { class, instance }));
     }
-    // connected components of poles, trunks and signs (per class)
+    // connected components of the non-surface classes without instance ids (per class)
     let mut centroid_of: std::collections::BTreeMap<Key, ([f64; 3], usize)> = Default::default();
-    for class in [16u8, 18, 19] {
+    for class in (1..=19u8).filter(|c| is_component_class(*c)) {
         let (idx, xy): (Vec<usize>, Vec<[f64; 2]>) = split
             .iter()
             .filter(|(j, _)| keys[*j].is_some_and(|k| k.class == class))

@@ -1,0 +1,337 @@
+//! Instance-level evaluation of a map built from the simulator: does one real object become
+//! one instance? Map instances (not surface tiles) are matched one-to-one with the
+//! simulator's ground-truth objects (`ground_truth/objects.json`) by ground-plane footprint
+//! IoU, greedily from the highest IoU, a match needing IoU ≥ [`MATCH_IOU`]. Recall is given
+//! per true class (the simulator's class, e.g. `building` or `bench`), precision per map class
+//! (one of the 19 SemanticKITTI classes).
+//!
+//! An instance's footprint is its axis-aligned box projected on the ground plane (KITTI world
+//! x, z); a true footprint is the simulator's oriented box. Both are widened to at least
+//! [`MIN_SIDE_M`] per side, so that thin objects (a 0.1 m fence, a pole) can match at all.
+//! Polygon overlap is parry2d's convex-polygon intersection.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use graphstore::{GraphRead, Value};
+use parry2d::math::Vector;
+use parry2d::transformation::convex_polygons_intersection_points;
+
+use crate::error::Result;
+use crate::eval_llm::{TruthObject, read_truth};
+
+/// Footprint IoU a match needs.
+pub const MATCH_IOU: f64 = 0.5;
+
+/// Footprint sides shorter than this (metres) are widened to it, about their centre.
+pub const MIN_SIDE_M: f64 = 1.0;
+
+/// A rectangle (corners in order) with each side widened to at least `min_side_m`.
+fn widen(r: &[[f64; 2]; 4], min_side_m: f64) -> [[f64; 2]; 4] {
+    let c = [(r[0][0] + r[2][0]) / 2.0, (r[0][1] + r[2][1]) / 2.0];
+    // half-edge vectors along the two sides
+    let half = |a: [f64; 2], b: [f64; 2]| {
+        let v = [(b[0] - a[0]) / 2.0, (b[1] - a[1]) / 2.0];
+        let n = v[0].hypot(v[1]);
+        if n * 2.0 >= min_side_m {
+            v
+        } else if n > 1e-9 {
+            let k = min_side_m / 2.0 / n;
+            [v[0] * k, v[1] * k]
+        } else {
+            // degenerate side: any direction perpendicular to the other works; pick x
+            [min_side_m / 2.0, 0.0]
+        }
+    };
+    let mut u = half(r[0], r[1]);
+    let mut v = half(r[1], r[2]);
+    // a degenerate side next to a proper one: make it perpendicular to that one
+    if (r[1][0] - r[2][0]).hypot(r[1][1] - r[2][1]) <= 1e-9 {
+        let n = u[0].hypot(u[1]).max(1e-12);
+        v = [-u[1] / n * min_side_m / 2.0, u[0] / n * min_side_m / 2.0];
+    } else if (r[0][0] - r[1][0]).hypot(r[0][1] - r[1][1]) <= 1e-9 {
+        let n = v[0].hypot(v[1]).max(1e-12);
+        u = [v[1] / n * min_side_m / 2.0, -v[0] / n * min_side_m / 2.0];
+    }
+    [
+        [c[0] - u[0] - v[0], c[1] - u[1] - v[1]],
+        [c[0] + u[0] - v[0], c[1] + u[1] - v[1]],
+        [c[0] + u[0] + v[0], c[1] + u[1] + v[1]],
+        [c[0] - u[0] + v[0], c[1] - u[1] + v[1]],
+    ]
+}
+
+/// Counts and shares of one class.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct ClassCounts {
+    /// Objects (true classes) or instances (map classes) of the class.
+    pub total: usize,
+    /// Of those, matched one-to-one.
+    pub matched: usize,
+    /// `matched / total` (recall for true classes, precision for map classes).
+    pub share: f64,
+}
+
+/// The result of [`eval_instances`].
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct InstanceEval {
+    /// Map instances evaluated (surface tiles excluded).
+    pub instances: usize,
+    /// Ground-truth objects.
+    pub objects: usize,
+    /// One-to-one matches with footprint IoU ≥ 0.5.
+    pub matched: usize,
+    /// `matched / instances`.
+    pub precision: f64,
+    /// `matched / objects`.
+    pub recall: f64,
+    /// Recall per true class.
+    pub recall_per_class: BTreeMap<String, ClassCounts>,
+    /// Precision per map class.
+    pub precision_per_class: BTreeMap<String, ClassCounts>,
+    /// Surface tiles in the map (not evaluated).
+    pub surface_tiles: usize,
+}
+
+/// Area of a simple polygon (shoelace), m².
+fn area(poly: &[[f64; 2]]) -> f64 {
+    let n = poly.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum::<f64>()
+        .abs()
+        / 2.0
+}
+
+/// Counter-clockwise copy of a convex polygon (parry's clipping wants one winding).
+fn ccw(poly: &[[f64; 2]]) -> Vec<Vector> {
+    let n = poly.len();
+    let signed: f64 = (0..n)
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum();
+    let mut v: Vec<Vector> = poly
+        .iter()
+        .map(|p| Vector::new(p[0] as f32, p[1] as f32))
+        .collect();
+    if signed < 0.0 {
+        v.reverse();
+    }
+    v
+}
+
+/// IoU of two convex polygons on the ground plane; 0 for degenerate ones.
+pub fn footprint_iou(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
+    let (aa, ab) = (area(a), area(b));
+    if aa <= 0.0 || ab <= 0.0 {
+        return 0.0;
+    }
+    let mut out = Vec::new();
+    convex_polygons_intersection_points(&ccw(a), &ccw(b), &mut out);
+    let inter: Vec<[f64; 2]> = out
+        .iter()
+        .map(|p| [f64::from(p.x), f64::from(p.y)])
+        .collect();
+    let i = if inter.len() >= 3 { area(&inter) } else { 0.0 };
+    (i / (aa + ab - i)).clamp(0.0, 1.0)
+}
+
+/// Footprint (x, z) of an instance's `bbox` property.
+fn instance_footprint(bbox: &Value) -> Option<[[f64; 2]; 4]> {
+    let (min, max) = bbox.as_box3d()?;
+    Some(widen(
+        &[
+            [min[0], min[2]],
+            [max[0], min[2]],
+            [max[0], max[2]],
+            [min[0], max[2]],
+        ],
+        MIN_SIDE_M,
+    ))
+}
+
+/// Greedy one-to-one matching by IoU: pairs `(instance index, truth index)`.
+fn match_greedy(inst: &[[[f64; 2]; 4]], truth: &[TruthObject]) -> Vec<(usize, usize)> {
+    let mut pairs = Vec::new();
+    for (i, f) in inst.iter().enumerate() {
+        let (lo, hi) = bounds(f);
+        for (j, t) in truth.iter().enumerate() {
+            let (tlo, thi) = bounds(&t.footprint);
+            if lo[0] > thi[0] || tlo[0] > hi[0] || lo[1] > thi[1] || tlo[1] > hi[1] {
+                continue;
+            }
+            let iou = footprint_iou(f, &t.footprint);
+            if iou >= MATCH_IOU {
+                pairs.push((iou, i, j));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    let (mut used_i, mut used_j) = (vec![false; inst.len()], vec![false; truth.len()]);
+    let mut out = Vec::new();
+    for (_, i, j) in pairs {
+        if !used_i[i] && !used_j[j] {
+            used_i[i] = true;
+            used_j[j] = true;
+            out.push((i, j));
+        }
+    }
+    out
+}
+
+fn bounds(p: &[[f64; 2]; 4]) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for q in p {
+        for k in 0..2 {
+            lo[k] = lo[k].min(q[k]);
+            hi[k] = hi[k].max(q[k]);
+        }
+    }
+    (lo, hi)
+}
+
+fn share(c: &mut ClassCounts) {
+    c.share = if c.total == 0 {
+        0.0
+    } else {
+        c.matched as f64 / c.total as f64
+    };
+}
+
+/// Scores the map's instances against `SIM_DIR/ground_truth/objects.json`.
+///
+/// # Errors
+/// The truth file is missing or malformed; the store cannot be read.
+pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval> {
+    let mut truth = read_truth(sim_dir)?;
+    for t in &mut truth {
+        t.footprint = widen(&t.footprint, MIN_SIDE_M);
+    }
+    let mut out = InstanceEval {
+        objects: truth.len(),
+        ..InstanceEval::default()
+    };
+    let mut feet = Vec::new();
+    let mut classes = Vec::new();
+    for id in r.nodes_with_label("Instance")? {
+        if !crate::llm::is_object(r, id)? {
+            out.surface_tiles += 1;
+            continue;
+        }
+        let Some(f) = r
+            .node_prop(id, "bbox")?
+            .as_ref()
+            .and_then(instance_footprint)
+        else {
+            continue;
+        };
+        feet.push(f);
+        classes.push(crate::llm::str_prop(r, id, "class")?.unwrap_or_default());
+    }
+    out.instances = feet.len();
+    let matches = match_greedy(&feet, &truth);
+    out.matched = matches.len();
+    for t in &truth {
+        out.recall_per_class
+            .entry(t.class.clone())
+            .or_default()
+            .total += 1;
+    }
+    for c in &classes {
+        out.precision_per_class.entry(c.clone()).or_default().total += 1;
+    }
+    for (i, j) in &matches {
+        out.recall_per_class
+            .get_mut(&truth[*j].class)
+            .expect("counted")
+            .matched += 1;
+        out.precision_per_class
+            .get_mut(&classes[*i])
+            .expect("counted")
+            .matched += 1;
+    }
+    out.recall_per_class.values_mut().for_each(share);
+    out.precision_per_class.values_mut().for_each(share);
+    let ratio = |a: usize, b: usize| if b == 0 { 0.0 } else { a as f64 / b as f64 };
+    out.precision = ratio(out.matched, out.instances);
+    out.recall = ratio(out.matched, out.objects);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rect(x0: f64, z0: f64, x1: f64, z1: f64) -> [[f64; 2]; 4] {
+        [[x0, z0], [x1, z0], [x1, z1], [x0, z1]]
+    }
+
+    #[test]
+    fn iou_of_rectangles() {
+        let a = rect(0.0, 0.0, 2.0, 2.0);
+        assert!((footprint_iou(&a, &a) - 1.0).abs() < 1e-5);
+        // half overlap: 2 / (4 + 4 - 2)
+        let b = rect(1.0, 0.0, 3.0, 2.0);
+        assert!((footprint_iou(&a, &b) - 1.0 / 3.0).abs() < 1e-5);
+        // winding does not matter
+        let mut rev = b;
+        rev.reverse();
+        assert!((footprint_iou(&a, &rev) - 1.0 / 3.0).abs() < 1e-5);
+        assert_eq!(footprint_iou(&a, &rect(5.0, 5.0, 6.0, 6.0)), 0.0);
+        assert_eq!(footprint_iou(&a, &rect(1.0, 1.0, 1.0, 3.0)), 0.0);
+    }
+
+    #[test]
+    fn rotated_square_against_its_bounding_box() {
+        // a unit square turned 45°: area 1 inside its bounding box of area 2
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let diamond = [[0.0, -h], [h, 0.0], [0.0, h], [-h, 0.0]];
+        let bbox = rect(-h, -h, h, h);
+        assert!((footprint_iou(&diamond, &bbox) - 0.5).abs() < 1e-4);
+    }
+
+    #[test]
+    fn thin_footprints_are_widened_about_their_centre() {
+        // a 0.1 m x 4 m fence turned 90° and a point-like pole
+        let fence = widen(&rect(0.0, 0.0, 4.0, 0.1), 1.0);
+        assert!((area(&fence) - 4.0).abs() < 1e-9);
+        let c: [f64; 2] = [
+            fence.iter().map(|p| p[0]).sum::<f64>() / 4.0,
+            fence.iter().map(|p| p[1]).sum::<f64>() / 4.0,
+        ];
+        assert!((c[0] - 2.0).abs() < 1e-9 && (c[1] - 0.05).abs() < 1e-9);
+        let pole = widen(&rect(3.0, 3.0, 3.0, 3.0), 1.0);
+        assert!((area(&pole) - 1.0).abs() < 1e-9);
+        let line = widen(&rect(0.0, 0.0, 2.0, 0.0), 1.0);
+        assert!((area(&line) - 2.0).abs() < 1e-9);
+        // large sides stay
+        let big = rect(0.0, 0.0, 3.0, 2.0);
+        assert_eq!(widen(&big, 1.0), big);
+    }
+
+    #[test]
+    fn matching_is_one_to_one_best_first() {
+        let truth = |c: [f64; 2]| TruthObject {
+            id: 0,
+            centre_xz: c,
+            radius_m: 1.0,
+            class: "bench".into(),
+            noun: String::new(),
+            colour: String::new(),
+            material: String::new(),
+            footprint: rect(c[0] - 1.0, c[1] - 1.0, c[0] + 1.0, c[1] + 1.0),
+            heights: (0.0, 1.0),
+        };
+        let t = vec![truth([0.0, 0.0]), truth([10.0, 0.0])];
+        // two instances on the first object (one exact, one shifted), none on the second
+        let inst = vec![rect(-0.8, -1.0, 1.2, 1.0), rect(-1.0, -1.0, 1.0, 1.0)];
+        let m = match_greedy(&inst, &t);
+        assert_eq!(m, vec![(1, 0)]);
+    }
+}
