@@ -288,8 +288,11 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Open-vocabulary retrieval: rank instances by the cosine between the embedded text
-    /// and their fused feature.
+    /// Open-vocabulary retrieval over the map's hierarchy: the request is parsed into a
+    /// target, anchors with relations and a segment constraint ("the bench near the bus stop
+    /// at the T-junction", "somewhere I can post a letter"), and instances are scored by
+    /// similarity, relation fit to the anchors, RELATED edges and IN_SEGMENT. Ground surfaces
+    /// are answers only when asked for. `--plain` ranks by the cosine of the whole text alone.
     Find {
         /// The store file.
         #[arg(long)]
@@ -308,7 +311,25 @@ enum Command {
         /// Sentence embedder; default: the one the map was built with.
         #[arg(long, value_parser = ["minilm", "hash"])]
         embedder: Option<String>,
-        /// Print a JSON array of {"id", "caption", "class", "score", "centroid"}.
+        /// Rank by the cosine of the whole text with each instance's feature only (no
+        /// parsing, no graph).
+        #[arg(long, conflicts_with_all = ["parser", "rerank"])]
+        plain: bool,
+        /// Who parses the request: the rule parser or the language model.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        /// Re-rank with a language model (OpenGraph-LLM): it picks the best three of the
+        /// first --rerank-n results.
+        #[arg(long, value_parser = ["llm"])]
+        rerank: Option<String>,
+        /// Results shown to the re-ranking model.
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=30))]
+        rerank_n: u64,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print a JSON array of results: {"id", "caption", "class", "score", "centroid",
+        /// "similarity", "segment", "segment_match", "evidence"}; the parsed request goes to
+        /// stderr.
         #[arg(long)]
         json: bool,
     },
@@ -375,6 +396,40 @@ enum EvalCommand {
         /// The simulator's output folder (with ground_truth/objects.json).
         #[arg(long)]
         sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Retrieval R@1/2/3 per query type (named, relational, functional) against the
+    /// simulator's objects: a hit is a returned instance lying on an object that satisfies
+    /// the query's predicate. Queries: JSON Lines (see ingest/data/retrieval_small_city.jsonl).
+    Retrieval {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// The query file.
+        #[arg(long)]
+        queries: PathBuf,
+        /// Plain embedding ranking instead of graph-aware retrieval.
+        #[arg(long, conflicts_with_all = ["parser", "rerank"])]
+        plain: bool,
+        /// Who parses the requests.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        /// Re-rank with a language model (OpenGraph-LLM).
+        #[arg(long, value_parser = ["llm"])]
+        rerank: Option<String>,
+        /// Results shown to the re-ranking model.
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=30))]
+        rerank_n: u64,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print every query's outcome.
+        #[arg(long)]
+        verbose: bool,
         /// Print the report as JSON.
         #[arg(long)]
         json: bool,
@@ -517,6 +572,59 @@ fn parse_near(s: &str) -> Result<([f64; 2], f64), String> {
         [x, y, r] if v.iter().all(|a| a.is_finite()) && r >= 0.0 => Ok(([x, y], r)),
         _ => Err("expected X,Y,R: three finite numbers, R >= 0".into()),
     }
+}
+
+/// The ranking the find flags ask for.
+fn ranking_of(plain: bool, parser: &str, rerank: bool) -> api::find::Ranking {
+    if plain {
+        api::find::Ranking::Plain
+    } else {
+        api::find::Ranking::Graph {
+            parser: if parser == "llm" {
+                api::find::ParserKind::Llm
+            } else {
+                api::find::ParserKind::Rules
+            },
+            rerank,
+        }
+    }
+}
+
+/// A finder with the map's embedder (or the one asked for, if it agrees) and, when the
+/// ranking needs one, the language model.
+fn finder_for(
+    r: &impl graphstore::GraphRead,
+    embedder: Option<String>,
+    ranking: api::find::Ranking,
+    llm: &LlmArgs,
+) -> anyhow::Result<api::find::Finder> {
+    let built = llm_tools::retrieve::map_embedder(r)?;
+    let name = match (embedder, built) {
+        (Some(e), Some(b)) if e != b => {
+            return Err(UsageError(format!(
+                "the map was built with the {b} embedder; query it with the same one (--embedder {b})"
+            ))
+            .into());
+        }
+        (Some(e), _) => e,
+        (None, b) => b.unwrap_or_else(|| "minilm".into()),
+    };
+    let needs_llm = matches!(
+        ranking,
+        api::find::Ranking::Graph {
+            parser: api::find::ParserKind::Llm,
+            ..
+        } | api::find::Ranking::Graph { rerank: true, .. }
+    );
+    let model = if needs_llm {
+        Some(open_llm(
+            &llm.config(llm_tools::LlmConfig::default(), "local"),
+            "--parser llm and --rerank llm",
+        )?)
+    } else {
+        None
+    };
+    Ok(api::find::Finder::new(make_embedder(&name)?, model))
 }
 
 fn make_embedder(name: &str) -> anyhow::Result<Box<dyn llm_tools::Embedder>> {
@@ -1063,27 +1171,37 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             class,
             near,
             embedder,
+            plain,
+            parser,
+            rerank,
+            rerank_n,
+            llm,
             json,
         } => {
             let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
-            let built = llm_tools::retrieve::map_embedder(&r)?;
-            let name = match (embedder, built) {
-                (Some(e), Some(b)) if e != b => {
-                    return Err(UsageError(format!(
-                        "the map was built with the {b} embedder; query it with the same one (--embedder {b})"
-                    ))
-                    .into());
-                }
-                (Some(e), _) => e,
-                (None, b) => b.unwrap_or_else(|| "minilm".into()),
+            let ranking = ranking_of(plain, &parser, rerank.is_some());
+            let mut finder = finder_for(&r, embedder, ranking, &llm)?;
+            let req = api::find::FindRequest {
+                text,
+                k,
+                class,
+                near,
+                ranking,
+                rerank_n: rerank_n as usize,
             };
-            let mut emb = make_embedder(&name)?;
-            let opts = llm_tools::retrieve::FindOptions { k, class, near };
-            let (hits, t) = llm_tools::retrieve::find(&r, emb.as_mut(), &text, &opts)?;
+            let a = finder.find(&r, &req)?;
+            if let Some(p) = &a.request {
+                errln!("request: {}", serde_json::to_string(p)?);
+            }
+            for (what, by) in [("parsed", &a.parsed_by), ("re-ranked", &a.reranked_by)] {
+                if let Some(m) = by {
+                    errln!("{what} by {m}");
+                }
+            }
             if json {
-                outln!("{}", serde_json::to_string_pretty(&hits)?);
+                outln!("{}", serde_json::to_string_pretty(&a.results)?);
             } else {
                 outln!(
                     "{:>8}  {:>6}  {:<16} {:>26}  caption",
@@ -1092,7 +1210,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     "class",
                     "centroid [x, y, z] m"
                 );
-                for h in &hits {
+                for h in &a.results {
                     outln!(
                         "{:>8}  {:>6.3}  {:<16} {:>26}  {}",
                         h.id,
@@ -1104,12 +1222,36 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         ),
                         h.caption
                     );
+                    if let Some((sid, kind)) = &h.segment
+                        && a.request.as_ref().is_some_and(|r| r.segment.is_some())
+                    {
+                        outln!("{:>18}in segment {sid} ({kind})", "");
+                    }
+                    for e in &h.evidence {
+                        outln!(
+                            "{:>18}{} '{}': node {} at {:.1} m ({}){}",
+                            "",
+                            e.relation.replace('_', " "),
+                            e.anchor,
+                            e.anchor_id,
+                            e.distance_m,
+                            e.anchor_caption,
+                            e.related
+                                .as_ref()
+                                .map_or(String::new(), |x| format!(", RELATED {x}"))
+                        );
+                    }
                 }
                 errln!(
-                    "{} results; embedding {:.1} ms, ranking {:.1} ms ({name} embedder)",
-                    hits.len(),
-                    t.embed_ms,
-                    t.rank_ms
+                    "{} results; parse {:.1} ms, rank {:.1} ms{}",
+                    a.results.len(),
+                    a.timings_ms[0],
+                    a.timings_ms[1],
+                    if a.reranked_by.is_some() {
+                        format!(", re-rank {:.0} ms", a.timings_ms[2])
+                    } else {
+                        String::new()
+                    }
                 );
             }
         }
@@ -1303,6 +1445,113 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         a.pairs,
                         per.join(", ")
                     );
+                }
+            }
+        }
+        Command::Eval {
+            what:
+                EvalCommand::Retrieval {
+                    db,
+                    sim,
+                    queries,
+                    plain,
+                    parser,
+                    rerank,
+                    rerank_n,
+                    llm,
+                    verbose,
+                    json,
+                },
+        } => {
+            let qs = ingest::eval_retrieval::read_queries(&queries)?;
+            let store = graphstore::Store::open_read_only(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = store.read()?;
+            let ranking = ranking_of(plain, &parser, rerank.is_some());
+            let mut finder = finder_for(&r, None, ranking, &llm)?;
+            let mut latencies = Vec::new();
+            let report = ingest::eval_retrieval::eval_retrieval(&sim, &qs, |text| {
+                let t = std::time::Instant::now();
+                let a = finder
+                    .find(
+                        &r,
+                        &api::find::FindRequest {
+                            text: text.to_string(),
+                            k: 3,
+                            class: None,
+                            near: None,
+                            ranking,
+                            rerank_n: rerank_n as usize,
+                        },
+                    )
+                    .map_err(|e| ingest::Error::Invalid(format!("{text:?}: {e}")))?;
+                latencies.push(t.elapsed().as_secs_f64() * 1e3);
+                Ok(a.results
+                    .into_iter()
+                    .map(|g| (g.id, g.caption, g.centroid))
+                    .collect())
+            })?;
+            latencies.sort_by(f64::total_cmp);
+            let p50 = latencies.get(latencies.len() / 2).copied().unwrap_or(0.0);
+            if json {
+                let mut v = serde_json::to_value(&report)?;
+                v["p50_ms"] = serde_json::json!(p50);
+                outln!("{}", serde_json::to_string_pretty(&v)?);
+            } else {
+                let how = match ranking {
+                    api::find::Ranking::Plain => "plain embedding ranking".to_string(),
+                    api::find::Ranking::Graph { parser, rerank } => format!(
+                        "graph-aware, {} parser{}",
+                        if parser == api::find::ParserKind::Llm {
+                            "LLM"
+                        } else {
+                            "rule"
+                        },
+                        if rerank { ", LLM re-ranking" } else { "" }
+                    ),
+                };
+                outln!(
+                    "retrieval on {} ({how}), p50 {p50:.1} ms per query",
+                    queries.display()
+                );
+                outln!(
+                    "{:<12} {:>7} {:>6} {:>6} {:>6}",
+                    "type",
+                    "queries",
+                    "R@1",
+                    "R@2",
+                    "R@3"
+                );
+                for t in ingest::eval_retrieval::QUERY_TYPES {
+                    if let Some(s) = report.per_type.get(t) {
+                        outln!(
+                            "{t:<12} {:>7} {:>6.3} {:>6.3} {:>6.3}",
+                            s.queries,
+                            s.r_at_1,
+                            s.r_at_2,
+                            s.r_at_3
+                        );
+                    }
+                }
+                for u in &report.unanswerable {
+                    outln!("not scored (no true object satisfies it): {u}");
+                }
+                if verbose {
+                    for q in &report.queries {
+                        outln!(
+                            "{} [{}] {:?}",
+                            q.first_hit
+                                .map_or("MISS".to_string(), |h| format!("hit@{h}")),
+                            q.kind,
+                            q.text
+                        );
+                        for (id, cap, under) in &q.returned {
+                            outln!(
+                                "      {id:>6} {:<18} {cap}",
+                                under.as_deref().unwrap_or("(nothing)")
+                            );
+                        }
+                    }
                 }
             }
         }

@@ -3,9 +3,12 @@
 pub mod chat;
 pub mod embed;
 mod error;
+pub mod graph_find;
 pub mod hash_embed;
 pub mod prompts;
+pub mod request;
 pub mod retrieve;
+pub mod vocab;
 pub mod wordpiece;
 
 pub use chat::{

@@ -41,6 +41,21 @@ pub const RELATION: Prompt = Prompt {
     text: include_str!("../prompts/relation.v3.txt"),
 };
 
+/// Parses a request about the map into the structured form of `request::Request`.
+pub const PARSE_REQUEST: Prompt = Prompt {
+    task: "parse_request",
+    version: 1,
+    text: include_str!("../prompts/parse_request.v1.txt"),
+};
+
+/// Picks the best candidates for a request from their captions and evidence (OpenGraph-LLM
+/// re-ranking).
+pub const RERANK: Prompt = Prompt {
+    task: "rerank",
+    version: 1,
+    text: include_str!("../prompts/rerank.v1.txt"),
+};
+
 /// The JSON Schema of a merged caption.
 pub fn merge_captions_schema() -> serde_json::Value {
     serde_json::json!({"type": "object",

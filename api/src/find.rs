@@ -1,0 +1,203 @@
+//! The `find` operation, transport-free: plain embedding ranking, or graph-aware retrieval
+//! over a parsed request (rule or LLM parser), optionally re-ranked by a language model
+//! (OpenGraph-LLM). The CLI's `find` and `eval retrieval` call it; the server will too.
+
+use std::time::Instant;
+
+use graphstore::GraphRead;
+use llm_tools::graph_find::{self, GraphFindOptions, GraphFound, Scene};
+use llm_tools::request::{self, Request};
+use llm_tools::retrieve::{self, FindOptions};
+use llm_tools::{ChatModel, Embedder, Result};
+
+/// How a request becomes a structured request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParserKind {
+    /// The deterministic rule parser.
+    Rules,
+    /// The language model under the request schema.
+    Llm,
+}
+
+/// How results are ranked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ranking {
+    /// Cosine of the whole text with each instance's feature (no parsing, no graph).
+    Plain,
+    /// Graph-aware: target and anchors, relations, segments.
+    Graph {
+        /// Which parser.
+        parser: ParserKind,
+        /// Let the language model pick the best three of the first `rerank_n`.
+        rerank: bool,
+    },
+}
+
+/// A find request.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FindRequest {
+    /// The text.
+    pub text: String,
+    /// How many results.
+    pub k: usize,
+    /// Only this class.
+    pub class: Option<String>,
+    /// Only within `radius_m` of a ground point.
+    pub near: Option<([f64; 2], f64)>,
+    /// How to rank.
+    pub ranking: Ranking,
+    /// Candidates shown to the re-ranking model.
+    pub rerank_n: usize,
+}
+
+/// A find answer.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FindAnswer {
+    /// The structured request (graph-aware ranking only).
+    pub request: Option<Request>,
+    /// The model that parsed it (`--parser llm`) with the prompt id.
+    pub parsed_by: Option<String>,
+    /// The model that re-ranked (`--rerank llm`) with the prompt id.
+    pub reranked_by: Option<String>,
+    /// Results, best first.
+    pub results: Vec<GraphFound>,
+    /// Milliseconds: parse, rank (embedding included), re-rank.
+    pub timings_ms: [f64; 3],
+}
+
+/// Holds what many find requests share: the embedder, the loaded scene, a language model.
+pub struct Finder {
+    embedder: Box<dyn Embedder>,
+    llm: Option<Box<dyn ChatModel>>,
+    scene: Option<Scene>,
+}
+
+impl std::fmt::Debug for Finder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Finder")
+            .field("embedder", &self.embedder.name())
+            .field("llm", &self.llm.as_ref().map(|m| m.model_id()))
+            .field("scene_loaded", &self.scene.is_some())
+            .finish()
+    }
+}
+
+impl Finder {
+    /// A finder with this embedder and, for the LLM parser or re-ranking, a model.
+    pub fn new(embedder: Box<dyn Embedder>, llm: Option<Box<dyn ChatModel>>) -> Finder {
+        Finder {
+            embedder,
+            llm,
+            scene: None,
+        }
+    }
+
+    fn llm(&mut self) -> Result<&mut Box<dyn ChatModel>> {
+        self.llm.as_mut().ok_or_else(|| {
+            llm_tools::Error::Invalid(
+                "this needs a language model: pass --llm local (or openai with --llm-url)".into(),
+            )
+        })
+    }
+
+    /// Answers one request over the map `r` (the scene is loaded on first use).
+    ///
+    /// # Errors
+    /// Empty text, a map built with another embedder, a store without a ground frame
+    /// (graph-aware ranking), or a language model that fails.
+    pub fn find(&mut self, r: &impl GraphRead, req: &FindRequest) -> Result<FindAnswer> {
+        if req.text.trim().is_empty() {
+            return Err(llm_tools::Error::Invalid("the query text is empty".into()));
+        }
+        if let Some(built) = retrieve::map_embedder(r)?
+            && built != self.embedder.name()
+        {
+            return Err(llm_tools::Error::Invalid(format!(
+                "the map was built with the {built} embedder; query it with the same one (--embedder {built})"
+            )));
+        }
+        let (parser, rerank) = match req.ranking {
+            Ranking::Plain => {
+                let opts = FindOptions {
+                    k: req.k,
+                    class: req.class.clone(),
+                    near: req.near,
+                };
+                let (hits, t) = retrieve::find(r, self.embedder.as_mut(), &req.text, &opts)?;
+                let results = hits
+                    .into_iter()
+                    .map(|h| GraphFound {
+                        id: h.id,
+                        caption: h.caption,
+                        class: h.class,
+                        score: h.score,
+                        similarity: h.score,
+                        centroid: h.centroid,
+                        segment: None,
+                        segment_match: None,
+                        evidence: Vec::new(),
+                    })
+                    .collect();
+                return Ok(FindAnswer {
+                    request: None,
+                    parsed_by: None,
+                    reranked_by: None,
+                    results,
+                    timings_ms: [0.0, t.embed_ms + t.rank_ms, 0.0],
+                });
+            }
+            Ranking::Graph { parser, rerank } => (parser, rerank),
+        };
+        let t0 = Instant::now();
+        let (parsed, parsed_by) = match parser {
+            ParserKind::Rules => (request::parse_rules(&req.text)?, None),
+            ParserKind::Llm => {
+                let m = self.llm()?;
+                let p = request::parse_llm(m.as_mut(), &req.text)?;
+                (
+                    p,
+                    Some(format!(
+                        "{} ({})",
+                        m.model_id(),
+                        llm_tools::prompts::PARSE_REQUEST.id()
+                    )),
+                )
+            }
+        };
+        let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let t1 = Instant::now();
+        if self.scene.is_none() {
+            self.scene = Some(Scene::load(r)?);
+        }
+        let scene = self.scene.as_ref().expect("loaded");
+        let opts = GraphFindOptions {
+            k: if rerank {
+                req.k.max(req.rerank_n)
+            } else {
+                req.k
+            },
+            class: req.class.clone(),
+            near: req.near,
+            ..GraphFindOptions::default()
+        };
+        let mut results = graph_find::find_graph(r, scene, self.embedder.as_mut(), &parsed, &opts)?;
+        let rank_ms = t1.elapsed().as_secs_f64() * 1e3;
+        let t2 = Instant::now();
+        let mut reranked_by = None;
+        if rerank {
+            let n = req.rerank_n;
+            let m = self.llm()?;
+            let (r2, model) = graph_find::rerank_llm(m.as_mut(), &req.text, results, n)?;
+            results = r2;
+            reranked_by = Some(format!("{model} ({})", llm_tools::prompts::RERANK.id()));
+        }
+        results.truncate(req.k);
+        Ok(FindAnswer {
+            request: Some(parsed),
+            parsed_by,
+            reranked_by,
+            results,
+            timings_ms: [parse_ms, rank_ms, t2.elapsed().as_secs_f64() * 1e3],
+        })
+    }
+}

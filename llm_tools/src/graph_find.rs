@@ -1,0 +1,659 @@
+//! Graph-aware retrieval: a parsed [`Request`] is answered over the map's instance layer.
+//! Candidates for the target and for each anchor come from embedding similarity; each
+//! target candidate is then scored with its anchors by relation fit (footprint gaps and
+//! heights on the ground plane, `RELATED` edges) and its road segment (`IN_SEGMENT`):
+//!
+//! `score = g_t · attr(t) · (1 + mean_a max_b g_a(b) · fit_a(t, b)) · seg(t) + 0.1 · cos_t / cos_best`
+//!
+//! where `g_t` gates the target cosine against the best candidate's (1 within 0.25 of it, then
+//! falling linearly to 0 over 0.2, so paraphrases of the same thing count alike), `attr(t)` is
+//! 1 + 0.3 × the share of the request's attribute words that the caption says, `g_a(b)` the
+//! same gate for anchor `a` and candidate `b` (plateau 0.2, fall-off 0.15), `fit_a` in [0, 1] how well the pair matches the asked relation (and distance;
+//! a `RELATED` edge between them counts at least 0.8), and `seg(t)` 1 when the target's
+//! segment satisfies the asked segment constraint, else 0.5. Ground surfaces (road, sidewalk, parking, terrain,
+//! other-ground) are never answers unless the target names a surface. Every result carries
+//! its evidence. [`rerank_llm`] lets a language model pick the best three of the top N
+//! (OpenGraph-LLM).
+
+use std::collections::{BTreeMap, HashMap};
+
+use graphstore::{Direction, GraphRead, Value};
+use planner::Ground;
+
+use crate::chat::{ChatModel, ChatRequest, Message};
+use crate::embed::{Embedder, cosine};
+use crate::error::{Error, Result};
+use crate::request::{Relation, Request};
+use crate::vocab::names_surface;
+
+/// The surface classes: never answers unless asked for.
+pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
+
+/// One instance as retrieval sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneObject {
+    /// Node id.
+    pub id: u64,
+    /// Class name.
+    pub class: String,
+    /// Caption.
+    pub caption: String,
+    /// Centroid, world frame, metres.
+    pub centroid: [f64; 3],
+    /// Ground-plane bounds (min, max) of the box, metres.
+    pub ground_min: [f64; 2],
+    /// See `ground_min`.
+    pub ground_max: [f64; 2],
+    /// Height range (bottom, top) along the frame's up axis, metres.
+    pub heights: (f64, f64),
+    /// Fused feature.
+    pub feature: Vec<f32>,
+    /// A ground-surface tile or class.
+    pub surface: bool,
+    /// Its segment (node id, kind), from `IN_SEGMENT`.
+    pub segment: Option<(u64, String)>,
+}
+
+/// The instance layer of a map, loaded once for many requests.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The ground frame.
+    pub ground: Ground,
+    /// Instances, ascending id.
+    pub objects: Vec<SceneObject>,
+}
+
+fn height_of(ground: Ground, p: [f64; 3]) -> f64 {
+    match ground {
+        // KITTI cam world: y points down
+        Ground::XZ => -p[1],
+        Ground::XY => p[2],
+    }
+}
+
+impl Scene {
+    /// Reads every `Instance` with its box, feature and segment.
+    ///
+    /// # Errors
+    /// The store fails, or it has no ground frame (`planner::Error::NoGroundFrame`).
+    pub fn load(r: &impl GraphRead) -> Result<Scene> {
+        let ground = planner::graph::ground_of_store(r)?;
+        let in_segment = r.rel_type("IN_SEGMENT");
+        let mut seg_kind: BTreeMap<u64, String> = BTreeMap::new();
+        for s in r.nodes_with_label("Segment")? {
+            if let Some(Value::String(k)) = r.node_prop(s, "kind")? {
+                seg_kind.insert(s, k);
+            }
+        }
+        let mut objects = Vec::new();
+        for id in r.nodes_with_label("Instance")? {
+            let Some(node) = r.node(id)? else { continue };
+            let get = |k: &str| r.prop_key(k).and_then(|k| node.get(k));
+            let Some(Value::Vector(feature)) = get("feature") else {
+                continue;
+            };
+            let Some(centroid) = get("centroid").and_then(Value::as_point3) else {
+                continue;
+            };
+            let (lo, hi) = get("bbox")
+                .and_then(Value::as_box3d)
+                .unwrap_or((centroid, centroid));
+            let (g0, g1) = (ground.of(lo), ground.of(hi));
+            let (h0, h1) = (height_of(ground, lo), height_of(ground, hi));
+            let class = get("class")
+                .and_then(Value::as_str)
+                .unwrap_or_default()
+                .to_string();
+            let segment = match in_segment {
+                Some(t) => r
+                    .neighbours(id, Direction::Outgoing, Some(t))?
+                    .first()
+                    .and_then(|a| seg_kind.get(&a.other).map(|k| (a.other, k.clone()))),
+                None => None,
+            };
+            objects.push(SceneObject {
+                id,
+                surface: SURFACE_CLASSES.contains(&class.as_str()) || get("tile").is_some(),
+                class,
+                caption: get("caption")
+                    .and_then(Value::as_str)
+                    .unwrap_or_default()
+                    .to_string(),
+                centroid,
+                ground_min: [g0[0].min(g1[0]), g0[1].min(g1[1])],
+                ground_max: [g0[0].max(g1[0]), g0[1].max(g1[1])],
+                heights: (h0.min(h1), h0.max(h1)),
+                feature: feature.clone(),
+                segment,
+            });
+        }
+        Ok(Scene { ground, objects })
+    }
+
+    /// Ground-plane gap between two boxes (0 when their footprints overlap), metres.
+    pub fn gap_m(a: &SceneObject, b: &SceneObject) -> f64 {
+        let dx = (a.ground_min[0] - b.ground_max[0])
+            .max(b.ground_min[0] - a.ground_max[0])
+            .max(0.0);
+        let dz = (a.ground_min[1] - b.ground_max[1])
+            .max(b.ground_min[1] - a.ground_max[1])
+            .max(0.0);
+        dx.hypot(dz)
+    }
+}
+
+/// How well a pair (target `t`, anchor `b`) fits a relation, in [0, 1]. Distances are
+/// footprint gaps; "in front of", "behind", "left of" and "right of" count as near (the
+/// map has no viewpoint); "opposite" and "across the road from" want 4–25 m.
+pub fn relation_fit(
+    rel: Relation,
+    distance_m: Option<f64>,
+    t: &SceneObject,
+    b: &SceneObject,
+) -> f64 {
+    let d = Scene::gap_m(t, b);
+    let within = |limit: f64, fall: f64| {
+        if d <= limit {
+            1.0
+        } else {
+            (-(d - limit) / fall).exp()
+        }
+    };
+    if let Some(dist) = distance_m {
+        return within(dist, 2.0);
+    }
+    match rel {
+        Relation::Near
+        | Relation::InFrontOf
+        | Relation::Behind
+        | Relation::LeftOf
+        | Relation::RightOf => within(5.0, 3.0),
+        Relation::NextTo => within(1.5, 1.5),
+        Relation::On | Relation::Under => {
+            let (above, below) = if rel == Relation::On { (t, b) } else { (b, t) };
+            if d > 0.0 {
+                0.5 * (-d).exp()
+            } else if above.heights.0 >= below.heights.1 - 0.3
+                || above.heights.1 > below.heights.1 + 0.2
+            {
+                1.0
+            } else {
+                0.5
+            }
+        }
+        Relation::Inside => {
+            let c = [
+                (t.ground_min[0] + t.ground_max[0]) / 2.0,
+                (t.ground_min[1] + t.ground_max[1]) / 2.0,
+            ];
+            let inside = (b.ground_min[0]..=b.ground_max[0]).contains(&c[0])
+                && (b.ground_min[1]..=b.ground_max[1]).contains(&c[1]);
+            if inside { 1.0 } else { 0.5 * (-d).exp() }
+        }
+        Relation::Opposite | Relation::AcrossTheRoadFrom => {
+            if d < 4.0 {
+                0.4
+            } else if d <= 25.0 {
+                1.0
+            } else {
+                (-(d - 25.0) / 5.0).exp()
+            }
+        }
+    }
+}
+
+/// Sizes and weights of a graph-aware query.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GraphFindOptions {
+    /// How many results.
+    pub k: usize,
+    /// Target candidates taken by similarity before the graph scoring.
+    pub target_candidates: usize,
+    /// Candidates per anchor.
+    pub anchor_candidates: usize,
+    /// Factor for a target outside the asked segment kind.
+    pub segment_miss: f64,
+    /// Target cosines within this much of the best candidate's count fully ...
+    pub target_plateau: f64,
+    /// ... and fade to nothing over this much more.
+    pub target_falloff: f64,
+    /// Anchor cosines within this much of the best anchor candidate's count fully ...
+    pub anchor_plateau: f64,
+    /// ... and fade to nothing over this much more.
+    pub anchor_falloff: f64,
+    /// Weight of the raw target cosine (over the best), which orders otherwise tied results.
+    pub cosine_weight: f64,
+    /// Bonus factor when the caption says every attribute of the request.
+    pub attribute_weight: f64,
+    /// Only targets of this class.
+    pub class: Option<String>,
+    /// Only targets whose centroid is within `radius_m` of this ground point.
+    pub near: Option<([f64; 2], f64)>,
+}
+
+impl Default for GraphFindOptions {
+    fn default() -> Self {
+        GraphFindOptions {
+            k: 10,
+            target_candidates: 100,
+            anchor_candidates: 300,
+            segment_miss: 0.5,
+            target_plateau: 0.2,
+            target_falloff: 0.2,
+            anchor_plateau: 0.2,
+            anchor_falloff: 0.15,
+            cosine_weight: 0.1,
+            attribute_weight: 0.3,
+            class: None,
+            near: None,
+        }
+    }
+}
+
+/// Why an anchor supports a result.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Evidence {
+    /// The anchor phrase of the request.
+    pub anchor: String,
+    /// The asked relation.
+    pub relation: String,
+    /// The instance that plays the anchor (node id).
+    pub anchor_id: u64,
+    /// Its caption.
+    pub anchor_caption: String,
+    /// Footprint gap between the two, metres.
+    pub distance_m: f64,
+    /// The anchor gate of this candidate.
+    pub similarity: f64,
+    /// Relation fit in [0, 1].
+    pub fit: f64,
+    /// A `RELATED` edge between them (`relation (source)`), when the map has one.
+    pub related: Option<String>,
+}
+
+/// One graph-aware result.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct GraphFound {
+    /// Node id.
+    pub id: u64,
+    /// Caption.
+    pub caption: String,
+    /// Class.
+    pub class: String,
+    /// The combined score (see the module docs).
+    pub score: f64,
+    /// The target gate (times the attribute factor).
+    pub similarity: f64,
+    /// Centroid, world frame.
+    pub centroid: [f64; 3],
+    /// Its segment: node id and kind.
+    pub segment: Option<(u64, String)>,
+    /// Whether its segment satisfies the asked constraint (None when none was asked).
+    pub segment_match: Option<bool>,
+    /// One entry per anchor, the best-supporting instance.
+    pub evidence: Vec<Evidence>,
+}
+
+/// Cosines of every object with the best of `phrases`, and the best cosine over `allowed`.
+fn similarities(
+    scene: &Scene,
+    embedder: &mut dyn Embedder,
+    phrases: &[&str],
+    allowed: impl Fn(&SceneObject) -> bool,
+) -> Result<Vec<Option<f64>>> {
+    let qs = embedder.embed(phrases)?;
+    let mut out = Vec::with_capacity(scene.objects.len());
+    for o in &scene.objects {
+        if !allowed(o) {
+            out.push(None);
+            continue;
+        }
+        let mut best = f64::NEG_INFINITY;
+        for q in &qs {
+            if q.len() != o.feature.len() {
+                return Err(Error::Invalid(format!(
+                    "instance {} has a {}-dimensional feature, the embedder gives {}",
+                    o.id,
+                    o.feature.len(),
+                    q.len()
+                )));
+            }
+            best = best.max(cosine(q, &o.feature));
+        }
+        out.push(Some(best));
+    }
+    Ok(out)
+}
+
+/// Indices of the `n` best, best first (ties by index), and the best value.
+fn top(sims: &[Option<f64>], n: usize) -> (Vec<usize>, f64) {
+    let mut idx: Vec<usize> = (0..sims.len()).filter(|i| sims[*i].is_some()).collect();
+    idx.sort_by(|a, b| {
+        sims[*b]
+            .unwrap_or(f64::NEG_INFINITY)
+            .total_cmp(&sims[*a].unwrap_or(f64::NEG_INFINITY))
+            .then(a.cmp(b))
+    });
+    idx.truncate(n);
+    let best = idx.first().and_then(|i| sims[*i]).unwrap_or(1.0);
+    (idx, best)
+}
+
+/// Whether a cosine counts as a match, relative to the best candidate's: 1 within
+/// `plateau` of the best (paraphrases of the same thing score alike), falling linearly to 0
+/// over the next `falloff`, so that weak matches add nothing.
+fn gate(s: f64, best: f64, plateau: f64, falloff: f64) -> f64 {
+    ((s - (best - plateau - falloff)) / falloff).clamp(0.0, 1.0)
+}
+
+/// Whether `caption` has `word` as a whole word (case-insensitive).
+fn has_word(caption: &str, word: &str) -> bool {
+    let c = caption.to_lowercase();
+    c.split(|ch: char| !ch.is_alphanumeric() && ch != '-')
+        .any(|w| w == word || w.split('-').any(|p| p == word))
+}
+
+/// Answers `req` over `scene` (see the module docs). `r` is read for `RELATED` edges.
+///
+/// # Errors
+/// The request names no target, the embedder fails or disagrees with the map's features.
+pub fn find_graph(
+    r: &impl GraphRead,
+    scene: &Scene,
+    embedder: &mut dyn Embedder,
+    req: &Request,
+    opts: &GraphFindOptions,
+) -> Result<Vec<GraphFound>> {
+    let target_phrases: Vec<&str> = if req.objects.is_empty() {
+        vec![req.target.as_str()]
+    } else {
+        req.objects.iter().map(String::as_str).collect()
+    };
+    if target_phrases.iter().all(|p| p.trim().is_empty()) {
+        return Err(Error::Invalid("the request names no target".into()));
+    }
+    // a surface is an answer only when what is looked for names one
+    let wants_surface = target_phrases.iter().all(|p| names_surface(&[], p));
+    let ground = scene.ground;
+    let t_sims = similarities(scene, embedder, &target_phrases, |o| {
+        o.surface == wants_surface
+            && opts.class.as_ref().is_none_or(|c| *c == o.class)
+            && opts.near.is_none_or(|(g, radius_m)| {
+                let p = ground.of(o.centroid);
+                (p[0] - g[0]).hypot(p[1] - g[1]) <= radius_m
+            })
+    })?;
+    let (targets, t_best) = top(&t_sims, opts.target_candidates.max(opts.k));
+    // anchors: candidates and similarities
+    let mut anchors: Vec<(Vec<usize>, Vec<Option<f64>>, f64)> = Vec::new();
+    for a in &req.anchors {
+        let surface = names_surface(&[], &a.phrase);
+        let sims = similarities(scene, embedder, &[a.phrase.as_str()], |o| {
+            o.surface == surface
+        })?;
+        let (idx, best) = top(&sims, opts.anchor_candidates);
+        anchors.push((idx, sims, best));
+    }
+    let related = r.rel_type("RELATED");
+    let k_relation = r.prop_key("relation");
+    let k_source = r.prop_key("source");
+    let mut out = Vec::with_capacity(targets.len());
+    for &ti in &targets {
+        let t = &scene.objects[ti];
+        // attributes said of the target ("a green bin") that the caption also says
+        let said = req
+            .attributes
+            .iter()
+            .filter(|a| has_word(&t.caption, a))
+            .count();
+        let attr = if req.attributes.is_empty() {
+            1.0
+        } else {
+            1.0 + opts.attribute_weight * said as f64 / req.attributes.len() as f64
+        };
+        let cos_t = t_sims[ti].unwrap_or(0.0);
+        let s_t = gate(cos_t, t_best, opts.target_plateau, opts.target_falloff) * attr;
+        // RELATED edges of this target, by the other end
+        let mut edges: HashMap<u64, String> = HashMap::new();
+        if !req.anchors.is_empty()
+            && let Some(ty) = related
+        {
+            for adj in r.neighbours(t.id, Direction::Both, Some(ty))? {
+                if let Some(rel) = r.rel(adj.rel)? {
+                    let get = |k: Option<graphstore::PropKey>| {
+                        k.and_then(|k| rel.props.iter().find(|(n, _)| *n == k))
+                            .and_then(|(_, v)| v.as_str())
+                            .unwrap_or_default()
+                            .to_string()
+                    };
+                    edges
+                        .entry(adj.other)
+                        .or_insert_with(|| format!("{} ({})", get(k_relation), get(k_source)));
+                }
+            }
+        }
+        let mut evidence = Vec::new();
+        let mut support = 0.0;
+        for (a, (idx, sims, best)) in req.anchors.iter().zip(&anchors) {
+            let mut pick: Option<(f64, usize, f64, f64)> = None;
+            for &bi in idx {
+                if bi == ti {
+                    continue;
+                }
+                let b = &scene.objects[bi];
+                let s_b = gate(
+                    sims[bi].unwrap_or(0.0),
+                    *best,
+                    opts.anchor_plateau,
+                    opts.anchor_falloff,
+                );
+                let mut fit = relation_fit(a.relation, a.distance_m, t, b);
+                if edges.contains_key(&b.id) {
+                    // the map already relates them: at least "near"
+                    fit = fit.max(0.8);
+                }
+                let v = s_b * fit;
+                if pick.is_none_or(|p| v > p.0) {
+                    pick = Some((v, bi, s_b, fit));
+                }
+            }
+            if let Some((v, bi, s_b, fit)) = pick {
+                support += v;
+                let b = &scene.objects[bi];
+                evidence.push(Evidence {
+                    anchor: a.phrase.clone(),
+                    relation: a.relation.as_str().into(),
+                    anchor_id: b.id,
+                    anchor_caption: b.caption.clone(),
+                    distance_m: (Scene::gap_m(t, b) * 100.0).round() / 100.0,
+                    similarity: s_b,
+                    fit,
+                    related: edges.get(&b.id).cloned(),
+                });
+            }
+        }
+        let mean_support = if req.anchors.is_empty() {
+            0.0
+        } else {
+            support / req.anchors.len() as f64
+        };
+        let segment_match = req
+            .segment
+            .map(|c| t.segment.as_ref().is_some_and(|(_, kind)| c.admits(kind)));
+        let seg = if segment_match == Some(false) {
+            opts.segment_miss
+        } else {
+            1.0
+        };
+        out.push(GraphFound {
+            id: t.id,
+            caption: t.caption.clone(),
+            class: t.class.clone(),
+            // the raw cosine orders results the gate and support leave tied
+            score: s_t * (1.0 + mean_support) * seg + opts.cosine_weight * cos_t / t_best.max(1e-9),
+            similarity: s_t,
+            centroid: t.centroid,
+            segment: t.segment.clone(),
+            segment_match,
+            evidence,
+        });
+    }
+    out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.id.cmp(&b.id)));
+    out.truncate(opts.k);
+    Ok(out)
+}
+
+/// The JSON Schema of a re-ranking answer: up to three candidate numbers, best first.
+pub fn rerank_schema(n: usize) -> serde_json::Value {
+    serde_json::json!({"type": "object",
+        "properties": {"best": {"type": "array", "maxItems": 3, "minItems": 1,
+            "items": {"type": "integer", "minimum": 1, "maximum": n.max(1)}}},
+        "required": ["best"], "additionalProperties": false})
+}
+
+/// OpenGraph-LLM re-ranking: the model sees the request and the first `n` results
+/// (captions, classes, segments, evidence) and picks the best three; they move to the front
+/// in its order, the rest keep theirs. Returns the new order and the model id.
+///
+/// # Errors
+/// The model fails or answers numbers outside the list.
+pub fn rerank_llm(
+    model: &mut dyn ChatModel,
+    request_text: &str,
+    results: Vec<GraphFound>,
+    n: usize,
+) -> Result<(Vec<GraphFound>, String)> {
+    let n = n.min(results.len());
+    if n < 2 {
+        return Ok((results, model.model_id()));
+    }
+    let mut listing = String::new();
+    for (i, g) in results.iter().take(n).enumerate() {
+        let seg = g
+            .segment
+            .as_ref()
+            .map_or("no segment".to_string(), |(_, k)| k.replace('_', " "));
+        let ev: Vec<String> = g
+            .evidence
+            .iter()
+            .map(|e| {
+                format!(
+                    "{} '{}' found {:.1} m away: {}",
+                    e.relation.replace('_', " "),
+                    e.anchor,
+                    e.distance_m,
+                    e.anchor_caption
+                )
+            })
+            .collect();
+        listing.push_str(&format!(
+            "{}. {} (class {}, {}){}\n",
+            i + 1,
+            g.caption,
+            g.class,
+            seg,
+            if ev.is_empty() {
+                String::new()
+            } else {
+                format!("; {}", ev.join("; "))
+            }
+        ));
+    }
+    let req = ChatRequest::new(vec![
+        Message::system(crate::prompts::RERANK.text),
+        Message::user(format!("Request: {request_text}\nCandidates:\n{listing}")),
+    ])
+    .with_schema(rerank_schema(n))
+    .with_max_tokens(40);
+    let answer = model.chat(&req)?;
+    let v = answer
+        .json
+        .ok_or_else(|| Error::LlmAnswer("no structured answer".into()))?;
+    let picks: Vec<usize> = v["best"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(serde_json::Value::as_u64)
+                .map(|x| x as usize)
+                .collect()
+        })
+        .unwrap_or_default();
+    if picks.is_empty() || picks.iter().any(|p| *p == 0 || *p > n) {
+        return Err(Error::LlmAnswer(format!(
+            "re-ranking picked {picks:?}, not numbers in 1..={n}"
+        )));
+    }
+    let mut order: Vec<usize> = Vec::new();
+    for p in picks {
+        if !order.contains(&(p - 1)) {
+            order.push(p - 1);
+        }
+    }
+    for i in 0..results.len() {
+        if !order.contains(&i) {
+            order.push(i);
+        }
+    }
+    let mut slots: Vec<Option<GraphFound>> = results.into_iter().map(Some).collect();
+    let out = order.into_iter().filter_map(|i| slots[i].take()).collect();
+    Ok((out, answer.model))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn obj(id: u64, lo: [f64; 2], hi: [f64; 2], h: (f64, f64)) -> SceneObject {
+        SceneObject {
+            id,
+            class: "x".into(),
+            caption: String::new(),
+            centroid: [0.0; 3],
+            ground_min: lo,
+            ground_max: hi,
+            heights: h,
+            feature: vec![1.0],
+            surface: false,
+            segment: None,
+        }
+    }
+
+    #[test]
+    fn relation_fits_follow_the_geometry() {
+        let shelter = obj(1, [0.0, 0.0], [4.0, 2.0], (0.0, 2.5));
+        let bench_in = obj(2, [1.0, 0.5], [2.0, 1.0], (0.0, 0.5));
+        let bench_near = obj(3, [5.0, 0.0], [6.0, 1.0], (0.0, 0.5));
+        let bench_far = obj(4, [30.0, 0.0], [31.0, 1.0], (0.0, 0.5));
+        let eps = 1e-9;
+        assert!((Scene::gap_m(&bench_near, &shelter) - 1.0).abs() < eps);
+        assert!((relation_fit(Relation::Near, None, &bench_near, &shelter) - 1.0).abs() < 1e-12);
+        assert!(relation_fit(Relation::Near, None, &bench_far, &shelter) < 0.01);
+        assert!((relation_fit(Relation::NextTo, None, &bench_near, &shelter) - 1.0).abs() < 1e-12);
+        assert!((relation_fit(Relation::Inside, None, &bench_in, &shelter) - 1.0).abs() < 1e-12);
+        assert!(relation_fit(Relation::Inside, None, &bench_near, &shelter) < 0.5);
+        // an explicit distance overrides the relation's own
+        assert!(
+            (relation_fit(Relation::Near, Some(30.0), &bench_far, &shelter) - 1.0).abs() < 1e-12
+        );
+        // a sign above a bush: the bush is under the sign, the sign on top of the bush
+        let bush = obj(5, [10.0, 10.0], [11.0, 11.0], (0.0, 1.0));
+        let sign = obj(6, [10.2, 10.2], [10.8, 10.8], (1.5, 2.5));
+        assert!((relation_fit(Relation::Under, None, &bush, &sign) - 1.0).abs() < 1e-12);
+        assert!((relation_fit(Relation::On, None, &sign, &bush) - 1.0).abs() < 1e-12);
+        assert!((relation_fit(Relation::On, None, &bush, &sign) - 0.5).abs() < 1e-12);
+        // across the road: 4-25 m
+        assert!(
+            (relation_fit(Relation::AcrossTheRoadFrom, None, &bench_far, &bench_near) - 1.0).abs()
+                < 1e-12
+        );
+        assert!(relation_fit(Relation::Opposite, None, &bench_near, &shelter) < 1.0);
+    }
+
+    #[test]
+    fn rerank_schema_bounds_the_numbers() {
+        let s = rerank_schema(5);
+        assert!(crate::chat::validate(&serde_json::json!({"best": [2, 1]}), &s).is_ok());
+        assert!(crate::chat::validate(&serde_json::json!({"best": [6]}), &s).is_err());
+        assert!(crate::chat::validate(&serde_json::json!({"best": []}), &s).is_err());
+    }
+}
