@@ -1,11 +1,14 @@
-//! The `find` operation, transport-free: plain embedding ranking, or graph-aware retrieval
-//! over a parsed request (rule or LLM parser), optionally re-ranked by a language model
-//! (OpenGraph-LLM). The CLI's `find` and `eval retrieval` call it; the server will too.
+//! The `find` and `locate` operations, transport-free. `find`: plain embedding ranking, or
+//! graph-aware retrieval over a parsed request (rule or LLM parser), optionally re-ranked by a
+//! language model (OpenGraph-LLM). `locate`: road segments ranked for a description of the
+//! surroundings, with a position estimate. The CLI's `find`, `locate` and `eval` call them; the
+//! server will too.
 
 use std::time::Instant;
 
 use graphstore::GraphRead;
 use llm_tools::graph_find::{self, GraphFindOptions, GraphFound, Scene};
+use llm_tools::locate::{self, Description, Located, SegmentInfo};
 use llm_tools::request::{self, Request};
 use llm_tools::retrieve::{self, FindOptions};
 use llm_tools::{ChatModel, Embedder, Result};
@@ -70,6 +73,31 @@ pub struct Finder {
     embedder: Box<dyn Embedder>,
     llm: Option<Box<dyn ChatModel>>,
     scene: Option<Scene>,
+    segments: Option<Vec<SegmentInfo>>,
+}
+
+/// A locate request.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocateRequest {
+    /// The description of the surroundings.
+    pub text: String,
+    /// How many segments.
+    pub k: usize,
+    /// Who parses it.
+    pub parser: ParserKind,
+}
+
+/// A locate answer.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LocateAnswer {
+    /// What the description says.
+    pub description: Description,
+    /// The model that parsed it, with the prompt id.
+    pub parsed_by: Option<String>,
+    /// Segments, best first.
+    pub results: Vec<Located>,
+    /// Milliseconds: parse, rank.
+    pub timings_ms: [f64; 2],
 }
 
 impl std::fmt::Debug for Finder {
@@ -78,6 +106,7 @@ impl std::fmt::Debug for Finder {
             .field("embedder", &self.embedder.name())
             .field("llm", &self.llm.as_ref().map(|m| m.model_id()))
             .field("scene_loaded", &self.scene.is_some())
+            .field("segments_loaded", &self.segments.is_some())
             .finish()
     }
 }
@@ -89,6 +118,7 @@ impl Finder {
             embedder,
             llm,
             scene: None,
+            segments: None,
         }
     }
 
@@ -100,6 +130,79 @@ impl Finder {
         })
     }
 
+    /// The map's scene and segments, loaded on first use.
+    fn scene(&mut self, r: &impl GraphRead) -> Result<()> {
+        if self.scene.is_none() {
+            self.scene = Some(Scene::load(r)?);
+        }
+        if self.segments.is_none() {
+            let segs = locate::load_segments(r, self.scene.as_ref().expect("loaded"))?;
+            self.segments = Some(segs);
+        }
+        Ok(())
+    }
+
+    /// The map's segments (loading the scene if needed).
+    ///
+    /// # Errors
+    /// The store fails or has no ground frame.
+    pub fn segments(&mut self, r: &impl GraphRead) -> Result<&[SegmentInfo]> {
+        self.scene(r)?;
+        Ok(self.segments.as_deref().unwrap_or_default())
+    }
+
+    /// Ranks the map's segments for a description of the surroundings.
+    ///
+    /// # Errors
+    /// Empty text, a map built with another embedder, no ground frame, a failing model.
+    pub fn locate(&mut self, r: &impl GraphRead, req: &LocateRequest) -> Result<LocateAnswer> {
+        self.check_embedder(r)?;
+        let t0 = Instant::now();
+        let (description, parsed_by) = match req.parser {
+            ParserKind::Rules => (locate::parse_description_rules(&req.text)?, None),
+            ParserKind::Llm => {
+                if req.text.trim().is_empty() {
+                    return Err(llm_tools::Error::Invalid("the description is empty".into()));
+                }
+                let m = self.llm()?;
+                let d = locate::parse_description_llm(m.as_mut(), &req.text)?;
+                let id = format!(
+                    "{} ({})",
+                    m.model_id(),
+                    llm_tools::prompts::PARSE_REQUEST.id()
+                );
+                (d, Some(id))
+            }
+        };
+        let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let t1 = Instant::now();
+        self.scene(r)?;
+        let results = locate::locate(
+            self.scene.as_ref().expect("loaded"),
+            self.segments.as_deref().unwrap_or_default(),
+            self.embedder.as_mut(),
+            &description,
+            req.k,
+        )?;
+        Ok(LocateAnswer {
+            description,
+            parsed_by,
+            results,
+            timings_ms: [parse_ms, t1.elapsed().as_secs_f64() * 1e3],
+        })
+    }
+
+    fn check_embedder(&self, r: &impl GraphRead) -> Result<()> {
+        if let Some(built) = retrieve::map_embedder(r)?
+            && built != self.embedder.name()
+        {
+            return Err(llm_tools::Error::Invalid(format!(
+                "the map was built with the {built} embedder; query it with the same one (--embedder {built})"
+            )));
+        }
+        Ok(())
+    }
+
     /// Answers one request over the map `r` (the scene is loaded on first use).
     ///
     /// # Errors
@@ -109,13 +212,7 @@ impl Finder {
         if req.text.trim().is_empty() {
             return Err(llm_tools::Error::Invalid("the query text is empty".into()));
         }
-        if let Some(built) = retrieve::map_embedder(r)?
-            && built != self.embedder.name()
-        {
-            return Err(llm_tools::Error::Invalid(format!(
-                "the map was built with the {built} embedder; query it with the same one (--embedder {built})"
-            )));
-        }
+        self.check_embedder(r)?;
         let (parser, rerank) = match req.ranking {
             Ranking::Plain => {
                 let opts = FindOptions {
@@ -166,9 +263,7 @@ impl Finder {
         };
         let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
         let t1 = Instant::now();
-        if self.scene.is_none() {
-            self.scene = Some(Scene::load(r)?);
-        }
+        self.scene(r)?;
         let scene = self.scene.as_ref().expect("loaded");
         let opts = GraphFindOptions {
             k: if rerank {

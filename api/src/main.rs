@@ -333,6 +333,28 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Where am I? Road segments ranked for a description of the surroundings ("I'm at a
+    /// T-junction, there's a bus stop on my left and a red car parked opposite"): segment kind
+    /// and landmarks matched against the map, with a position estimate and evidence.
+    Locate {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The description.
+        text: String,
+        /// How many segments.
+        #[arg(short, long, default_value_t = 3)]
+        k: usize,
+        /// Who parses the description: the rule parser or the language model.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print the answer as JSON: {"description", "parsed_by", "results": [{"segment",
+        /// "kind", "score", "kind_match", "position", "evidence"}], "timings_ms"}.
+        #[arg(long)]
+        json: bool,
+    },
     /// Run a Cypher statement against a store and print a table (or JSON rows).
     Query {
         /// The store file.
@@ -428,6 +450,34 @@ enum EvalCommand {
         #[command(flatten)]
         llm: LlmArgs,
         /// Print every query's outcome.
+        #[arg(long)]
+        verbose: bool,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Localisation top-1/top-3 against the simulator: descriptions generated from its ground
+    /// truth (junction kinds and the objects near true spots, paraphrased, some left out) and
+    /// the map segment that holds each spot.
+    Locate {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/roads.json and objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Descriptions per spot.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=20))]
+        per_spot: u64,
+        /// Seed of the description generator.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Who parses the descriptions.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print every description's outcome.
         #[arg(long)]
         verbose: bool,
         /// Print the report as JSON.
@@ -590,12 +640,31 @@ fn ranking_of(plain: bool, parser: &str, rerank: bool) -> api::find::Ranking {
     }
 }
 
+/// Whether a ranking needs a language model.
+fn needs_llm(ranking: api::find::Ranking) -> bool {
+    matches!(
+        ranking,
+        api::find::Ranking::Graph {
+            parser: api::find::ParserKind::Llm,
+            ..
+        } | api::find::Ranking::Graph { rerank: true, .. }
+    )
+}
+
+fn parser_of(name: &str) -> api::find::ParserKind {
+    if name == "llm" {
+        api::find::ParserKind::Llm
+    } else {
+        api::find::ParserKind::Rules
+    }
+}
+
 /// A finder with the map's embedder (or the one asked for, if it agrees) and, when the
 /// ranking needs one, the language model.
 fn finder_for(
     r: &impl graphstore::GraphRead,
     embedder: Option<String>,
-    ranking: api::find::Ranking,
+    needs_llm: bool,
     llm: &LlmArgs,
 ) -> anyhow::Result<api::find::Finder> {
     let built = llm_tools::retrieve::map_embedder(r)?;
@@ -609,13 +678,6 @@ fn finder_for(
         (Some(e), _) => e,
         (None, b) => b.unwrap_or_else(|| "minilm".into()),
     };
-    let needs_llm = matches!(
-        ranking,
-        api::find::Ranking::Graph {
-            parser: api::find::ParserKind::Llm,
-            ..
-        } | api::find::Ranking::Graph { rerank: true, .. }
-    );
     let model = if needs_llm {
         Some(open_llm(
             &llm.config(llm_tools::LlmConfig::default(), "local"),
@@ -1182,7 +1244,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
             let ranking = ranking_of(plain, &parser, rerank.is_some());
-            let mut finder = finder_for(&r, embedder, ranking, &llm)?;
+            let mut finder = finder_for(&r, embedder, needs_llm(ranking), &llm)?;
             let req = api::find::FindRequest {
                 text,
                 k,
@@ -1252,6 +1314,58 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     } else {
                         String::new()
                     }
+                );
+            }
+        }
+        Command::Locate {
+            db,
+            text,
+            k,
+            parser,
+            llm,
+            json,
+        } => {
+            let store = graphstore::Store::open_read_only(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = store.read()?;
+            let parser = parser_of(&parser);
+            let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
+            let a = finder.locate(&r, &api::find::LocateRequest { text, k, parser })?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&a)?);
+            } else {
+                errln!("description: {}", serde_json::to_string(&a.description)?);
+                if let Some(m) = &a.parsed_by {
+                    errln!("parsed by {m}");
+                }
+                for (i, l) in a.results.iter().enumerate() {
+                    outln!(
+                        "{}. segment {} ({}), score {:.3}, position [{:.1}, {:.1}]{}",
+                        i + 1,
+                        l.segment,
+                        l.kind,
+                        l.score,
+                        l.position[0],
+                        l.position[1],
+                        match l.kind_match {
+                            Some(false) => ", kind differs from the description",
+                            _ => "",
+                        }
+                    );
+                    for e in &l.evidence {
+                        outln!(
+                            "     '{}': node {} {:.1} m from the segment ({})",
+                            e.landmark,
+                            e.instance_id,
+                            e.distance_m,
+                            e.caption
+                        );
+                    }
+                }
+                errln!(
+                    "parse {:.1} ms, rank {:.1} ms",
+                    a.timings_ms[0],
+                    a.timings_ms[1]
                 );
             }
         }
@@ -1468,7 +1582,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
             let ranking = ranking_of(plain, &parser, rerank.is_some());
-            let mut finder = finder_for(&r, None, ranking, &llm)?;
+            let mut finder = finder_for(&r, None, needs_llm(ranking), &llm)?;
             let mut latencies = Vec::new();
             let report = ingest::eval_retrieval::eval_retrieval(&sim, &qs, |text| {
                 let t = std::time::Instant::now();
@@ -1551,6 +1665,94 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                                 under.as_deref().unwrap_or("(nothing)")
                             );
                         }
+                    }
+                }
+            }
+        }
+        Command::Eval {
+            what:
+                EvalCommand::Locate {
+                    db,
+                    sim,
+                    per_spot,
+                    seed,
+                    parser,
+                    llm,
+                    verbose,
+                    json,
+                },
+        } => {
+            let cases = ingest::eval_locate::generate_cases(&sim, per_spot as usize, seed)?;
+            let store = graphstore::Store::open_read_only(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = store.read()?;
+            let parser = parser_of(&parser);
+            let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
+            let segments = finder.segments(&r)?.to_vec();
+            let mut latencies = Vec::new();
+            let report = ingest::eval_locate::eval_locate(&cases, &segments, |text| {
+                let t = std::time::Instant::now();
+                let a = finder
+                    .locate(
+                        &r,
+                        &api::find::LocateRequest {
+                            text: text.to_string(),
+                            k: 3,
+                            parser,
+                        },
+                    )
+                    .map_err(|e| ingest::Error::Invalid(format!("{text:?}: {e}")))?;
+                latencies.push(t.elapsed().as_secs_f64() * 1e3);
+                let pos = a.results.first().map(|l| l.position);
+                Ok((a.results.into_iter().map(|l| l.segment).collect(), pos))
+            })?;
+            latencies.sort_by(f64::total_cmp);
+            let p50 = latencies.get(latencies.len() / 2).copied().unwrap_or(0.0);
+            if json {
+                let mut v = serde_json::to_value(&report)?;
+                v["p50_ms"] = serde_json::json!(p50);
+                outln!("{}", serde_json::to_string_pretty(&v)?);
+            } else {
+                outln!(
+                    "locate on {} descriptions ({} parser; {} spots in no map segment not scored), p50 {p50:.1} ms",
+                    report.all.cases,
+                    if parser == api::find::ParserKind::Llm {
+                        "LLM"
+                    } else {
+                        "rule"
+                    },
+                    report.unmatched
+                );
+                outln!(
+                    "{:<12} {:>6} {:>6} {:>6}",
+                    "kind",
+                    "cases",
+                    "top-1",
+                    "top-3"
+                );
+                for (k, a) in report
+                    .per_kind
+                    .iter()
+                    .chain(std::iter::once((&"all".to_string(), &report.all)))
+                {
+                    outln!("{k:<12} {:>6} {:>6.3} {:>6.3}", a.cases, a.top1, a.top3);
+                }
+                if let Some(e) = report.median_position_error_m {
+                    outln!("median position error {e:.1} m");
+                }
+                if verbose {
+                    for o in &report.outcomes {
+                        outln!(
+                            "{} truth {} got {:?}: {}",
+                            if o.returned.first() == Some(&o.truth) {
+                                "ok  "
+                            } else {
+                                "MISS"
+                            },
+                            o.truth,
+                            o.returned,
+                            o.text
+                        );
                     }
                 }
             }

@@ -180,4 +180,53 @@ fn smallest_model_merges_captions_and_labels_relations() {
         "--json",
     ]));
     assert_eq!(r["already_done"], 2, "{r}");
+    // find with the model as parser and as re-ranker: both record model and prompt, and the
+    // answers are instances of the map
+    for (flag, prompt) in [
+        ("--parser", llm_tools::prompts::PARSE_REQUEST.id()),
+        ("--rerank", llm_tools::prompts::RERANK.id()),
+    ] {
+        let out = og(&[
+            "find",
+            "--db",
+            s(&db),
+            "a bench near the bus stop",
+            flag,
+            "llm",
+            "--llm-model",
+            s(&smol),
+            "-k",
+            "3",
+            "--json",
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{flag}: {err}");
+        assert!(
+            err.contains("SmolLM2-135M-Instruct.Q4_1.gguf:") && err.contains(&prompt),
+            "{flag}: {err}"
+        );
+        let hits: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let hits = hits.as_array().unwrap();
+        assert!(!hits.is_empty() && hits.len() <= 3, "{hits:?}");
+        for h in hits {
+            assert!(
+                h["id"].as_u64().is_some() && h["evidence"].is_array(),
+                "{h}"
+            );
+        }
+    }
+    // without a model, the LLM parser is a usage error
+    expect_usage_error(
+        &[
+            "find",
+            "--db",
+            s(&db),
+            "a bench",
+            "--parser",
+            "llm",
+            "--llm",
+            "none",
+        ],
+        &["needs a language model"],
+    );
 }

@@ -7,6 +7,7 @@ mod error;
 pub mod eval;
 pub mod eval_instances;
 pub mod eval_llm;
+pub mod eval_locate;
 pub mod eval_retrieval;
 pub mod hierarchy;
 pub mod llm;

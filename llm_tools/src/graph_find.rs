@@ -24,7 +24,10 @@ use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::embed::{Embedder, cosine};
 use crate::error::{Error, Result};
 use crate::request::{Relation, Request};
-use crate::vocab::names_surface;
+use crate::vocab::{colour_agreement, names_surface};
+
+/// Cosine taken off a candidate per unit of colour disagreement ([`colour_agreement`]).
+pub const COLOUR_PENALTY: f64 = 0.25;
 
 /// The surface classes: never answers unless asked for.
 pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
@@ -325,6 +328,51 @@ fn similarities(
     Ok(out)
 }
 
+/// The similarity gate of every object for the best of `phrases` (None where `allowed`
+/// says no): 1 within `plateau` of the best cosine, falling to 0 over the next `falloff`
+/// ([`find_graph`] uses 0.2 and 0.15 for anchors), times `0.9 + 0.1 · cos / cos_best` so that
+/// the closer caption wins a tie. A colour said in the phrase and another in the caption takes
+/// [`COLOUR_PENALTY`] off the cosine first.
+///
+/// # Errors
+/// The embedder fails or disagrees with the map's features.
+pub fn similarity_gates(
+    scene: &Scene,
+    embedder: &mut dyn Embedder,
+    phrases: &[&str],
+    allowed: impl Fn(&SceneObject) -> bool,
+    plateau: f64,
+    falloff: f64,
+) -> Result<Vec<Option<f64>>> {
+    let sims = similarities(scene, embedder, phrases, allowed)?;
+    // a colour said and another one captioned weighs against the match
+    let sims: Vec<Option<f64>> = sims
+        .into_iter()
+        .zip(&scene.objects)
+        .map(|(s, o)| {
+            s.map(|s| {
+                let agree = phrases
+                    .iter()
+                    .map(|p| colour_agreement(p, &o.caption))
+                    .fold(0.0, f64::max);
+                s - (1.0 - agree) * COLOUR_PENALTY
+            })
+        })
+        .collect();
+    let best = sims
+        .iter()
+        .flatten()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    Ok(sims
+        .into_iter()
+        // the raw cosine orders candidates that the gate leaves tied
+        .map(|s| {
+            s.map(|s| gate(s, best, plateau, falloff) * (0.9 + 0.1 * (s / best).clamp(0.0, 1.0)))
+        })
+        .collect())
+}
+
 /// Indices of the `n` best, best first (ties by index), and the best value.
 fn top(sims: &[Option<f64>], n: usize) -> (Vec<usize>, f64) {
     let mut idx: Vec<usize> = (0..sims.len()).filter(|i| sims[*i].is_some()).collect();
@@ -391,6 +439,13 @@ pub fn find_graph(
         let sims = similarities(scene, embedder, &[a.phrase.as_str()], |o| {
             o.surface == surface
         })?;
+        let sims: Vec<Option<f64>> = sims
+            .into_iter()
+            .zip(&scene.objects)
+            .map(|(s, o)| {
+                s.map(|s| s - (1.0 - colour_agreement(&a.phrase, &o.caption)) * COLOUR_PENALTY)
+            })
+            .collect();
         let (idx, best) = top(&sims, opts.anchor_candidates);
         anchors.push((idx, sims, best));
     }

@@ -5,6 +5,7 @@ pub mod embed;
 mod error;
 pub mod graph_find;
 pub mod hash_embed;
+pub mod locate;
 pub mod prompts;
 pub mod request;
 pub mod retrieve;

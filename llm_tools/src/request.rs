@@ -234,7 +234,14 @@ const LEAD_INS: [&str; 27] = [
 ];
 
 /// Segment phrases, longest first, with the prepositions that may precede them.
-const SEGMENTS: [(&str, SegmentConstraint); 14] = [
+const SEGMENTS: [(&str, SegmentConstraint); 18] = [
+    ("straight stretch of road", SegmentConstraint::StraightRoad),
+    (
+        "straight stretch of street",
+        SegmentConstraint::StraightRoad,
+    ),
+    ("bend in the road", SegmentConstraint::Bend),
+    ("l-shaped bend", SegmentConstraint::Bend),
     ("four-way junction", SegmentConstraint::Crossroads),
     ("four-way intersection", SegmentConstraint::Crossroads),
     ("crossroads", SegmentConstraint::Crossroads),
@@ -531,6 +538,41 @@ fn strip_articles(s: &str) -> &str {
     s
 }
 
+/// Takes the first segment phrase ("at the T-junction", "on a bend") out of `t` (already
+/// lower-case), with the preposition and article before it; returns the constraint and the
+/// rest with its spaces collapsed.
+pub fn take_segment(t: &str) -> (Option<SegmentConstraint>, String) {
+    for (phrase, kind) in SEGMENTS {
+        if let Some(i) = find_words(t, phrase) {
+            let mut start = i;
+            for prep in [
+                "at the ",
+                "on the ",
+                "near the ",
+                "by the ",
+                "in the ",
+                "at a ",
+                "on a ",
+                "near a ",
+                "the ",
+                "a ",
+            ] {
+                if t[..start].ends_with(prep) {
+                    start -= prep.len();
+                    break;
+                }
+            }
+            let end = i + phrase.len();
+            let rest = format!("{} {}", &t[..start], &t[end..]);
+            return (
+                Some(kind),
+                rest.split_whitespace().collect::<Vec<_>>().join(" "),
+            );
+        }
+    }
+    (None, t.to_string())
+}
+
 /// The deterministic rule parser for common English.
 ///
 /// Steps: lower-case; drop a lead-in ("take me to", "where is"); take out a segment phrase
@@ -561,34 +603,9 @@ pub fn parse_rules(text: &str) -> Result<Request> {
         }
     }
     let mut req = Request::default();
-    // segment constraint, with its preposition and article
-    for (phrase, kind) in SEGMENTS {
-        if let Some(i) = find_words(&t, phrase) {
-            let mut start = i;
-            for prep in [
-                "at the ",
-                "on the ",
-                "near the ",
-                "by the ",
-                "in the ",
-                "at a ",
-                "on a ",
-                "near a ",
-                "the ",
-                "a ",
-            ] {
-                if t[..start].ends_with(prep) {
-                    start -= prep.len();
-                    break;
-                }
-            }
-            let end = i + phrase.len();
-            t = format!("{} {}", &t[..start], &t[end..]);
-            t = t.split_whitespace().collect::<Vec<_>>().join(" ");
-            req.segment = Some(kind);
-            break;
-        }
-    }
+    let (segment, rest) = take_segment(&t);
+    req.segment = segment;
+    t = rest;
     // ordinal / superlative
     for (w, n, nearest) in [
         ("the nearest ", 1, true),
@@ -719,9 +736,77 @@ pub fn parse_rules(text: &str) -> Result<Request> {
     Ok(req)
 }
 
+/// Keeps only what a model's parse can point to in the request: attributes and anchor
+/// phrases that occur in the text, a segment constraint only when the text has a road word
+/// (crossroads, intersection, crossing, junction, bend, corner, straight), an ordinal only
+/// with an ordinal word. Small models copy values from the prompt's examples; this drops them.
+/// The target and the function objects are kept as given.
+pub fn ground_in_text(mut r: Request, text: &str) -> Request {
+    let t = normalise(text);
+    let said = |p: &str| {
+        let p = normalise(p);
+        !p.is_empty() && t.contains(&p)
+    };
+    r.attributes.retain(|a| said(a));
+    r.anchors.retain(|a| said(&a.phrase));
+    if r.segment.is_some()
+        && ![
+            "crossroads",
+            "intersection",
+            "crossing",
+            "junction",
+            "bend",
+            "corner",
+            "straight",
+        ]
+        .iter()
+        .any(|w| t.contains(w))
+    {
+        r.segment = None;
+    }
+    if r.ordinal.is_some()
+        && ![
+            "first", "second", "third", "fourth", "fifth", "nearest", "closest", "1st", "2nd",
+            "3rd",
+        ]
+        .iter()
+        .any(|w| t.split(' ').any(|x| x == *w))
+    {
+        r.ordinal = None;
+        r.nearest = false;
+    }
+    r
+}
+
+/// The model's parse `r` with the fields it left empty taken from the rule parser's `rules`:
+/// function objects, attributes, anchors, segment and ordinal.
+pub fn fill_from(mut r: Request, rules: Request) -> Request {
+    if r.objects.is_empty() {
+        r.objects = rules.objects;
+    }
+    if r.attributes.is_empty() {
+        r.attributes = rules.attributes;
+    }
+    if r.anchors.is_empty() {
+        r.anchors = rules.anchors;
+    }
+    if r.segment.is_none() {
+        r.segment = rules.segment;
+    }
+    if r.ordinal.is_none() {
+        r.ordinal = rules.ordinal;
+        r.nearest = rules.nearest;
+    }
+    if r.target.trim().is_empty() {
+        r.target = rules.target;
+    }
+    r
+}
+
 /// Parses a request with a language model under [`request_schema`] (the answer is
-/// validated against it), then checks it: a target is required, distances are finite and
-/// non-negative.
+/// validated against it), keeps what the text grounds ([`ground_in_text`]), fills what the
+/// model left empty from the rule parser ([`fill_from`]), then checks it: a target is
+/// required, distances are finite and non-negative.
 ///
 /// # Errors
 /// The model fails or answers something that is not a request.
@@ -741,6 +826,12 @@ pub fn parse_llm(model: &mut dyn ChatModel, text: &str) -> Result<Request> {
         .ok_or_else(|| Error::LlmAnswer("no structured answer".into()))?;
     let r: Request =
         serde_json::from_value(v).map_err(|e| Error::LlmAnswer(format!("not a request: {e}")))?;
+    let r = ground_in_text(r, text);
+    // what the model left empty, the rule parser fills (when it can parse the text at all)
+    let r = match parse_rules(text) {
+        Ok(rules) => fill_from(r, rules),
+        Err(_) => r,
+    };
     if r.target.trim().is_empty() && r.objects.is_empty() {
         return Err(Error::LlmAnswer("the request names no target".into()));
     }
@@ -851,6 +942,63 @@ mod tests {
         // a relation word alone is a target, not an anchor with no target
         let r = parse_rules("near the bus stop").unwrap();
         assert_eq!(r.target, "near the bus stop");
+    }
+
+    #[test]
+    fn model_parses_keep_only_what_the_text_says() {
+        let r = Request {
+            target: "the bench near the bus stop".into(),
+            objects: vec![],
+            attributes: vec!["green".into()],
+            anchors: vec![
+                Anchor {
+                    phrase: "the bus stop".into(),
+                    relation: Relation::Near,
+                    distance_m: None,
+                },
+                Anchor {
+                    phrase: "a tree".into(),
+                    relation: Relation::Near,
+                    distance_m: Some(10.0),
+                },
+            ],
+            segment: Some(SegmentConstraint::Crossroads),
+            ordinal: Some(2),
+            nearest: true,
+        };
+        let g = ground_in_text(r.clone(), "The bench near the bus stop?");
+        assert!(g.attributes.is_empty() && g.segment.is_none() && g.ordinal.is_none());
+        assert_eq!(g.anchors.len(), 1);
+        let g = ground_in_text(
+            r,
+            "the second green bench near the bus stop at the crossing",
+        );
+        assert_eq!(g.attributes, vec!["green"]);
+        assert_eq!(
+            (g.segment, g.ordinal),
+            (Some(SegmentConstraint::Crossroads), Some(2))
+        );
+    }
+
+    #[test]
+    fn the_rule_parse_fills_what_a_model_left_empty() {
+        let model = Request {
+            target: "somewhere I can post a letter".into(),
+            ..Request::default()
+        };
+        let rules = parse_rules("somewhere I can post a letter near the bus stop").unwrap();
+        let r = fill_from(model, rules);
+        assert_eq!(r.target, "somewhere I can post a letter");
+        assert_eq!(r.objects, vec!["a mailbox"]);
+        assert_eq!(r.anchors.len(), 1);
+        // what the model said stays
+        let model = Request {
+            target: "a bench".into(),
+            objects: vec!["a seat".into()],
+            ..Request::default()
+        };
+        let r = fill_from(model, parse_rules("somewhere to sit").unwrap());
+        assert_eq!(r.objects, vec!["a seat"]);
     }
 
     #[test]

@@ -121,6 +121,42 @@ pub fn names_surface(tags: &[String], caption: &str) -> bool {
     }
 }
 
+/// Colour words.
+const COLOURS: [&str; 16] = [
+    "red", "green", "blue", "yellow", "white", "black", "grey", "gray", "silver", "brown",
+    "orange", "beige", "pink", "purple", "gold", "cream",
+];
+
+fn colours_of(text: &str) -> Vec<&'static str> {
+    let t = text.to_lowercase();
+    let mut out: Vec<&'static str> = t
+        .split(|c: char| !c.is_alphanumeric())
+        .filter_map(|w| COLOURS.iter().find(|c| **c == w).copied())
+        .map(|c| if c == "gray" { "grey" } else { c })
+        .collect();
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// How well a caption's colours agree with the colours a phrase asks for, in (0, 1]: 1 when
+/// the phrase names none or the caption shares one, 0.8 when the caption names none, 0.4 when
+/// it names only others ("a dark blue bike" against "a yellow bike").
+pub fn colour_agreement(phrase: &str, caption: &str) -> f64 {
+    let want = colours_of(phrase);
+    if want.is_empty() {
+        return 1.0;
+    }
+    let have = colours_of(caption);
+    if have.is_empty() {
+        0.8
+    } else if have.iter().any(|c| want.contains(c)) {
+        1.0
+    } else {
+        0.4
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,5 +230,15 @@ mod tests {
         assert!(!t(&["bus stop shelter", "road"], "x"));
         // an empty tag is no tag
         assert!(t(&[""], "a concrete sidewalk"));
+    }
+
+    #[test]
+    fn colours_agree_or_not() {
+        assert!((colour_agreement("a bench", "a red bench") - 1.0).abs() < 1e-12);
+        assert!((colour_agreement("a dark blue bike", "a blue city bike") - 1.0).abs() < 1e-12);
+        assert!((colour_agreement("a grey bin", "a gray bin") - 1.0).abs() < 1e-12);
+        assert!((colour_agreement("a dark blue bike", "a yellow bike") - 0.4).abs() < 1e-12);
+        assert!((colour_agreement("a red house", "a red-brick house") - 1.0).abs() < 1e-12);
+        assert!((colour_agreement("a red house", "a brick house") - 0.8).abs() < 1e-12);
     }
 }
