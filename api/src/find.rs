@@ -73,7 +73,6 @@ pub struct Finder {
     embedder: Box<dyn Embedder>,
     llm: Option<Box<dyn ChatModel>>,
     scene: Option<Scene>,
-    segments: Option<Vec<SegmentInfo>>,
 }
 
 /// A locate request.
@@ -106,7 +105,6 @@ impl std::fmt::Debug for Finder {
             .field("embedder", &self.embedder.name())
             .field("llm", &self.llm.as_ref().map(|m| m.model_id()))
             .field("scene_loaded", &self.scene.is_some())
-            .field("segments_loaded", &self.segments.is_some())
             .finish()
     }
 }
@@ -118,7 +116,6 @@ impl Finder {
             embedder,
             llm,
             scene: None,
-            segments: None,
         }
     }
 
@@ -130,16 +127,12 @@ impl Finder {
         })
     }
 
-    /// The map's scene and segments, loaded on first use.
-    fn scene(&mut self, r: &impl GraphRead) -> Result<()> {
+    /// The map's scene (instances and segments), loaded on first use.
+    fn scene(&mut self, r: &impl GraphRead) -> Result<&Scene> {
         if self.scene.is_none() {
             self.scene = Some(Scene::load(r)?);
         }
-        if self.segments.is_none() {
-            let segs = locate::load_segments(r, self.scene.as_ref().expect("loaded"))?;
-            self.segments = Some(segs);
-        }
-        Ok(())
+        Ok(self.scene.as_ref().expect("loaded"))
     }
 
     /// The map's segments (loading the scene if needed).
@@ -147,8 +140,7 @@ impl Finder {
     /// # Errors
     /// The store fails or has no ground frame.
     pub fn segments(&mut self, r: &impl GraphRead) -> Result<&[SegmentInfo]> {
-        self.scene(r)?;
-        Ok(self.segments.as_deref().unwrap_or_default())
+        Ok(&self.scene(r)?.segments)
     }
 
     /// Ranks the map's segments for a description of the surroundings.
@@ -177,9 +169,10 @@ impl Finder {
         let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
         let t1 = Instant::now();
         self.scene(r)?;
+        let scene = self.scene.as_ref().expect("loaded");
         let results = locate::locate(
-            self.scene.as_ref().expect("loaded"),
-            self.segments.as_deref().unwrap_or_default(),
+            scene,
+            &scene.segments,
             self.embedder.as_mut(),
             &description,
             req.k,

@@ -3,3 +3,4 @@
 pub mod demo;
 pub mod find;
 pub mod info;
+pub mod plan;

@@ -121,25 +121,39 @@ enum Command {
         /// Goal, in the same forms.
         #[arg(long, allow_hyphen_values = true)]
         to: String,
-        /// Minimum turning radius of the vehicle.
-        #[arg(long, default_value_t = 5.0)]
-        turning_radius_m: f64,
-        /// Time budget for OMPL; 0 returns the route polyline as a fallback.
-        #[arg(long, default_value_t = 200.0)]
-        budget_ms: f64,
-        /// Half-width of the corridor around the route the path must stay in.
-        #[arg(long, default_value_t = 6.0)]
-        corridor_m: f64,
-        /// Points farther than this from every lane are refused.
-        #[arg(long, default_value_t = 15.0)]
-        snap_m: f64,
+        #[command(flatten)]
+        opts: PlanArgs,
         /// Print `{"route": {...}, "path": {...}}` as JSON.
         #[arg(long)]
         json: bool,
-        /// Draw the map (instances in SemanticKITTI class colours), the lane graph, the route,
-        /// the path and the boxes that block it.
+    },
+    /// Plan a route described in words: "from the bus stop by the crossroads to somewhere I
+    /// can post a letter". Each end is found (graph-aware `find`) or located (`locate`, for a
+    /// road place or a description), or given as a spec with --from / --to; then `plan`.
+    Navigate {
+        /// The store file.
         #[arg(long)]
-        png: Option<PathBuf>,
+        db: PathBuf,
+        /// The request ("from A to B", "take me to B" with --from).
+        text: Option<String>,
+        /// The start, in words or as a spec (X,Y, lane:ID, segment:ID, instance:ID, node:ID);
+        /// overrides the text's.
+        #[arg(long, allow_hyphen_values = true)]
+        from: Option<String>,
+        /// The goal, in words or as a spec; overrides the text's.
+        #[arg(long, allow_hyphen_values = true)]
+        to: Option<String>,
+        /// Who parses the ends: the rule parser or the language model.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        #[command(flatten)]
+        llm: LlmArgs,
+        #[command(flatten)]
+        opts: PlanArgs,
+        /// Print {"start", "goal", "plan"} as JSON: each end with how it was resolved and its
+        /// evidence, the route and the path.
+        #[arg(long)]
+        json: bool,
     },
     /// Build an object map from a KITTI-layout sequence and per-frame detections (or the
     /// SemanticKITTI label oracle), then the hierarchy over the whole trajectory.
@@ -521,6 +535,57 @@ enum EvalCommand {
     },
 }
 
+/// Planner settings shared by `plan` and `navigate`; each is checked (finite, in range)
+/// before any work.
+#[derive(clap::Args, Debug, Clone)]
+struct PlanArgs {
+    /// Minimum turning radius of the vehicle, metres, in [0.5, 100].
+    #[arg(long, default_value_t = 5.0, value_parser = in_range(0.5, 100.0))]
+    turning_radius_m: f64,
+    /// Time budget for OMPL, milliseconds, in [0, 60000]; 0 returns the route polyline as a
+    /// fallback.
+    #[arg(long, default_value_t = 200.0, value_parser = in_range(0.0, 60000.0))]
+    budget_ms: f64,
+    /// Half-width of the corridor around the route the path must stay in, metres, in
+    /// [0.5, 100].
+    #[arg(long, default_value_t = 6.0, value_parser = in_range(0.5, 100.0))]
+    corridor_m: f64,
+    /// Points farther than this from every lane are refused, metres, in [0, 1000].
+    #[arg(long, default_value_t = 15.0, value_parser = in_range(0.0, 1000.0))]
+    snap_m: f64,
+    /// Draw the map (instances in SemanticKITTI class colours), the lane graph, the route
+    /// (blue), the path, the boxes that block it, the start (green) and the goal (red).
+    #[arg(long)]
+    png: Option<PathBuf>,
+}
+
+impl PlanArgs {
+    fn options(&self) -> api::plan::PlanOptions {
+        api::plan::PlanOptions {
+            turning_radius_m: self.turning_radius_m,
+            budget_ms: self.budget_ms,
+            corridor_m: self.corridor_m,
+            snap_m: self.snap_m,
+            png: self.png.clone(),
+        }
+    }
+}
+
+/// A clap parser for a finite number in `[lo, hi]`.
+fn in_range(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let v: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("{s:?} is not a number"))?;
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(v)
+        } else {
+            Err(format!("{s} is outside [{lo}, {hi}]"))
+        }
+    }
+}
+
 /// Which language model to use: the same three flags on every command that needs one.
 #[derive(clap::Args, Debug, Clone, Default)]
 struct LlmArgs {
@@ -622,6 +687,59 @@ fn parse_near(s: &str) -> Result<([f64; 2], f64), String> {
         [x, y, r] if v.iter().all(|a| a.is_finite()) && r >= 0.0 => Ok(([x, y], r)),
         _ => Err("expected X,Y,R: three finite numbers, R >= 0".into()),
     }
+}
+
+/// Prints a plan: JSON, or the ends (with how `navigate` resolved them), route and path.
+fn print_plan(
+    p: &api::plan::PlanAnswer,
+    json: bool,
+    resolved: Option<(&api::plan::Resolved, &api::plan::Resolved)>,
+) -> anyhow::Result<()> {
+    if let Some(w) = &p.path.warning {
+        errln!("warning: {w}");
+    }
+    if json {
+        let v = serde_json::json!({
+            "from": p.from,
+            "to": p.to,
+            "route": {"nodes": p.route.nodes, "length_m": p.route.length_m},
+            "path": {"poses": p.path.poses, "length_m": p.path.length_m, "planner": p.path.planner},
+        });
+        outln!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
+    let end = |t: &planner::Target| match t.node {
+        Some(n) => format!("{} node {n} at ({:.1}, {:.1})", t.kind, t.xy[0], t.xy[1]),
+        None => format!("point ({:.1}, {:.1})", t.xy[0], t.xy[1]),
+    };
+    let how = |r: Option<&api::plan::Resolved>| match r {
+        Some(api::plan::Resolved::Find { text, result }) => {
+            format!("  <- find {text:?}: {}", result.caption)
+        }
+        Some(api::plan::Resolved::Locate { text, result }) => {
+            format!("  <- locate {text:?}: {} segment", result.kind)
+        }
+        _ => String::new(),
+    };
+    outln!(
+        "from: {}{}\nto:   {}{}",
+        end(&p.from),
+        how(resolved.map(|r| r.0)),
+        end(&p.to),
+        how(resolved.map(|r| r.1))
+    );
+    outln!(
+        "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes)",
+        p.route.nodes.len(),
+        p.route.length_m,
+        p.timings_ms[0],
+        p.path.poses.len(),
+        p.path.length_m,
+        p.path.planner,
+        p.timings_ms[1],
+        p.blocking
+    );
+    Ok(())
 }
 
 /// The ranking the find flags ask for.
@@ -919,67 +1037,55 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             db,
             from,
             to,
-            turning_radius_m,
-            budget_ms,
-            corridor_m,
-            snap_m,
+            opts,
             json,
-            png,
         } => {
             let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
-            let t0 = std::time::Instant::now();
-            let g = planner::RoadGraph::from_store(&r)?;
-            let ground = planner::graph::ground_of_store(&r)?;
             let (a, b) = (from.parse::<planner::Spec>()?, to.parse::<planner::Spec>()?);
-            let ((a, from_t), (b, to_t)) = (
-                planner::resolve(&g, &r, ground, &a, snap_m)?,
-                planner::resolve(&g, &r, ground, &b, snap_m)?,
-            );
-            let route = planner::astar(&g, a, b)?;
-            let t_route = t0.elapsed();
-            let cfg = planner::MotionConfig {
-                turning_radius_m,
-                budget_ms,
-                corridor_half_width_m: corridor_m,
-                ..planner::MotionConfig::default()
+            let p = api::plan::plan(&r, &a, &b, &opts.options())?;
+            print_plan(&p, json, None)?;
+        }
+        Command::Navigate {
+            db,
+            text,
+            from,
+            to,
+            parser,
+            llm,
+            opts,
+            json,
+        } => {
+            let words = match &text {
+                Some(t) => Some(llm_tools::request::parse_route(t)?),
+                None => None,
             };
-            let obstacles = planner::motion::blocking_instances(&r, ground, &route, corridor_m)?;
-            let path = planner::plan_path(&route, &obstacles, &cfg)?;
-            let t_all = t0.elapsed();
-            if let Some(w) = &path.warning {
-                errln!("warning: {w}");
-            }
-            if let Some(p) = &png {
-                let all = planner::render::instance_footprints(&r, ground)?;
-                planner::render::write_map_png(p, &g, &route, &path, &obstacles, &all)?;
-            }
+            let from = from.or_else(|| words.as_ref().and_then(|w| w.from.clone()));
+            let to = to.or_else(|| words.as_ref().map(|w| w.to.clone()));
+            let (Some(from), Some(to)) = (from, to) else {
+                return Err(UsageError(
+                    "say where to start and where to go: \"from A to B\" in the text, or --from and --to (words or specs such as lane:ID)".into(),
+                )
+                .into());
+            };
+            let store = graphstore::Store::open_read_only(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let r = store.read()?;
+            let parser = parser_of(&parser);
+            let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
+            let (a, start) = api::plan::resolve_end(&mut finder, &r, &from, parser)?;
+            let (b, goal) = api::plan::resolve_end(&mut finder, &r, &to, parser)?;
+            let p = api::plan::plan(&r, &a, &b, &opts.options())?;
             if json {
-                let v = serde_json::json!({
-                    "from": from_t,
-                    "to": to_t,
-                    "route": {"nodes": route.nodes, "length_m": route.length_m},
-                    "path": {"poses": path.poses, "length_m": path.length_m, "planner": path.planner},
-                });
+                let v = api::plan::NavigateAnswer {
+                    start,
+                    goal,
+                    plan: p,
+                };
                 outln!("{}", serde_json::to_string_pretty(&v)?);
             } else {
-                let end = |t: &planner::Target| match t.node {
-                    Some(n) => format!("{} node {n} at ({:.1}, {:.1})", t.kind, t.xy[0], t.xy[1]),
-                    None => format!("point ({:.1}, {:.1})", t.xy[0], t.xy[1]),
-                };
-                outln!("from: {}\nto:   {}", end(&from_t), end(&to_t));
-                outln!(
-                    "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes)",
-                    route.nodes.len(),
-                    route.length_m,
-                    t_route.as_secs_f64() * 1e3,
-                    path.poses.len(),
-                    path.length_m,
-                    path.planner,
-                    t_all.as_secs_f64() * 1e3,
-                    obstacles.len()
-                );
+                print_plan(&p, false, Some((&start, &goal)))?;
             }
         }
         Command::Build {

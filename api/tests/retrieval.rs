@@ -115,4 +115,73 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
     let hits = find("a car at the T-junction");
     assert!(hits.iter().all(|h| !h["segment_match"].is_null()));
     assert_eq!(hits[0]["segment_match"], true, "{:?}", hits[0]);
+
+    // locate: a T-junction with what stands at it ranks a T-junction first, with evidence
+    let l = json(&og(&[
+        "locate",
+        "--db",
+        s(&db),
+        "I'm at a T-junction, there's a traffic light nearby",
+        "--json",
+    ]));
+    assert_eq!(l["description"]["segment"], "t_junction", "{l}");
+    assert_eq!(l["results"][0]["kind"], "t_intersection", "{l}");
+    assert!(
+        !l["results"][0]["evidence"].as_array().unwrap().is_empty(),
+        "{l}"
+    );
+    let e = json(&og(&[
+        "eval",
+        "locate",
+        "--db",
+        s(&db),
+        "--sim",
+        s(&sim),
+        "--json",
+    ]));
+    assert!(e["all"]["cases"].as_u64().unwrap() >= 40, "{e}");
+    assert!(e["all"]["top3"].as_f64().unwrap() >= 0.6, "{e}");
+
+    // navigate: both ends from words; the route ends at the instance `find` resolved
+    let png = dir.path().join("nav.png");
+    let n = json(&og(&[
+        "navigate",
+        "--db",
+        s(&db),
+        "from the bus stop by the crossroads to somewhere I can post a letter",
+        "--png",
+        s(&png),
+        "--json",
+    ]));
+    assert_eq!(n["start"]["by"], "find", "{n}");
+    assert_eq!(n["goal"]["by"], "find", "{n}");
+    let goal = n["goal"]["result"]["id"].as_u64().unwrap();
+    assert_eq!(n["plan"]["to"]["node"].as_u64(), Some(goal), "{n}");
+    assert!(
+        n["goal"]["result"]["caption"]
+            .as_str()
+            .unwrap()
+            .to_lowercase()
+            .contains("box"),
+        "{n}"
+    );
+    assert!(n["plan"]["route"]["length_m"].as_f64().unwrap() > 0.0);
+    assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+    // a place is located, not found
+    let n = json(&og(&[
+        "navigate",
+        "--db",
+        s(&db),
+        "--from",
+        "the bus stop",
+        "--to",
+        "the T-junction",
+        "--json",
+    ]));
+    assert_eq!(n["goal"]["by"], "locate", "{n}");
+    assert_eq!(n["plan"]["to"]["kind"], "Segment", "{n}");
+    // no start: a usage error that says what to do
+    let out = og(&["navigate", "--db", s(&db), "take me to a bench"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--from"));
 }

@@ -10,7 +10,9 @@
 //! 1 + 0.3 × the share of the request's attribute words that the caption says, `g_a(b)` the
 //! same gate for anchor `a` and candidate `b` (plateau 0.2, fall-off 0.15), `fit_a` in [0, 1] how well the pair matches the asked relation (and distance;
 //! a `RELATED` edge between them counts at least 0.8), and `seg(t)` 1 when the target's
-//! segment satisfies the asked segment constraint, else 0.5. Ground surfaces (road, sidewalk, parking, terrain,
+//! segment satisfies the asked segment constraint, else `0.5 + 0.5 · near(d)` with `d` its
+//! distance to the nearest segment of that kind (`near` 1 within 10 m, `exp(-(d − 10) / 10)`
+//! beyond).
 //! other-ground) are never answers unless the target names a surface. Every result carries
 //! its evidence. [`rerank_llm`] lets a language model pick the best three of the top N
 //! (OpenGraph-LLM).
@@ -64,6 +66,8 @@ pub struct Scene {
     pub ground: Ground,
     /// Instances, ascending id.
     pub objects: Vec<SceneObject>,
+    /// Road segments with their areas.
+    pub segments: Vec<crate::locate::SegmentInfo>,
 }
 
 fn height_of(ground: Ground, p: [f64; 3]) -> f64 {
@@ -130,7 +134,12 @@ impl Scene {
                 segment,
             });
         }
-        Ok(Scene { ground, objects })
+        let segments = crate::locate::load_segments(r, ground)?;
+        Ok(Scene {
+            ground,
+            objects,
+            segments,
+        })
     }
 
     /// Ground-plane gap between two boxes (0 when their footprints overlap), metres.
@@ -535,10 +544,24 @@ pub fn find_graph(
         let segment_match = req
             .segment
             .map(|c| t.segment.as_ref().is_some_and(|(_, kind)| c.admits(kind)));
-        let seg = if segment_match == Some(false) {
-            opts.segment_miss
-        } else {
-            1.0
+        // outside a segment of the asked kind: how far from the nearest one
+        let seg = match (req.segment, segment_match) {
+            (Some(c), Some(false)) => {
+                let p = scene.ground.of(t.centroid);
+                let d = scene
+                    .segments
+                    .iter()
+                    .filter(|s| c.admits(&s.kind))
+                    .map(|s| s.area.distance_m(p))
+                    .fold(f64::INFINITY, f64::min);
+                let near = if d <= 10.0 {
+                    1.0
+                } else {
+                    (-(d - 10.0) / 10.0).exp()
+                };
+                opts.segment_miss + (1.0 - opts.segment_miss) * near
+            }
+            _ => 1.0,
         };
         out.push(GraphFound {
             id: t.id,

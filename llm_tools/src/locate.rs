@@ -95,8 +95,7 @@ pub struct SegmentInfo {
 ///
 /// # Errors
 /// The store fails or has no ground frame.
-pub fn load_segments(r: &impl GraphRead, scene: &Scene) -> Result<Vec<SegmentInfo>> {
-    let g = scene.ground;
+pub fn load_segments(r: &impl GraphRead, g: planner::Ground) -> Result<Vec<SegmentInfo>> {
     let mut out = Vec::new();
     for id in r.nodes_with_label("Segment")? {
         let kind = r

@@ -82,10 +82,12 @@ pub fn write_png(
     motion: &MotionPath,
     obstacles: &[Obstacle],
 ) -> Result<()> {
-    write_map_png(path, g, route, motion, obstacles, &[])
+    write_map_png(path, g, route, motion, obstacles, &[], &[])
 }
 
-/// [`write_png`] with the map's instances drawn underneath, filled in their class colour.
+/// [`write_png`] with the map's instances drawn underneath, filled in their class colour, and
+/// round markers (ground position, RGB) on top: `plan` and `navigate` mark the start green and
+/// the goal red.
 pub fn write_map_png(
     path: &Path,
     g: &RoadGraph,
@@ -93,6 +95,7 @@ pub fn write_map_png(
     motion: &MotionPath,
     obstacles: &[Obstacle],
     instances: &[Footprint],
+    markers: &[([f64; 2], (u8, u8, u8))],
 ) -> Result<()> {
     let pts: Vec<[f64; 2]> = g
         .edges
@@ -175,6 +178,21 @@ pub fn write_map_png(
             [o.min[0], o.min[1]],
         ];
         line(&c, 2.0, (0, 0, 0, 255));
+    }
+    for (p, (r, gr, b)) in markers {
+        let (x, y) = px(*p);
+        if let Some(circle) = PathBuilder::from_circle(x, y, 9.0) {
+            let mut paint = Paint::default();
+            paint.set_color(Color::from_rgba8(*r, *gr, *b, 230));
+            paint.anti_alias = true;
+            pm.fill_path(
+                &circle,
+                &paint,
+                tiny_skia::FillRule::Winding,
+                Transform::identity(),
+                None,
+            );
+        }
     }
     pm.save_png(path)
         .map_err(|e| Error::Render(format!("{}: {e}", path.display())))

@@ -1,0 +1,204 @@
+//! The `plan` and `navigate` operations, transport-free. `plan` routes between two specs
+//! (`lane:ID`, `segment:ID`, `instance:ID`, `node:ID` or a ground point) on the lane graph
+//! (A*) and refines the route with OMPL; `navigate` first resolves each end from words
+//! ("from the bus stop by the crossroads to somewhere I can post a letter") with `find` or
+//! `locate`, then plans.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use graphstore::GraphRead;
+use llm_tools::graph_find::GraphFound;
+use llm_tools::locate::Located;
+use planner::{MotionPath, Route, Spec, Target};
+
+use crate::find::{FindRequest, Finder, LocateRequest, ParserKind, Ranking};
+
+/// Planner settings of one request.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanOptions {
+    /// Minimum turning radius, metres.
+    pub turning_radius_m: f64,
+    /// OMPL time budget, milliseconds.
+    pub budget_ms: f64,
+    /// Half width of the corridor around the route, metres.
+    pub corridor_m: f64,
+    /// How far a point may be snapped to the lane graph, metres.
+    pub snap_m: f64,
+    /// Write a bird's-eye PNG here (start green, goal red, route blue).
+    pub png: Option<PathBuf>,
+}
+
+/// A planned route.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PlanAnswer {
+    /// The start as resolved.
+    pub from: Target,
+    /// The goal as resolved.
+    pub to: Target,
+    /// The lane-graph route.
+    pub route: Route,
+    /// The refined path.
+    pub path: MotionPath,
+    /// Instances whose boxes block the corridor.
+    pub blocking: usize,
+    /// Milliseconds: routing, and everything.
+    pub timings_ms: [f64; 2],
+}
+
+/// Plans from `from` to `to` over the map `r`.
+///
+/// # Errors
+/// Unknown or wrong-kind ids, a store without a lane graph or ground frame, no route, a PNG
+/// that cannot be written.
+pub fn plan(
+    r: &impl GraphRead,
+    from: &Spec,
+    to: &Spec,
+    opts: &PlanOptions,
+) -> planner::Result<PlanAnswer> {
+    let t0 = Instant::now();
+    let g = planner::RoadGraph::from_store(r)?;
+    let ground = planner::graph::ground_of_store(r)?;
+    let ((a, from_t), (b, to_t)) = (
+        planner::resolve(&g, r, ground, from, opts.snap_m)?,
+        planner::resolve(&g, r, ground, to, opts.snap_m)?,
+    );
+    let route = planner::astar(&g, a, b)?;
+    let t_route = t0.elapsed().as_secs_f64() * 1e3;
+    let cfg = planner::MotionConfig {
+        turning_radius_m: opts.turning_radius_m,
+        budget_ms: opts.budget_ms,
+        corridor_half_width_m: opts.corridor_m,
+        ..planner::MotionConfig::default()
+    };
+    let obstacles = planner::motion::blocking_instances(r, ground, &route, opts.corridor_m)?;
+    let path = planner::plan_path(&route, &obstacles, &cfg)?;
+    if let Some(p) = &opts.png {
+        let all = planner::render::instance_footprints(r, ground)?;
+        let markers = [(from_t.xy, (20, 170, 40)), (to_t.xy, (220, 30, 30))];
+        planner::render::write_map_png(p, &g, &route, &path, &obstacles, &all, &markers)?;
+    }
+    Ok(PlanAnswer {
+        from: from_t,
+        to: to_t,
+        route,
+        path,
+        blocking: obstacles.len(),
+        timings_ms: [t_route, t0.elapsed().as_secs_f64() * 1e3],
+    })
+}
+
+/// How one end of a navigation was resolved.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(tag = "by", rename_all = "snake_case")]
+pub enum Resolved {
+    /// Given as a spec.
+    Spec {
+        /// The spec.
+        spec: String,
+    },
+    /// Retrieved with `find`: the best instance and its evidence.
+    Find {
+        /// The words.
+        text: String,
+        /// The instance.
+        result: Box<GraphFound>,
+    },
+    /// Located with `locate`: the best segment and its evidence.
+    Locate {
+        /// The words.
+        text: String,
+        /// The segment.
+        result: Box<Located>,
+    },
+}
+
+/// A navigation answer: both ends with how they were resolved, and the plan.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct NavigateAnswer {
+    /// The start.
+    pub start: Resolved,
+    /// The goal.
+    pub goal: Resolved,
+    /// The route and path.
+    pub plan: PlanAnswer,
+}
+
+/// Whether `text` is only a place on the road network ("the crossroads", "a T-junction") or
+/// a description of the surroundings ("I'm at ..."): then it is located, not found.
+fn is_place(text: &str) -> bool {
+    let t = text.trim().to_lowercase();
+    if t.starts_with("i'm ") || t.starts_with("i am ") || t.starts_with("im ") {
+        return true;
+    }
+    let (seg, rest) = llm_tools::request::take_segment(&t);
+    let rest = rest.trim();
+    seg.is_some() && matches!(rest, "" | "the" | "a" | "an")
+}
+
+/// Resolves one end: a spec as given, a place or description by `locate`, anything else by
+/// graph-aware `find` (its best instance).
+///
+/// # Errors
+/// Nothing found, or the operations fail.
+pub fn resolve_end(
+    finder: &mut Finder,
+    r: &impl GraphRead,
+    text: &str,
+    parser: ParserKind,
+) -> llm_tools::Result<(Spec, Resolved)> {
+    if let Ok(spec) = text.trim().parse::<Spec>() {
+        return Ok((
+            spec,
+            Resolved::Spec {
+                spec: text.trim().to_string(),
+            },
+        ));
+    }
+    if is_place(text) {
+        let a = finder.locate(
+            r,
+            &LocateRequest {
+                text: text.to_string(),
+                k: 1,
+                parser,
+            },
+        )?;
+        let best = a.results.into_iter().next().ok_or_else(|| {
+            llm_tools::Error::Invalid(format!("no road segment in the map fits {text:?}"))
+        })?;
+        return Ok((
+            Spec::Segment(best.segment),
+            Resolved::Locate {
+                text: text.to_string(),
+                result: Box::new(best),
+            },
+        ));
+    }
+    let a = finder.find(
+        r,
+        &FindRequest {
+            text: text.to_string(),
+            k: 1,
+            class: None,
+            near: None,
+            ranking: Ranking::Graph {
+                parser,
+                rerank: false,
+            },
+            rerank_n: 10,
+        },
+    )?;
+    let best =
+        a.results.into_iter().next().ok_or_else(|| {
+            llm_tools::Error::Invalid(format!("nothing in the map matches {text:?}"))
+        })?;
+    Ok((
+        Spec::Instance(best.id),
+        Resolved::Find {
+            text: text.to_string(),
+            result: Box::new(best),
+        },
+    ))
+}
