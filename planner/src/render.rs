@@ -85,6 +85,9 @@ pub fn write_png(
     write_map_png(path, g, route, motion, obstacles, &[], &[])
 }
 
+/// A round marker: ground position and RGB colour.
+pub type Marker = ([f64; 2], (u8, u8, u8));
+
 /// [`write_png`] with the map's instances drawn underneath, filled in their class colour, and
 /// round markers (ground position, RGB) on top: `plan` and `navigate` mark the start green and
 /// the goal red.
@@ -95,7 +98,7 @@ pub fn write_map_png(
     motion: &MotionPath,
     obstacles: &[Obstacle],
     instances: &[Footprint],
-    markers: &[([f64; 2], (u8, u8, u8))],
+    markers: &[Marker],
 ) -> Result<()> {
     let pts: Vec<[f64; 2]> = g
         .edges
