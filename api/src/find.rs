@@ -70,7 +70,7 @@ pub struct FindAnswer {
 
 /// Holds what many find requests share: the embedder, the loaded scene, a language model.
 pub struct Finder {
-    embedder: Box<dyn Embedder>,
+    embedder: Box<dyn Embedder + Send>,
     llm: Option<Box<dyn ChatModel>>,
     scene: Option<Scene>,
 }
@@ -111,7 +111,7 @@ impl std::fmt::Debug for Finder {
 
 impl Finder {
     /// A finder with this embedder and, for the LLM parser or re-ranking, a model.
-    pub fn new(embedder: Box<dyn Embedder>, llm: Option<Box<dyn ChatModel>>) -> Finder {
+    pub fn new(embedder: Box<dyn Embedder + Send>, llm: Option<Box<dyn ChatModel>>) -> Finder {
         Finder {
             embedder,
             llm,

@@ -3,4 +3,6 @@
 pub mod demo;
 pub mod find;
 pub mod info;
+pub mod mcp;
 pub mod plan;
+pub mod tools;

@@ -369,6 +369,38 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The agent tools (names, descriptions, JSON Schemas of their arguments) that the MCP
+    /// server and `ask` offer, as JSON.
+    Tools {
+        /// Include the write tools.
+        #[arg(long)]
+        writes: bool,
+    },
+    /// Call one agent tool on a map with JSON arguments and print its JSON answer (what an MCP
+    /// client gets).
+    Tool {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The tool's name (see `opengraph tools`).
+        name: String,
+        /// Its arguments as a JSON object.
+        #[arg(default_value = "{}")]
+        args: String,
+        /// Enable the write tools (opens the store for writing).
+        #[arg(long)]
+        writes: bool,
+    },
+    /// Serve the map's agent tools over MCP on stdin/stdout (for Claude Desktop, IDE agents
+    /// and the like; see docs/serve.md). Read-only unless --allow-writes.
+    Mcp {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Offer write_cypher (opens the store for writing).
+        #[arg(long)]
+        allow_writes: bool,
+    },
     /// Run a Cypher statement against a store and print a table (or JSON rows).
     Query {
         /// The store file.
@@ -758,6 +790,21 @@ fn ranking_of(plain: bool, parser: &str, rerank: bool) -> api::find::Ranking {
     }
 }
 
+/// The toolbox over a map: read-only unless `writes`.
+fn open_toolbox(db: &std::path::Path, writes: bool) -> anyhow::Result<api::tools::Toolbox> {
+    let store = if writes {
+        graphstore::Store::open(db)
+    } else {
+        graphstore::Store::open_read_only(db)
+    }
+    .with_context(|| format!("opening {}", db.display()))?;
+    let finder = {
+        let r = store.read()?;
+        finder_for(&r, None, false, &LlmArgs::default())?
+    };
+    Ok(api::tools::Toolbox::new(store, finder, writes))
+}
+
 /// Whether a ranking needs a language model.
 fn needs_llm(ranking: api::find::Ranking) -> bool {
     matches!(
@@ -807,7 +854,7 @@ fn finder_for(
     Ok(api::find::Finder::new(make_embedder(&name)?, model))
 }
 
-fn make_embedder(name: &str) -> anyhow::Result<Box<dyn llm_tools::Embedder>> {
+fn make_embedder(name: &str) -> anyhow::Result<Box<dyn llm_tools::Embedder + Send>> {
     Ok(match name {
         "hash" => Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
         _ => Box::new(
@@ -1421,6 +1468,45 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         String::new()
                     }
                 );
+            }
+        }
+        Command::Mcp { db, allow_writes } => {
+            let tb = open_toolbox(&db, allow_writes)?;
+            errln!(
+                "opengraph MCP server on stdio over {} ({})",
+                db.display(),
+                if allow_writes {
+                    "writes allowed"
+                } else {
+                    "read-only"
+                }
+            );
+            api::mcp::serve_stdio(tb)?;
+        }
+        Command::Tools { writes } => {
+            outln!(
+                "{}",
+                serde_json::to_string_pretty(&api::tools::tools(writes))?
+            );
+        }
+        Command::Tool {
+            db,
+            name,
+            args,
+            writes,
+        } => {
+            let args: serde_json::Value = serde_json::from_str(&args)
+                .map_err(|e| UsageError(format!("the arguments are not JSON: {e}")))?;
+            let mut tb = open_toolbox(&db, writes)?;
+            match tb.call(&name, &args) {
+                Ok(v) => outln!("{}", serde_json::to_string_pretty(&v)?),
+                Err(
+                    e
+                    @ (api::tools::ToolError::Unknown(_) | api::tools::ToolError::BadArguments(_)),
+                ) => {
+                    return Err(UsageError(e.to_string()).into());
+                }
+                Err(e) => return Err(e.into()),
             }
         }
         Command::Locate {

@@ -1,0 +1,177 @@
+//! The MCP server with a real client: the official Python `mcp` package (installed by
+//! scripts/setup.sh into $OPENGRAPH_VENV) starts `opengraph mcp` over stdio, lists the tools,
+//! calls find / read Cypher / locate, and checks that writes are refused read-only by the
+//! parser, that bad arguments are tool errors, and that write_cypher exists only with
+//! --allow-writes. Skips with a message when the client is not installed.
+
+mod common;
+use common::{json, og, s};
+
+fn python_with_mcp() -> Option<std::path::PathBuf> {
+    let venv = std::env::var_os("OPENGRAPH_VENV")
+        .map(std::path::PathBuf::from)
+        .or_else(|| {
+            std::env::var_os("HOME").map(|h| std::path::Path::new(&h).join(".cache/opengraph/venv"))
+        })?;
+    let py = venv.join("bin/python");
+    let ok = std::process::Command::new(&py)
+        .args(["-c", "import mcp"])
+        .status()
+        .is_ok_and(|s| s.success());
+    ok.then_some(py)
+}
+
+fn client(py: &std::path::Path, db: &std::path::Path, extra: &[&str]) -> serde_json::Value {
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/mcp_client.py");
+    let mut cmd = std::process::Command::new(py);
+    cmd.arg(&script)
+        .arg(env!("CARGO_BIN_EXE_opengraph"))
+        .arg(db)
+        .args(extra);
+    // the client's own timeouts bound every call; this bounds the whole run
+    let child = cmd
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    let out = rx
+        .recv_timeout(std::time::Duration::from_secs(600))
+        .expect("the MCP client finished within 600 s")
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "client failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(text.lines().last().unwrap_or_default()).unwrap()
+}
+
+#[test]
+fn a_real_mcp_client_lists_and_calls_the_tools() {
+    let Some(py) = python_with_mcp() else {
+        eprintln!("skipping: no Python with the mcp package (run scripts/setup.sh)");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let db = dir.path().join("city.og");
+    json(&og(&[
+        "sim",
+        "--out",
+        s(&sim),
+        "--seed",
+        "3",
+        "--frames",
+        "24",
+        "--json",
+    ]));
+    json(&og(&[
+        "build",
+        "--kitti",
+        s(&sim),
+        "--detections",
+        s(&sim.join("detections")),
+        "--db",
+        s(&db),
+        "--embedder",
+        "hash",
+        "--json",
+    ]));
+    let r = client(&py, &db, &[]);
+    assert_eq!(r["server"], "opengraph");
+    let tools: Vec<&str> = r["tools"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        tools,
+        [
+            "describe_area",
+            "find_objects",
+            "get_instance",
+            "get_schema",
+            "locate",
+            "plan_route",
+            "read_cypher"
+        ]
+    );
+    // the schemas the client sees are the registry's
+    let registry = json(&og(&["tools"]));
+    for t in registry.as_array().unwrap() {
+        let name = t["name"].as_str().unwrap();
+        assert_eq!(r["schemas"][name], t["input_schema"], "{name}");
+    }
+    // find: results with evidence, the same as the CLI tool adapter gives
+    assert_eq!(r["find"]["is_error"], false, "{}", r["find"]);
+    let found = r["find"]["value"]["results"].as_array().unwrap();
+    assert!(!found.is_empty() && found.len() <= 3);
+    let cli = json(&og(&[
+        "tool",
+        "--db",
+        s(&db),
+        "find_objects",
+        r#"{"text": "the bench near the bus stop", "k": 3}"#,
+    ]));
+    assert_eq!(cli, r["find"]["value"], "MCP and CLI answers differ");
+    // read Cypher: the count of segments, as the CLI query gives it
+    let n = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--read-only",
+        "--json",
+        "MATCH (s:Segment) RETURN count(s) AS n",
+    ]));
+    assert_eq!(r["cypher"]["value"]["rows"][0]["n"], n[0]["n"]);
+    // a write through the read tool is refused by the parser, and nothing is written
+    assert_eq!(r["cypher_write_refused"]["is_error"], true);
+    assert!(
+        r["cypher_write_refused"]["text"]
+            .as_str()
+            .unwrap()
+            .contains("read-only")
+    );
+    assert_eq!(r["after_write"]["value"]["rows"][0]["n"], 0);
+    // locate answers with segments
+    assert_eq!(r["locate"]["is_error"], false, "{}", r["locate"]);
+    assert!(
+        !r["locate"]["value"]["results"]
+            .as_array()
+            .unwrap()
+            .is_empty()
+    );
+    // bad arguments: a tool error that names the problem
+    assert_eq!(r["bad_args"]["is_error"], true);
+    assert!(
+        r["bad_args"]["text"].as_str().unwrap().contains("text"),
+        "{}",
+        r["bad_args"]
+    );
+    // no write tool without --allow-writes
+    assert!(
+        r["write"]["protocol_error"]
+            .as_str()
+            .unwrap()
+            .contains("write_cypher")
+    );
+
+    // with --allow-writes the write tool exists and writes
+    let w = client(&py, &db, &["--allow-writes"]);
+    assert!(
+        w["tools"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|t| t == "write_cypher")
+    );
+    assert_eq!(w["write"]["is_error"], false, "{}", w["write"]);
+    assert_eq!(w["after_write"]["value"]["rows"][0]["n"], 1);
+}
