@@ -401,6 +401,24 @@ enum Command {
         #[arg(long)]
         allow_writes: bool,
     },
+    /// Ask a question about the map in words; a language model answers by calling the agent
+    /// tools (find_objects, locate, plan_route, read_cypher, ...). Prints each tool call and the
+    /// answer; --json prints the whole transcript.
+    Ask {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The question.
+        question: String,
+        /// Rounds of tool calls before giving up.
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(1..=20))]
+        max_steps: u64,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print {"question", "model", "steps", "answer", "stopped", "transcript"} as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Run a Cypher statement against a store and print a table (or JSON rows).
     Query {
         /// The store file.
@@ -705,6 +723,15 @@ fn print_pass(name: &str, r: &ingest::llm::PassReport) -> anyhow::Result<()> {
     );
     for (label, n) in &r.labels {
         outln!("  {label:<24} {n}");
+    }
+    if !r.rejected.is_empty() {
+        errln!(
+            "{} answers broke the answer schema and were skipped (a later run asks again):",
+            r.rejected.len()
+        );
+        for why in r.rejected.iter().take(5) {
+            errln!("  {why}");
+        }
     }
     Ok(())
 }
@@ -1482,6 +1509,38 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }
             );
             api::mcp::serve_stdio(tb)?;
+        }
+        Command::Ask {
+            db,
+            question,
+            max_steps,
+            llm,
+            json,
+        } => {
+            let mut model = open_llm(&llm.config(llm_tools::LlmConfig::default(), "local"), "ask")?;
+            let mut tb = open_toolbox(&db, false)?;
+            let a = api::ask::ask(model.as_mut(), &mut tb, &question, max_steps as usize)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&a)?);
+            } else {
+                for s in &a.steps {
+                    errln!(
+                        "tool {}({}){}",
+                        s.tool,
+                        s.arguments,
+                        if s.is_error {
+                            format!(" -> error: {}", s.result)
+                        } else {
+                            String::new()
+                        }
+                    );
+                }
+                match (&a.answer, &a.stopped) {
+                    (Some(t), _) => outln!("{t}"),
+                    (None, Some(why)) => errln!("no answer: {why}"),
+                    _ => {}
+                }
+            }
         }
         Command::Tools { writes } => {
             outln!(

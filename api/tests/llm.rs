@@ -229,4 +229,43 @@ fn smallest_model_merges_captions_and_labels_relations() {
         ],
         &["needs a language model"],
     );
+    // ask: the first round must call a tool (grammar-constrained), every call is one of
+    // the registry's tools, and the transcript records the model and prompt
+    let a = json(&og(&[
+        "ask",
+        "--db",
+        s(&db),
+        "Where can I post a letter?",
+        "--llm-model",
+        s(&smol),
+        "--max-steps",
+        "2",
+        "--json",
+    ]));
+    assert!(
+        a["model"]
+            .as_str()
+            .unwrap()
+            .starts_with("SmolLM2-135M-Instruct.Q4_1.gguf:")
+            && a["model"]
+                .as_str()
+                .unwrap()
+                .ends_with(&format!("({})", llm_tools::prompts::ASK.id())),
+        "{a}"
+    );
+    let steps = a["steps"].as_array().unwrap();
+    assert!(!steps.is_empty(), "{a}");
+    let names: Vec<String> = json(&og(&["tools"]))
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["name"].as_str().unwrap().to_string())
+        .collect();
+    for st in steps {
+        assert!(
+            names.contains(&st["tool"].as_str().unwrap().to_string()),
+            "{st}"
+        );
+    }
+    assert!(a["answer"].is_string() || a["stopped"].is_string(), "{a}");
 }

@@ -187,6 +187,8 @@ pub struct PassReport {
     pub secs: f64,
     /// For relations: labels written, by relation.
     pub labels: BTreeMap<String, usize>,
+    /// Items whose answer broke the schema, with why (skipped; a later run asks again).
+    pub rejected: Vec<String>,
 }
 
 /// The question for a caption merge: the latest `recent` captions, numbered, oldest first.
@@ -331,7 +333,21 @@ fn run_pass<T, W>(
             }
             let (input, schema, max_tokens) = question(&todo[i]);
             let t = Instant::now();
-            let (v, new) = ask(model, cache, &prompt, &input, schema, max_tokens)?;
+            let (v, new) = match ask(model, cache, &prompt, &input, schema, max_tokens) {
+                Ok(x) => x,
+                // an answer that breaks the schema (a grammar cannot bound numbers: 1.2 for a
+                // confidence in [0, 1]) costs this item, not the pass
+                Err(Error::Llm(llm_tools::Error::LlmAnswer(why))) => {
+                    asked += 1;
+                    asked_ms += t.elapsed().as_secs_f64() * 1e3;
+                    report
+                        .rejected
+                        .push(format!("{}: {why}", input.lines().next().unwrap_or("")));
+                    i += 1;
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
             match new {
                 Some(a) => {
                     asked += 1;
@@ -352,7 +368,7 @@ fn run_pass<T, W>(
             write_answers(tx, &model_id, &prompt, &new_answers)
         })?;
     }
-    report.left = todo.len() - i;
+    report.left = todo.len() - i + report.rejected.len();
     report.ms_per_item = if asked > 0 {
         asked_ms / asked as f64
     } else {

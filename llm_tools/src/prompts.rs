@@ -59,6 +59,13 @@ pub const RERANK: Prompt = Prompt {
     text: include_str!("../prompts/rerank.v1.txt"),
 };
 
+/// The agent behind `opengraph ask`: answer questions about the map by calling its tools.
+pub const ASK: Prompt = Prompt {
+    task: "ask",
+    version: 1,
+    text: include_str!("../prompts/ask.v1.txt"),
+};
+
 /// The JSON Schema of a merged caption.
 pub fn merge_captions_schema() -> serde_json::Value {
     serde_json::json!({"type": "object",

@@ -307,7 +307,8 @@ fn answer_chars(max_tokens: u32) -> u32 {
     (max_tokens.saturating_mul(3)).saturating_sub(40).max(16)
 }
 
-/// The schema a local model answers with when tools are offered: one tool call or an answer.
+/// The schema a local model answers with when tools are offered: one tool call or an answer
+/// (only a tool call when the request requires one).
 pub fn tool_choice_schema(req: &ChatRequest) -> Value {
     let mut options: Vec<Value> = req
         .tools
@@ -322,8 +323,10 @@ pub fn tool_choice_schema(req: &ChatRequest) -> Value {
         .schema
         .clone()
         .unwrap_or_else(|| json!({"type": "string", "maxLength": answer_chars(req.max_tokens)}));
-    options.push(json!({"type": "object", "properties": {"answer": answer},
-                        "required": ["answer"], "additionalProperties": false}));
+    if !req.require_tool {
+        options.push(json!({"type": "object", "properties": {"answer": answer},
+                            "required": ["answer"], "additionalProperties": false}));
+    }
     json!({"oneOf": options})
 }
 

@@ -100,6 +100,9 @@ pub struct ChatRequest {
     pub schema: Option<serde_json::Value>,
     /// Tools the model may call instead of answering.
     pub tools: Vec<ToolSpec>,
+    /// The model must call one of the tools rather than answer (OpenAI `tool_choice:
+    /// "required"`; local models get a grammar without the answer option).
+    pub require_tool: bool,
     /// Most tokens to generate.
     pub max_tokens: u32,
 }
@@ -111,8 +114,14 @@ impl ChatRequest {
             messages,
             schema: None,
             tools: Vec::new(),
+            require_tool: false,
             max_tokens: 256,
         }
+    }
+    /// Requires a tool call (see [`ChatRequest::require_tool`]).
+    pub fn with_required_tool(mut self) -> ChatRequest {
+        self.require_tool = true;
+        self
     }
     /// Requires the answer to follow `schema`.
     pub fn with_schema(mut self, schema: serde_json::Value) -> ChatRequest {

@@ -139,6 +139,9 @@ impl OpenAiChat {
                         "name": t.name, "description": t.description, "parameters": t.parameters}})
                 })
                 .collect();
+            if req.require_tool {
+                body["tool_choice"] = json!("required");
+            }
         }
         body
     }

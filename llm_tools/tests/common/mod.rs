@@ -158,6 +158,7 @@ pub fn request_from_openai_body(body: &Value) -> ChatRequest {
                     .collect()
             })
             .unwrap_or_default(),
+        require_tool: body["tool_choice"] == "required",
         max_tokens: body["max_tokens"].as_u64().unwrap_or(256) as u32,
     }
 }
