@@ -305,17 +305,22 @@ fn a_failing_model_leaves_the_store_as_it_was() {
     let dir = tempfile::tempdir().unwrap();
     let store = map(dir.path());
     let before = store.read().unwrap().counts().unwrap();
-    // answers of the wrong shape: the first question fails, nothing is written
+    // answers of the wrong shape: each item is rejected with the reason, none is done, and
+    // nothing is written (a later run asks again)
     let mut bad = Scripted::from_fn("bad", |_| Reply::Text(r#"{"relation": 7}"#.into()));
-    let e = infer_relations(
+    let r = infer_relations(
         &store,
         &mut bad,
         &RelationConfig::default(),
         &PassOptions::default(),
     )
-    .unwrap_err()
-    .to_string();
-    assert!(e.contains("does not follow the schema"), "{e}");
+    .unwrap();
+    assert_eq!((r.done, r.rejected.len(), r.left), (0, r.total, r.total));
+    assert!(
+        r.rejected.iter().all(|w| w.contains("does not follow the schema")),
+        "{r:?}"
+    );
+    // a model that fails outright stops the pass
     let mut emb = HashEmbedder::new(graphstore::FEATURE_DIM);
     let mut bad = Scripted::new("empty", vec![]);
     assert!(merge_captions(&store, &mut bad, &mut emb, 4, &PassOptions::default()).is_err());
