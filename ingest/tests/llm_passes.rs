@@ -317,7 +317,9 @@ fn a_failing_model_leaves_the_store_as_it_was() {
     .unwrap();
     assert_eq!((r.done, r.rejected.len(), r.left), (0, r.total, r.total));
     assert!(
-        r.rejected.iter().all(|w| w.contains("does not follow the schema")),
+        r.rejected
+            .iter()
+            .all(|w| w.contains("does not follow the schema")),
         "{r:?}"
     );
     // a model that fails outright stops the pass
