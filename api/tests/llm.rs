@@ -4,7 +4,7 @@
 //! small simulated map that record their model and prompt and resume without asking again.
 
 mod common;
-use common::{json, og, s};
+use common::{json, og, s, sim_map};
 
 fn expect_usage_error(args: &[&str], needles: &[&str]) {
     let out = og(args);
@@ -80,30 +80,11 @@ fn smallest_model_merges_captions_and_labels_relations() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    let db = dir.path().join("city.og");
-    json(&og(&[
-        "sim",
-        "--out",
-        s(&sim),
-        "--seed",
-        "5",
-        "--frames",
-        "12",
-        "--json",
-    ]));
-    json(&og(&[
-        "build",
-        "--kitti",
-        s(&sim),
-        "--detections",
-        s(&sim.join("detections")),
-        "--db",
-        s(&db),
-        "--embedder",
-        "hash",
-        "--json",
-    ]));
+    let (sim, db) = sim_map(
+        dir.path(),
+        &["--seed", "5", "--frames", "12"],
+        &["--embedder", "hash"],
+    );
     let r = json(&og(&[
         "captions",
         "--db",

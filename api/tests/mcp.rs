@@ -5,7 +5,7 @@
 //! --allow-writes. Skips with a message when the client is not installed.
 
 mod common;
-use common::{json, og, s};
+use common::{json, og, s, sim_map};
 
 fn python_with_mcp() -> Option<std::path::PathBuf> {
     let venv = std::env::var_os("OPENGRAPH_VENV")
@@ -59,30 +59,11 @@ fn a_real_mcp_client_lists_and_calls_the_tools() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    let db = dir.path().join("city.og");
-    json(&og(&[
-        "sim",
-        "--out",
-        s(&sim),
-        "--seed",
-        "3",
-        "--frames",
-        "24",
-        "--json",
-    ]));
-    json(&og(&[
-        "build",
-        "--kitti",
-        s(&sim),
-        "--detections",
-        s(&sim.join("detections")),
-        "--db",
-        s(&db),
-        "--embedder",
-        "hash",
-        "--json",
-    ]));
+    let (_, db) = sim_map(
+        dir.path(),
+        &["--seed", "3", "--frames", "24"],
+        &["--embedder", "hash"],
+    );
     let r = client(&py, &db, &[]);
     assert_eq!(r["server"], "opengraph");
     let tools: Vec<&str> = r["tools"]

@@ -4,7 +4,7 @@
 //! rankings on the repository's query set. Skips when the MiniLM files are absent.
 
 mod common;
-use common::{json, og, s};
+use common::{json, og, s, sim_map};
 
 fn minilm_present() -> bool {
     let d = llm_tools::embed::default_models_dir();
@@ -23,28 +23,7 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    let db = dir.path().join("city.og");
-    json(&og(&[
-        "sim",
-        "--out",
-        s(&sim),
-        "--size",
-        "small",
-        "--seed",
-        "0",
-        "--json",
-    ]));
-    json(&og(&[
-        "build",
-        "--kitti",
-        s(&sim),
-        "--detections",
-        s(&sim.join("detections")),
-        "--db",
-        s(&db),
-        "--json",
-    ]));
+    let (sim, db) = sim_map(dir.path(), &["--size", "small", "--seed", "0"], &[]);
     let queries = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../ingest/data/retrieval_small_city.jsonl");
     let eval = |extra: &[&str]| {

@@ -226,7 +226,7 @@ fn join_rest(rest: &[String]) -> String {
 pub fn true_segment(segments: &[SegmentInfo], spot: [f64; 2]) -> Option<u64> {
     segments
         .iter()
-        .map(|s| (s, s.area.distance_m(spot)))
+        .map(|s| (s, s.area.distance(spot)))
         .filter(|(_, d)| *d <= 3.0)
         .min_by(|a, b| {
             let junction = |s: &SegmentInfo| s.kind == "straight_roadway";

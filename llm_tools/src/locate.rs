@@ -31,52 +31,7 @@ const SEGMENT_SLACK_M: f64 = 10.0;
 /// Landmarks of one description stand within this distance of the speaker's spot.
 const TOGETHER_M: f64 = 15.0;
 
-/// The area of a road segment on the ground plane.
-#[derive(Debug, Clone, PartialEq)]
-pub enum SegmentArea {
-    /// A junction: a disc.
-    Disc {
-        /// Centre.
-        centre: [f64; 2],
-        /// Radius, metres.
-        radius_m: f64,
-    },
-    /// A road: its centre line buffered by a half width.
-    Corridor {
-        /// Centre line.
-        centerline: Vec<[f64; 2]>,
-        /// Half width, metres.
-        half_width_m: f64,
-    },
-}
-
-impl SegmentArea {
-    /// Distance from `p` to the area (0 inside), metres.
-    pub fn distance_m(&self, p: [f64; 2]) -> f64 {
-        match self {
-            SegmentArea::Disc { centre, radius_m } => {
-                ((p[0] - centre[0]).hypot(p[1] - centre[1]) - radius_m).max(0.0)
-            }
-            SegmentArea::Corridor {
-                centerline,
-                half_width_m,
-            } => {
-                let d = match centerline.as_slice() {
-                    [] => f64::INFINITY,
-                    [a] => (p[0] - a[0]).hypot(p[1] - a[1]),
-                    line => line
-                        .windows(2)
-                        .map(|w| {
-                            let (_, q) = planner::closest_on_segment(p, w[0], w[1]);
-                            (p[0] - q[0]).hypot(p[1] - q[1])
-                        })
-                        .fold(f64::INFINITY, f64::min),
-                };
-                (d - half_width_m).max(0.0)
-            }
-        }
-    }
-}
+pub use planner::area::SegmentArea;
 
 /// A road segment of the map.
 #[derive(Debug, Clone, PartialEq)]
@@ -117,7 +72,7 @@ pub fn load_segments(r: &impl GraphRead, g: planner::Ground) -> Result<Vec<Segme
             },
             (_, Some(Value::List(line)), Some(Value::Float(half_width_m))) => {
                 SegmentArea::Corridor {
-                    centerline: line
+                    centreline: line
                         .iter()
                         .filter_map(Value::as_point3)
                         .map(|p| g.of(p))
@@ -384,7 +339,7 @@ pub fn locate(
                 .iter()
                 .filter(|s| {
                     cs.iter()
-                        .any(|&(i, g)| g * near_area(s.area.distance_m(ground(i))) > 0.5)
+                        .any(|&(i, g)| g * near_area(s.area.distance(ground(i))) > 0.5)
                 })
                 .count();
             1.1 - hit as f64 / segments.len().max(1) as f64
@@ -399,7 +354,7 @@ pub fn locate(
         for cs in &cands {
             for &(i, g) in cs {
                 let p = ground(i);
-                if g >= 0.3 && s.area.distance_m(p) <= SEGMENT_SLACK_M {
+                if g >= 0.3 && s.area.distance(p) <= SEGMENT_SLACK_M {
                     spots.push(p);
                 }
             }
@@ -415,7 +370,7 @@ pub fn locate(
                     let q = ground(i);
                     let v = g
                         * together((q[0] - p[0]).hypot(q[1] - p[1]))
-                        * near_area(s.area.distance_m(q));
+                        * near_area(s.area.distance(q));
                     if pick.is_none_or(|x| v > x.1) {
                         pick = Some((i, v, g));
                     }
@@ -445,7 +400,7 @@ pub fn locate(
                         landmark: l.clone(),
                         instance_id: o.id,
                         caption: o.caption.clone(),
-                        distance_m: (s.area.distance_m(q) * 100.0).round() / 100.0,
+                        distance_m: (s.area.distance(q) * 100.0).round() / 100.0,
                         similarity: g,
                     });
                 }
@@ -505,14 +460,14 @@ mod tests {
             centre: [0.0, 0.0],
             radius_m: 10.0,
         };
-        assert!(disc.distance_m([5.0, 0.0]).abs() < 1e-12);
-        assert!((disc.distance_m([13.0, 4.0]) - (185f64.sqrt() - 10.0)).abs() < 1e-9);
+        assert!(disc.distance([5.0, 0.0]).abs() < 1e-12);
+        assert!((disc.distance([13.0, 4.0]) - (185f64.sqrt() - 10.0)).abs() < 1e-9);
         let road = SegmentArea::Corridor {
-            centerline: vec![[0.0, 0.0], [100.0, 0.0]],
+            centreline: vec![[0.0, 0.0], [100.0, 0.0]],
             half_width_m: 8.0,
         };
-        assert!(road.distance_m([50.0, 7.0]).abs() < 1e-12);
-        assert!((road.distance_m([50.0, 20.0]) - 12.0).abs() < 1e-9);
-        assert!((road.distance_m([110.0, 0.0]) - 2.0).abs() < 1e-9);
+        assert!(road.distance([50.0, 7.0]).abs() < 1e-12);
+        assert!((road.distance([50.0, 20.0]) - 12.0).abs() < 1e-9);
+        assert!((road.distance([110.0, 0.0]) - 2.0).abs() < 1e-9);
     }
 }

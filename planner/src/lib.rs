@@ -1,5 +1,6 @@
 #![doc = include_str!("../README.md")]
 
+pub mod area;
 mod error;
 mod ffi;
 pub mod graph;

@@ -78,3 +78,32 @@ pub fn assert_route_ends_at(plan: &serde_json::Value, id: u64, centroid: [f64; 3
 pub fn xyz(v: &serde_json::Value) -> [f64; 3] {
     [0, 1, 2].map(|i| v[i].as_f64().expect("a number"))
 }
+
+/// Simulates a city into `dir/sim` (`sim_args`, e.g. `["--seed", "3", "--frames", "24"]`) and
+/// maps it from its detections into `dir/city.og` (`build_args`, e.g. `["--embedder",
+/// "hash"]`); returns (sim folder, store).
+pub fn sim_map(
+    dir: &Path,
+    sim_args: &[&str],
+    build_args: &[&str],
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    let sim = dir.join("sim");
+    let db = dir.join("city.og");
+    let mut a = vec!["sim", "--out", s(&sim), "--json"];
+    a.extend_from_slice(sim_args);
+    json(&og(&a));
+    let dets = sim.join("detections");
+    let mut b = vec![
+        "build",
+        "--kitti",
+        s(&sim),
+        "--detections",
+        s(&dets),
+        "--db",
+        s(&db),
+        "--json",
+    ];
+    b.extend_from_slice(build_args);
+    json(&og(&b));
+    (sim, db)
+}

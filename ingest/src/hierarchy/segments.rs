@@ -2,10 +2,6 @@
 //! bend node, a road corridor (buffered centreline) for every stretch of lane between them,
 //! `CONNECTS` between segments that join. Containment and distance go through parry2d.
 
-use parry2d::math::{Pose, Vector};
-use parry2d::query::PointQuery;
-use parry2d::shape::Ball;
-
 use super::lanes::{LaneGraph, LaneNodeKind, dist, polyline_length};
 
 /// Segment parameters.
@@ -53,97 +49,7 @@ impl SegmentKind {
     }
 }
 
-/// The area a segment covers.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub enum SegmentArea {
-    /// A junction: a disc.
-    Disc {
-        /// Centre on the ground plane.
-        centre: [f64; 2],
-        /// Radius.
-        radius_m: f64,
-    },
-    /// A road: the centreline buffered by a half-width.
-    Corridor {
-        /// Centreline on the ground plane.
-        centreline: Vec<[f64; 2]>,
-        /// Half-width.
-        half_width_m: f64,
-    },
-}
-
-fn v(p: [f64; 2]) -> Vector {
-    Vector::new(p[0] as f32, p[1] as f32)
-}
-
-impl SegmentArea {
-    /// Distance from `p` to the area (0 inside), computed with parry2d.
-    pub fn distance(&self, p: [f64; 2]) -> f64 {
-        match self {
-            SegmentArea::Disc { centre, radius_m } => {
-                let ball = Ball::new(*radius_m as f32);
-                f64::from(ball.distance_to_point(&Pose::from_translation(v(*centre)), v(p), true))
-            }
-            SegmentArea::Corridor {
-                centreline,
-                half_width_m,
-            } => {
-                // a direct scan over the segments: building a parry Polyline (and its BVH)
-                // per query cost far more than the scan, and this is called per instance
-                let d = if centreline.len() < 2 {
-                    let c = centreline.first().copied().unwrap_or([0.0, 0.0]);
-                    ((c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2)).sqrt()
-                } else {
-                    centreline
-                        .windows(2)
-                        .map(|w| {
-                            let (_, q) = planner::closest_on_segment(p, w[0], w[1]);
-                            (p[0] - q[0]).hypot(p[1] - q[1])
-                        })
-                        .fold(f64::INFINITY, f64::min)
-                };
-                (d - half_width_m).max(0.0)
-            }
-        }
-    }
-
-    /// Whether `p` lies in the area.
-    pub fn contains(&self, p: [f64; 2]) -> bool {
-        self.distance(p) <= 0.0
-    }
-
-    /// A closed ring approximating the outline of a disc (`n` vertices), or the centreline of a
-    /// corridor (for display; containment uses [`Self::distance`]).
-    pub fn outline(&self, n: usize) -> Vec<[f64; 2]> {
-        match self {
-            SegmentArea::Disc { centre, radius_m } => (0..=n)
-                .map(|k| {
-                    let a = std::f64::consts::TAU * k as f64 / n as f64;
-                    [
-                        centre[0] + radius_m * a.cos(),
-                        centre[1] + radius_m * a.sin(),
-                    ]
-                })
-                .collect(),
-            SegmentArea::Corridor { centreline, .. } => centreline.clone(),
-        }
-    }
-
-    /// The road direction at the point of the area nearest to `p` (unit vector), for
-    /// corridors; None for discs.
-    pub fn direction_near(&self, p: [f64; 2]) -> Option<[f64; 2]> {
-        let SegmentArea::Corridor { centreline, .. } = self else {
-            return None;
-        };
-        let best = centreline.windows(2).min_by(|a, b| {
-            super::lanes::point_segment_distance(p, a[0], a[1])
-                .total_cmp(&super::lanes::point_segment_distance(p, b[0], b[1]))
-        })?;
-        let d = [best[1][0] - best[0][0], best[1][1] - best[0][1]];
-        let l = (d[0] * d[0] + d[1] * d[1]).sqrt();
-        (l > 0.0).then(|| [d[0] / l, d[1] / l])
-    }
-}
+pub use planner::area::SegmentArea;
 
 /// One segment.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
