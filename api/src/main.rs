@@ -325,20 +325,8 @@ enum Command {
         /// Sentence embedder; default: the one the map was built with.
         #[arg(long, value_parser = ["minilm", "hash"])]
         embedder: Option<String>,
-        /// Rank by the cosine of the whole text with each instance's feature only (no
-        /// parsing, no graph).
-        #[arg(long, conflicts_with_all = ["parser", "rerank"])]
-        plain: bool,
-        /// Who parses the request: the rule parser or the language model.
-        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
-        parser: String,
-        /// Re-rank with a language model (OpenGraph-LLM): it picks the best three of the
-        /// first --rerank-n results.
-        #[arg(long, value_parser = ["llm"])]
-        rerank: Option<String>,
-        /// Results shown to the re-ranking model.
-        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=30))]
-        rerank_n: u64,
+        #[command(flatten)]
+        rank: RankArgs,
         #[command(flatten)]
         llm: LlmArgs,
         /// Print a JSON array of results: {"id", "caption", "class", "score", "centroid",
@@ -499,18 +487,8 @@ enum EvalCommand {
         /// The query file.
         #[arg(long)]
         queries: PathBuf,
-        /// Plain embedding ranking instead of graph-aware retrieval.
-        #[arg(long, conflicts_with_all = ["parser", "rerank"])]
-        plain: bool,
-        /// Who parses the requests.
-        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
-        parser: String,
-        /// Re-rank with a language model (OpenGraph-LLM).
-        #[arg(long, value_parser = ["llm"])]
-        rerank: Option<String>,
-        /// Results shown to the re-ranking model.
-        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=30))]
-        rerank_n: u64,
+        #[command(flatten)]
+        rank: RankArgs,
         #[command(flatten)]
         llm: LlmArgs,
         /// Print every query's outcome.
@@ -583,6 +561,31 @@ enum EvalCommand {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// How `find` and `eval retrieval` rank.
+#[derive(clap::Args, Debug, Clone)]
+struct RankArgs {
+    /// Rank by the cosine of the whole text with each instance's feature only (no parsing,
+    /// no graph).
+    #[arg(long, conflicts_with_all = ["parser", "rerank"])]
+    plain: bool,
+    /// Who parses the request: the rule parser or the language model.
+    #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+    parser: String,
+    /// Re-rank with a language model (OpenGraph-LLM): it picks the best three of the first
+    /// --rerank-n results.
+    #[arg(long, value_parser = ["llm"])]
+    rerank: Option<String>,
+    /// Results shown to the re-ranking model.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=30))]
+    rerank_n: u64,
+}
+
+impl RankArgs {
+    fn ranking(&self) -> api::find::Ranking {
+        ranking_of(self.plain, &self.parser, self.rerank.is_some())
+    }
 }
 
 /// Planner settings shared by `plan` and `navigate`; each is checked (finite, in range)
@@ -1413,17 +1416,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             class,
             near,
             embedder,
-            plain,
-            parser,
-            rerank,
-            rerank_n,
+            rank,
             llm,
             json,
         } => {
             let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
-            let ranking = ranking_of(plain, &parser, rerank.is_some());
+            let ranking = rank.ranking();
+            let rerank_n = rank.rerank_n;
             let mut finder = finder_for(&r, embedder, needs_llm(ranking), &llm)?;
             let req = api::find::FindRequest {
                 text,
@@ -1819,10 +1820,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     db,
                     sim,
                     queries,
-                    plain,
-                    parser,
-                    rerank,
-                    rerank_n,
+                    rank,
                     llm,
                     verbose,
                     json,
@@ -1832,7 +1830,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let store = graphstore::Store::open_read_only(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let r = store.read()?;
-            let ranking = ranking_of(plain, &parser, rerank.is_some());
+            let ranking = rank.ranking();
+            let rerank_n = rank.rerank_n;
             let mut finder = finder_for(&r, None, needs_llm(ranking), &llm)?;
             let mut latencies = Vec::new();
             let report = ingest::eval_retrieval::eval_retrieval(&sim, &qs, |text| {
