@@ -977,7 +977,8 @@ fn parse_param(s: &str) -> Result<(String, graphstore::cypher::Val), String> {
     if k.is_empty() || !k.chars().all(|c| c.is_alphanumeric() || c == '_') {
         return Err(format!("--param: {k:?} is not a parameter name"));
     }
-    Ok((k.to_string(), graphstore::cypher::param_from_text(v)))
+    let v = graphstore::cypher::param_from_text(v).map_err(|e| format!("--param {k}: {e}"))?;
+    Ok((k.to_string(), v))
 }
 
 /// Shortens a rendered cell for the table view.

@@ -324,7 +324,9 @@ impl Toolbox {
         let mut p = BTreeMap::new();
         if let Some(Json::Object(m)) = params {
             for (k, v) in m {
-                p.insert(k.clone(), graphstore::cypher::from_json(v));
+                let v = graphstore::cypher::try_from_json(v)
+                    .map_err(|e| ToolError::BadArguments(format!("params.{k}: {e}")))?;
+                p.insert(k.clone(), v);
             }
         }
         let opts = graphstore::cypher::QueryOptions {

@@ -209,3 +209,44 @@ fn reads_leave_the_file_as_it_was_and_need_no_write_permission() {
     assert_eq!(w.status.code(), Some(2));
     assert_eq!(std::fs::read(&db).unwrap(), before);
 }
+
+/// An integer parameter is an INTEGER exactly at the ends of the 64-bit range, and one beyond
+/// it is refused (exit 2) instead of turning into an inexact FLOAT; also inside lists.
+#[test]
+fn integer_parameters_beyond_64_bits_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("demo.og");
+    ok(&og(&["demo", "--db", s(&db)]));
+    for v in ["9223372036854775807", "-9223372036854775808"] {
+        let r = json(&og(&[
+            "query",
+            "--db",
+            s(&db),
+            "--read-only",
+            "--json",
+            "--param",
+            &format!("x={v}"),
+            "RETURN $x AS x",
+        ]));
+        assert_eq!(r[0]["x"].to_string(), v, "{r}");
+    }
+    for v in [
+        "9223372036854775808",
+        "-9223372036854775809",
+        "99999999999999999999",
+        "[1, 18446744073709551615]",
+    ] {
+        let out = og(&[
+            "query",
+            "--db",
+            s(&db),
+            "--read-only",
+            "--param",
+            &format!("x={v}"),
+            "RETURN $x AS x",
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{v}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("outside the INTEGER range"), "{v}: {err}");
+    }
+}

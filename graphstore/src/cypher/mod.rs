@@ -596,10 +596,49 @@ pub fn is_write(text: &str) -> Result<bool, QueryError> {
 
 /// Parses a parameter value given on a command line: JSON when it parses as JSON
 /// (`3`, `2.5`, `"x"`, `[1,2]`, `{"a":1}`, `true`, `null`), else the plain string.
-pub fn param_from_text(text: &str) -> Val {
+///
+/// # Errors
+/// An integer literal outside the 64-bit range (Cypher's INTEGER): it is refused rather than
+/// turned into an inexact FLOAT.
+pub fn param_from_text(text: &str) -> std::result::Result<Val, String> {
+    let t = text.trim();
+    let digits = t.strip_prefix('-').unwrap_or(t);
+    if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) && t.parse::<i64>().is_err()
+    {
+        return Err(format!(
+            "{t} is outside the INTEGER range [{}, {}]",
+            i64::MIN,
+            i64::MAX
+        ));
+    }
     match serde_json::from_str::<serde_json::Value>(text) {
-        Ok(j) => from_json(&j),
-        Err(_) => Val::Str(text.to_string()),
+        Ok(j) => try_from_json(&j),
+        Err(_) => Ok(Val::Str(text.to_string())),
+    }
+}
+
+/// [`from_json`], but a JSON integer outside the 64-bit range is an error instead of a FLOAT.
+///
+/// # Errors
+/// An unsigned integer above `i64::MAX` anywhere in the value.
+pub fn try_from_json(j: &serde_json::Value) -> std::result::Result<Val, String> {
+    match j {
+        serde_json::Value::Number(n) if n.is_u64() && n.as_i64().is_none() => Err(format!(
+            "{n} is outside the INTEGER range [{}, {}]",
+            i64::MIN,
+            i64::MAX
+        )),
+        serde_json::Value::Array(a) => Ok(Val::List(
+            a.iter()
+                .map(try_from_json)
+                .collect::<std::result::Result<_, _>>()?,
+        )),
+        serde_json::Value::Object(o) => Ok(Val::Map(
+            o.iter()
+                .map(|(k, v)| Ok((k.clone(), try_from_json(v)?)))
+                .collect::<std::result::Result<_, String>>()?,
+        )),
+        other => Ok(from_json(other)),
     }
 }
 
