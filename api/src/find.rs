@@ -13,6 +13,24 @@ use llm_tools::request::{self, Request};
 use llm_tools::retrieve::{self, FindOptions};
 use llm_tools::{ChatModel, Embedder, Result};
 
+/// Longest request text, in characters (the agent tools' schemas say the same).
+pub const MAX_TEXT_CHARS: usize = 2000;
+
+fn check_text(text: &str, what: &str) -> Result<()> {
+    if text.trim().is_empty() {
+        return Err(llm_tools::Error::Invalid(format!(
+            "the {what} text is empty"
+        )));
+    }
+    let n = text.chars().count();
+    if n > MAX_TEXT_CHARS {
+        return Err(llm_tools::Error::Invalid(format!(
+            "the {what} text has {n} characters; at most {MAX_TEXT_CHARS} are taken"
+        )));
+    }
+    Ok(())
+}
+
 /// How a request becomes a structured request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParserKind {
@@ -148,6 +166,7 @@ impl Finder {
     /// # Errors
     /// Empty text, a map built with another embedder, no ground frame, a failing model.
     pub fn locate(&mut self, r: &impl GraphRead, req: &LocateRequest) -> Result<LocateAnswer> {
+        check_text(&req.text, "description")?;
         self.check_embedder(r)?;
         let t0 = Instant::now();
         let (description, parsed_by) = match req.parser {
@@ -202,9 +221,7 @@ impl Finder {
     /// Empty text, a map built with another embedder, a store without a ground frame
     /// (graph-aware ranking), or a language model that fails.
     pub fn find(&mut self, r: &impl GraphRead, req: &FindRequest) -> Result<FindAnswer> {
-        if req.text.trim().is_empty() {
-            return Err(llm_tools::Error::Invalid("the query text is empty".into()));
-        }
+        check_text(&req.text, "query")?;
         self.check_embedder(r)?;
         let (parser, rerank) = match req.ranking {
             Ranking::Plain => {

@@ -314,8 +314,8 @@ enum Command {
         /// What to look for, in words.
         text: String,
         /// How many results.
-        #[arg(short, long, default_value_t = 10)]
-        k: usize,
+        #[arg(short, long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        k: u64,
         /// Only this class.
         #[arg(long)]
         class: Option<String>,
@@ -345,8 +345,8 @@ enum Command {
         /// The description.
         text: String,
         /// How many segments.
-        #[arg(short, long, default_value_t = 3)]
-        k: usize,
+        #[arg(short, long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        k: u64,
         /// Who parses the description: the rule parser or the language model.
         #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
         parser: String,
@@ -593,18 +593,18 @@ impl RankArgs {
 #[derive(clap::Args, Debug, Clone)]
 struct PlanArgs {
     /// Minimum turning radius of the vehicle, metres, in [0.5, 100].
-    #[arg(long, default_value_t = 5.0, value_parser = in_range(0.5, 100.0))]
+    #[arg(long, default_value_t = 5.0, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
     turning_radius_m: f64,
     /// Time budget for OMPL, milliseconds, in [0, 60000]; 0 returns the route polyline as a
     /// fallback.
-    #[arg(long, default_value_t = 200.0, value_parser = in_range(0.0, 60000.0))]
+    #[arg(long, default_value_t = 200.0, value_parser = in_range(0.0, 60000.0), allow_hyphen_values = true)]
     budget_ms: f64,
     /// Half-width of the corridor around the route the path must stay in, metres, in
     /// [0.5, 100].
-    #[arg(long, default_value_t = 6.0, value_parser = in_range(0.5, 100.0))]
+    #[arg(long, default_value_t = 6.0, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
     corridor_m: f64,
     /// Points farther than this from every lane are refused, metres, in [0, 1000].
-    #[arg(long, default_value_t = 15.0, value_parser = in_range(0.0, 1000.0))]
+    #[arg(long, default_value_t = 15.0, value_parser = in_range(0.0, 1000.0), allow_hyphen_values = true)]
     snap_m: f64,
     /// Draw the map (instances in SemanticKITTI class colours), the lane graph, the route
     /// (blue), the path, the boxes that block it, the start (green) and the goal (red).
@@ -1427,9 +1427,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let ranking = rank.ranking();
             let rerank_n = rank.rerank_n;
             let mut finder = finder_for(&r, embedder, needs_llm(ranking), &llm)?;
+            if let Some(c) = &class
+                && !ingest::classes::CLASSES.contains(&c.as_str())
+            {
+                return Err(UsageError(format!(
+                    "--class {c:?} is not one of the 19 SemanticKITTI classes a map's instances carry: {}",
+                    ingest::classes::CLASSES.join(", ")
+                ))
+                .into());
+            }
             let req = api::find::FindRequest {
                 text,
-                k,
+                k: k as usize,
                 class,
                 near,
                 ranking,
@@ -1583,7 +1592,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let r = store.read()?;
             let parser = parser_of(&parser);
             let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
-            let a = finder.locate(&r, &api::find::LocateRequest { text, k, parser })?;
+            let a = finder.locate(
+                &r,
+                &api::find::LocateRequest {
+                    text,
+                    k: k as usize,
+                    parser,
+                },
+            )?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&a)?);
             } else {

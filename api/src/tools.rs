@@ -41,7 +41,7 @@ pub struct Tool {
 #[non_exhaustive]
 pub enum ToolError {
     /// No tool of that name (or a write tool while writes are off).
-    #[error("no tool named {0:?}")]
+    #[error("no tool named {name:?}{hint}", name = .0, hint = write_hint(.0))]
     Unknown(String),
     /// The arguments do not match the tool's schema, or name nothing.
     #[error("bad arguments: {0}")]
@@ -49,6 +49,15 @@ pub enum ToolError {
     /// The operation failed on the map.
     #[error("{0}")]
     Failed(String),
+}
+
+/// The hint for a write tool asked for while writes are off.
+fn write_hint(name: &str) -> &'static str {
+    if name == "write_cypher" {
+        " (write tools are offered only when writes are enabled: --writes, or mcp --allow-writes)"
+    } else {
+        ""
+    }
 }
 
 /// Result alias for tool calls.
@@ -265,12 +274,14 @@ impl Toolbox {
             }
             "plan_route" => {
                 let r = self.store.read().map_err(failed)?;
+                // what cannot be resolved or routed comes from the arguments
+                let bad = |e: &dyn std::fmt::Display| ToolError::BadArguments(e.to_string());
                 let (a, start) =
                     crate::plan::resolve_end(&mut self.finder, &r, &s("from"), ParserKind::Rules)
-                        .map_err(failed)?;
+                        .map_err(|e| bad(&e))?;
                 let (b, goal) =
                     crate::plan::resolve_end(&mut self.finder, &r, &s("to"), ParserKind::Rules)
-                        .map_err(failed)?;
+                        .map_err(|e| bad(&e))?;
                 let opts = PlanOptions {
                     turning_radius_m: 5.0,
                     budget_ms: 200.0,
@@ -278,7 +289,7 @@ impl Toolbox {
                     snap_m: 15.0,
                     png: None,
                 };
-                let mut plan = crate::plan::plan(&r, &a, &b, &opts).map_err(failed)?;
+                let mut plan = crate::plan::plan(&r, &a, &b, &opts).map_err(|e| bad(&e))?;
                 // the poses are for a robot; an agent needs the route
                 plan.path.poses.clear();
                 serde_json::to_value(NavigateAnswer { start, goal, plan }).map_err(failed)

@@ -313,3 +313,66 @@ fn a_closed_stdout_is_a_quiet_exit_and_bad_text_exits_2() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Arguments a new user got wrong in a trial, each refused before any work with exit 2 and a
+/// message that says what is allowed.
+#[test]
+fn find_locate_navigate_and_eval_arguments_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("d.og");
+    assert!(og(&["demo", "--db", s(&db)]).status.success());
+    let empty = dir.path().join("empty.jsonl");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    let long = "a".repeat(3000);
+    for (args, needle) in [
+        (vec!["find", "--db", s(&db), "bench", "-k", "0"], "1..=1000"),
+        (
+            vec!["find", "--db", s(&db), "x", "--class", "fire hydrant"],
+            "SemanticKITTI classes",
+        ),
+        (vec!["find", "--db", s(&db), long.as_str()], "at most 2000"),
+        (vec!["locate", "--db", s(&db), "x", "-k", "0"], "1..=1000"),
+        (
+            vec![
+                "navigate",
+                "--db",
+                s(&db),
+                "--from",
+                "lane:1",
+                "--to",
+                "lane:2",
+                "--turning-radius-m",
+                "-3",
+            ],
+            "outside [0.5, 100]",
+        ),
+        (
+            vec![
+                "eval",
+                "retrieval",
+                "--db",
+                s(&db),
+                "--sim",
+                s(dir.path()),
+                "--queries",
+                s(&empty),
+            ],
+            "no queries",
+        ),
+        (
+            vec![
+                "tool",
+                "--db",
+                s(&db),
+                "write_cypher",
+                r#"{"query": "RETURN 1"}"#,
+            ],
+            "--writes",
+        ),
+    ] {
+        let out = og(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}

@@ -86,6 +86,12 @@ pub fn read_queries(path: &Path) -> Result<Vec<Query>> {
         }
         out.push(q);
     }
+    if out.is_empty() {
+        return Err(Error::File {
+            path: path.to_path_buf(),
+            detail: "no queries in the file".into(),
+        });
+    }
     Ok(out)
 }
 
