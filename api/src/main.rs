@@ -820,14 +820,30 @@ fn ranking_of(plain: bool, parser: &str, rerank: bool) -> api::find::Ranking {
     }
 }
 
-/// The toolbox over a map: read-only unless `writes`.
-fn open_toolbox(db: &std::path::Path, writes: bool) -> anyhow::Result<api::tools::Toolbox> {
-    let store = if writes {
+/// Opens a map for writing or read-only, naming the file in the error.
+fn open_store(db: &std::path::Path, writable: bool) -> anyhow::Result<graphstore::Store> {
+    if writable {
         graphstore::Store::open(db)
     } else {
         graphstore::Store::open_read_only(db)
     }
-    .with_context(|| format!("opening {}", db.display()))?;
+    .with_context(|| format!("opening {}", db.display()))
+}
+
+/// Opens a map read-only (several readers may share it), naming the file in the error.
+fn open_read(db: &std::path::Path) -> anyhow::Result<graphstore::Store> {
+    open_store(db, false)
+}
+
+/// The median of some latencies (0 for none); sorts them.
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The toolbox over a map: read-only unless `writes`.
+fn open_toolbox(db: &std::path::Path, writes: bool) -> anyhow::Result<api::tools::Toolbox> {
+    let store = open_store(db, writes)?;
     let finder = {
         let r = store.read()?;
         finder_for(&r, None, false, &LlmArgs::default())?
@@ -1001,8 +1017,7 @@ struct UsageError(String);
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info { db, json } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let text = if json {
                 info::json(&store)?
             } else {
@@ -1016,8 +1031,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             edges_key,
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let fmt: graphstore::export::ExportFormat = format.parse()?;
             let file = std::fs::File::create(&out)
                 .with_context(|| format!("creating {}", out.display()))?;
@@ -1118,8 +1132,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             opts,
             json,
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = store.read()?;
             let (a, b) = (from.parse::<planner::Spec>()?, to.parse::<planner::Spec>()?);
             let p = api::plan::plan(&r, &a, &b, &opts.options())?;
@@ -1147,8 +1160,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 )
                 .into());
             };
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = store.read()?;
             let parser = parser_of(&parser);
             let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
@@ -1296,8 +1308,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let cfg = llm.config(llm_tools::LlmConfig::default(), "local");
             let mut m = open_llm(&cfg, "relations")?;
-            let store = graphstore::Store::open(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_store(&db, true)?;
             let opts = ingest::llm::PassOptions {
                 budget: budget_secs.map(std::time::Duration::from_secs_f64),
                 max_items: max_pairs.map(|n| n as usize),
@@ -1325,8 +1336,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let cfg = llm.config(llm_tools::LlmConfig::default(), "local");
             let mut m = open_llm(&cfg, "captions")?;
-            let store = graphstore::Store::open(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_store(&db, true)?;
             let name = llm_tools::retrieve::map_embedder(&store.read()?)?
                 .unwrap_or_else(|| "minilm".into());
             let mut emb = make_embedder(&name)?;
@@ -1421,8 +1431,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             llm,
             json,
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = store.read()?;
             let ranking = rank.ranking();
             let rerank_n = rank.rerank_n;
@@ -1587,8 +1596,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             llm,
             json,
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = store.read()?;
             let parser = parser_of(&parser);
             let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
@@ -1653,12 +1661,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ))
                 .into());
             }
-            let store = if read_only {
-                graphstore::Store::open_read_only(&db)
-            } else {
-                graphstore::Store::open(&db)
-            }
-            .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_store(&db, !read_only)?;
             let opts = graphstore::cypher::QueryOptions {
                 params: params.into_iter().collect(),
                 timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
@@ -1766,8 +1769,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     json,
                 },
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = ingest::eval::eval_semseg(
                 &store,
                 &kitti,
@@ -1803,8 +1805,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval {
             what: EvalCommand::Relations { db, sim, json },
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = ingest::eval_llm::eval_relations(&store.read()?, &sim)?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&r)?);
@@ -1844,8 +1845,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 },
         } => {
             let qs = ingest::eval_retrieval::read_queries(&queries)?;
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = store.read()?;
             let ranking = rank.ranking();
             let rerank_n = rank.rerank_n;
@@ -1872,8 +1872,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     .map(|g| (g.id, g.caption, g.centroid))
                     .collect())
             })?;
-            latencies.sort_by(f64::total_cmp);
-            let p50 = latencies.get(latencies.len() / 2).copied().unwrap_or(0.0);
+            let p50 = median(&mut latencies);
             if json {
                 let mut v = serde_json::to_value(&report)?;
                 v["p50_ms"] = serde_json::json!(p50);
@@ -1950,8 +1949,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 },
         } => {
             let cases = ingest::eval_locate::generate_cases(&sim, per_spot as usize, seed)?;
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = store.read()?;
             let parser = parser_of(&parser);
             let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
@@ -1973,8 +1971,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let pos = a.results.first().map(|l| l.position);
                 Ok((a.results.into_iter().map(|l| l.segment).collect(), pos))
             })?;
-            latencies.sort_by(f64::total_cmp);
-            let p50 = latencies.get(latencies.len() / 2).copied().unwrap_or(0.0);
+            let p50 = median(&mut latencies);
             if json {
                 let mut v = serde_json::to_value(&report)?;
                 v["p50_ms"] = serde_json::json!(p50);
@@ -2027,8 +2024,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval {
             what: EvalCommand::Instances { db, sim, json },
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = ingest::eval_instances::eval_instances(&store.read()?, &sim)?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&r)?);
@@ -2056,8 +2052,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval {
             what: EvalCommand::Captions { db, sim, json },
         } => {
-            let store = graphstore::Store::open_read_only(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
+            let store = open_read(&db)?;
             let r = ingest::eval_llm::eval_captions(&store.read()?, &sim)?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&r)?);
