@@ -260,6 +260,7 @@ pub fn merge_captions(
     run_pass(
         store,
         model,
+        &prompt,
         &cache,
         opts,
         &todo,
@@ -296,7 +297,7 @@ pub fn merge_captions(
     Ok(report)
 }
 
-/// Runs `todo` through `model` (or the cache): one question per item (`question` gives the
+/// Runs `todo` through `model` (or the cache) with `prompt`: one question per item (`question` gives the
 /// input, the schema and the token limit), `make` turns each answer into a write, and `commit`
 /// writes a chunk of `opts.chunk` of them in one transaction with their new cache entries.
 /// Stops starting items when the budget or the item limit is reached; fills in the report's
@@ -305,6 +306,7 @@ pub fn merge_captions(
 fn run_pass<T, W>(
     store: &Store,
     model: &mut dyn ChatModel,
+    prompt: &Prompt,
     cache: &LlmCache,
     opts: &PassOptions,
     todo: &[T],
@@ -315,11 +317,6 @@ fn run_pass<T, W>(
     commit: impl Fn(&mut graphstore::WriteTxn<'_>, &[W]) -> graphstore::Result<()>,
 ) -> Result<()> {
     let model_id = model.model_id();
-    let prompt = if report.prompt == prompts::RELATION.id() {
-        prompts::RELATION
-    } else {
-        prompts::MERGE_CAPTIONS
-    };
     let (mut asked, mut asked_ms) = (0usize, 0.0);
     let mut i = 0;
     while i < todo.len() {
@@ -333,7 +330,7 @@ fn run_pass<T, W>(
             }
             let (input, schema, max_tokens) = question(&todo[i]);
             let t = Instant::now();
-            let (v, new) = match ask(model, cache, &prompt, &input, schema, max_tokens) {
+            let (v, new) = match ask(model, cache, prompt, &input, schema, max_tokens) {
                 Ok(x) => x,
                 // an answer that breaks the schema (a grammar cannot bound numbers: 1.2 for a
                 // confidence in [0, 1]) costs this item, not the pass
@@ -365,7 +362,7 @@ fn run_pass<T, W>(
         }
         store.write(|tx| {
             commit(tx, &writes)?;
-            write_answers(tx, &model_id, &prompt, &new_answers)
+            write_answers(tx, &model_id, prompt, &new_answers)
         })?;
     }
     report.left = todo.len() - i + report.rejected.len();
@@ -530,6 +527,7 @@ pub fn infer_relations(
     run_pass(
         store,
         model,
+        &prompt,
         &cache,
         opts,
         &todo,
