@@ -337,6 +337,31 @@ fn similarities(
     Ok(out)
 }
 
+/// [`similarities`] with colours checked: a colour said in the phrases and only another one
+/// in the caption takes up to [`COLOUR_PENALTY`] off the cosine ([`colour_agreement`], the best
+/// over the phrases). Anchors and landmarks are matched with it.
+fn colour_checked_similarities(
+    scene: &Scene,
+    embedder: &mut dyn Embedder,
+    phrases: &[&str],
+    allowed: impl Fn(&SceneObject) -> bool,
+) -> Result<Vec<Option<f64>>> {
+    let sims = similarities(scene, embedder, phrases, allowed)?;
+    Ok(sims
+        .into_iter()
+        .zip(&scene.objects)
+        .map(|(s, o)| {
+            s.map(|s| {
+                let agree = phrases
+                    .iter()
+                    .map(|p| colour_agreement(p, &o.caption))
+                    .fold(0.0, f64::max);
+                s - (1.0 - agree) * COLOUR_PENALTY
+            })
+        })
+        .collect())
+}
+
 /// The similarity gate of every object for the best of `phrases` (None where `allowed`
 /// says no): 1 within `plateau` of the best cosine, falling to 0 over the next `falloff`
 /// ([`find_graph`] uses 0.2 and 0.15 for anchors), times `0.9 + 0.1 · cos / cos_best` so that
@@ -353,21 +378,7 @@ pub fn similarity_gates(
     plateau: f64,
     falloff: f64,
 ) -> Result<Vec<Option<f64>>> {
-    let sims = similarities(scene, embedder, phrases, allowed)?;
-    // a colour said and another one captioned weighs against the match
-    let sims: Vec<Option<f64>> = sims
-        .into_iter()
-        .zip(&scene.objects)
-        .map(|(s, o)| {
-            s.map(|s| {
-                let agree = phrases
-                    .iter()
-                    .map(|p| colour_agreement(p, &o.caption))
-                    .fold(0.0, f64::max);
-                s - (1.0 - agree) * COLOUR_PENALTY
-            })
-        })
-        .collect();
+    let sims = colour_checked_similarities(scene, embedder, phrases, allowed)?;
     let best = sims
         .iter()
         .flatten()
@@ -445,16 +456,9 @@ pub fn find_graph(
     let mut anchors: Vec<(Vec<usize>, Vec<Option<f64>>, f64)> = Vec::new();
     for a in &req.anchors {
         let surface = names_surface(&[], &a.phrase);
-        let sims = similarities(scene, embedder, &[a.phrase.as_str()], |o| {
+        let sims = colour_checked_similarities(scene, embedder, &[a.phrase.as_str()], |o| {
             o.surface == surface
         })?;
-        let sims: Vec<Option<f64>> = sims
-            .into_iter()
-            .zip(&scene.objects)
-            .map(|(s, o)| {
-                s.map(|s| s - (1.0 - colour_agreement(&a.phrase, &o.caption)) * COLOUR_PENALTY)
-            })
-            .collect();
         let (idx, best) = top(&sims, opts.anchor_candidates);
         anchors.push((idx, sims, best));
     }
