@@ -688,11 +688,13 @@ impl Mapper {
                 o.set_points(kept, cfg.voxel_m);
                 o.dirty = true;
             }
-            let template = o.clone();
+            // the new objects copy the object's captions, feature and counts
+            let template = (!split_off.is_empty()).then(|| o.clone());
             if o.points.len() < cfg.min_object_points {
                 report.dropped.push(id);
                 self.objects.remove(&id);
             }
+            let Some(template) = template else { continue };
             for pts in split_off {
                 let new_id = self.next_id;
                 self.next_id += 1;
