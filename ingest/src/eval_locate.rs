@@ -229,9 +229,9 @@ pub fn true_segment(segments: &[SegmentInfo], spot: [f64; 2]) -> Option<u64> {
         .map(|s| (s, s.area.distance(spot)))
         .filter(|(_, d)| *d <= 3.0)
         .min_by(|a, b| {
-            let junction = |s: &SegmentInfo| s.kind == "straight_roadway";
-            junction(a.0)
-                .cmp(&junction(b.0))
+            let is_road = |s: &SegmentInfo| s.kind == "straight_roadway";
+            is_road(a.0)
+                .cmp(&is_road(b.0))
                 .then(a.1.total_cmp(&b.1))
                 .then(a.0.id.cmp(&b.0.id))
         })
