@@ -4,7 +4,7 @@
 //! small simulated map that record their model and prompt and resume without asking again.
 
 mod common;
-use common::{json, og, s, sim_map};
+use common::{json, og, read_query, s, sim_map};
 
 fn expect_usage_error(args: &[&str], needles: &[&str]) {
     let out = og(args);
@@ -105,14 +105,10 @@ fn smallest_model_merges_captions_and_labels_relations() {
             .unwrap()
             .starts_with("SmolLM2-135M-Instruct.Q4_1.gguf:")
     );
-    let q = json(&og(&[
-        "query",
-        "--db",
-        s(&db),
-        "--read-only",
-        "--json",
+    let q = read_query(
+        &db,
         "MATCH (i:Instance) WHERE i.caption_model IS NOT NULL RETURN count(*) AS n, collect(DISTINCT i.caption_prompt) AS p",
-    ]));
+    );
     assert_eq!(q[0]["n"], 3);
     assert_eq!(q[0]["p"][0], llm_tools::prompts::MERGE_CAPTIONS.id());
     let e = json(&og(&[
@@ -139,14 +135,10 @@ fn smallest_model_merges_captions_and_labels_relations() {
         "--json",
     ]));
     assert_eq!(r["done"], 2, "{r}");
-    let q = json(&og(&[
-        "query",
-        "--db",
-        s(&db),
-        "--read-only",
-        "--json",
+    let q = read_query(
+        &db,
         "MATCH ()-[r:RELATED {source: 'llm'}]->() RETURN count(*) AS n, collect(DISTINCT r.prompt) AS p",
-    ]));
+    );
     assert_eq!(q[0]["n"], 2);
     assert_eq!(q[0]["p"][0], llm_tools::prompts::RELATION.id());
     // the same two pairs are not asked again

@@ -5,7 +5,7 @@
 //! --allow-writes. Skips with a message when the client is not installed.
 
 mod common;
-use common::{json, og, s, sim_map};
+use common::{json, og, read_query, s, sim_map};
 
 fn python_with_mcp() -> Option<std::path::PathBuf> {
     let venv = std::env::var_os("OPENGRAPH_VENV")
@@ -103,14 +103,7 @@ fn a_real_mcp_client_lists_and_calls_the_tools() {
     ]));
     assert_eq!(cli, r["find"]["value"], "MCP and CLI answers differ");
     // read Cypher: the count of segments, as the CLI query gives it
-    let n = json(&og(&[
-        "query",
-        "--db",
-        s(&db),
-        "--read-only",
-        "--json",
-        "MATCH (s:Segment) RETURN count(s) AS n",
-    ]));
+    let n = read_query(&db, "MATCH (s:Segment) RETURN count(s) AS n");
     assert_eq!(r["cypher"]["value"]["rows"][0]["n"], n[0]["n"]);
     // a write through the read tool is refused by the parser, and nothing is written
     assert_eq!(r["cypher_write_refused"]["is_error"], true);

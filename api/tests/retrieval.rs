@@ -4,7 +4,7 @@
 //! rankings on the repository's query set. Skips when the MiniLM files are absent.
 
 mod common;
-use common::{json, og, s, sim_map};
+use common::{json, og, read_query, s, sim_map};
 
 fn minilm_present() -> bool {
     let d = llm_tools::embed::default_models_dir();
@@ -94,14 +94,10 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
     // within 10 m of) a T-junction's 12 m disc
     let hits = find("a car at the T-junction");
     assert!(hits.iter().all(|h| !h["segment_match"].is_null()));
-    let t_junctions = json(&og(&[
-        "query",
-        "--db",
-        s(&db),
-        "--read-only",
-        "--json",
+    let t_junctions = read_query(
+        &db,
         "MATCH (s:Segment {kind: 't_intersection'}) RETURN s.centroid AS c",
-    ]));
+    );
     let c = &hits[0]["centroid"];
     let (x, z) = (c[0].as_f64().unwrap(), c[2].as_f64().unwrap());
     let nearest = t_junctions

@@ -34,17 +34,22 @@ pub fn json(out: &Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
-/// The node id of the lane-graph node with `lane_id` 0 (the start of the drive), asked in
-/// Cypher: specs such as `lane:ID` take node ids.
-pub fn first_lane_node(db: &Path) -> u64 {
-    let v = json(&og(&[
+/// The rows of a read-only Cypher query (`query --read-only --json`).
+pub fn read_query(db: &Path, cypher: &str) -> serde_json::Value {
+    json(&og(&[
         "query",
         "--db",
         s(db),
         "--read-only",
         "--json",
-        "MATCH (l:LaneNode {lane_id: 0}) RETURN id(l) AS id",
-    ]));
+        cypher,
+    ]))
+}
+
+/// The node id of the lane-graph node with `lane_id` 0 (the start of the drive), asked in
+/// Cypher: specs such as `lane:ID` take node ids.
+pub fn first_lane_node(db: &Path) -> u64 {
+    let v = read_query(db, "MATCH (l:LaneNode {lane_id: 0}) RETURN id(l) AS id");
     v[0]["id"].as_u64().expect("a LaneNode with lane_id 0")
 }
 
