@@ -190,9 +190,7 @@ mod tests {
             Some(a.transcript[2].tool_calls[0].id.clone())
         );
         assert!(
-            a.transcript[5]
-                .content
-                .starts_with("error: bad arguments: no node 999999"),
+            a.transcript[5].content.starts_with("error: no node 999999"),
             "{}",
             a.transcript[5].content
         );

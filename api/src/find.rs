@@ -153,6 +153,11 @@ impl Finder {
         Ok(self.scene.as_ref().expect("loaded"))
     }
 
+    /// Drops the cached scene, so the next request reloads it (after the map changed).
+    pub fn forget_scene(&mut self) {
+        self.scene = None;
+    }
+
     /// The map's segments (loading the scene if needed).
     ///
     /// # Errors

@@ -3,7 +3,9 @@
 pub mod ask;
 pub mod demo;
 pub mod find;
+pub mod http;
 pub mod info;
 pub mod mcp;
 pub mod plan;
+pub mod service;
 pub mod tools;

@@ -389,6 +389,40 @@ enum Command {
         #[arg(long)]
         allow_writes: bool,
     },
+    /// Serve the map over HTTP: a JSON API (routes in /openapi.json), MCP over streamable HTTP
+    /// at /mcp. Binds 127.0.0.1 unless told otherwise; read-only unless a write token is given
+    /// (--token-file; send it as `Authorization: Bearer <token>`). See docs/serve.md.
+    Serve {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Address to listen on; port 0 picks a free port (the address is printed).
+        #[arg(long, default_value = "127.0.0.1:7878")]
+        bind: std::net::SocketAddr,
+        /// A file holding the write token (16 characters or more). Without it the server is
+        /// read-only; a non-loopback --bind needs it.
+        #[arg(long)]
+        token_file: Option<PathBuf>,
+        /// Refuse writes even with a token (the store is opened read-only).
+        #[arg(long)]
+        read_only: bool,
+        /// Requests served side by side (each worker holds a sentence embedder, ~100 MB);
+        /// default: the number of cores.
+        #[arg(long)]
+        workers: Option<usize>,
+        /// Seconds a request may wait and run.
+        #[arg(long, default_value_t = 30.0)]
+        timeout_secs: f64,
+        /// The largest request body in bytes.
+        #[arg(long, default_value_t = 1 << 20)]
+        body_limit_bytes: usize,
+        /// Requests in progress at once; more get 503.
+        #[arg(long, default_value_t = 64)]
+        max_concurrent: usize,
+        /// A browser origin allowed to call the API (CORS); repeat for more. Default: CORS off.
+        #[arg(long)]
+        cors_origin: Vec<String>,
+    },
     /// Ask a question about the map in words; a language model answers by calling the agent
     /// tools (find_objects, locate, plan_route, read_cypher, ...). Prints each tool call and the
     /// answer; --json prints the whole transcript.
@@ -820,14 +854,39 @@ fn ranking_of(plain: bool, parser: &str, rerank: bool) -> api::find::Ranking {
     }
 }
 
-/// Opens a map for writing or read-only, naming the file in the error.
+/// Opens a map for writing or read-only, naming the file in the error. When a server holds
+/// the map (its marker file [`serving_marker`] exists), the error says where to reach it.
 fn open_store(db: &std::path::Path, writable: bool) -> anyhow::Result<graphstore::Store> {
-    if writable {
+    let opened = if writable {
         graphstore::Store::open(db)
     } else {
         graphstore::Store::open_read_only(db)
+    };
+    match opened {
+        Err(e @ graphstore::Error::InUse { .. }) => {
+            let served = std::fs::read_to_string(serving_marker(db))
+                .ok()
+                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+                .and_then(|v| v["url"].as_str().map(str::to_string));
+            match served {
+                Some(url) => Err(anyhow::Error::new(e).context(format!(
+                    "opening {}: `opengraph serve` holds it; reach the map through the server at {url} \
+                     (POST {url}api/cypher with {{\"query\": ...}}, the routes are in {url}openapi.json, MCP at {url}mcp)",
+                    db.display()
+                ))),
+                None => Err(anyhow::Error::new(e).context(format!("opening {}", db.display()))),
+            }
+        }
+        other => other.with_context(|| format!("opening {}", db.display())),
     }
-    .with_context(|| format!("opening {}", db.display()))
+}
+
+/// The file a writing server leaves beside the map (`MAP.serving.json`: url, pid) while it
+/// holds it, so that other commands can say where to reach it.
+fn serving_marker(db: &std::path::Path) -> PathBuf {
+    let mut name = db.file_name().unwrap_or_default().to_os_string();
+    name.push(".serving.json");
+    db.with_file_name(name)
 }
 
 /// Opens a map read-only (several readers may share it), naming the file in the error.
@@ -849,6 +908,145 @@ fn open_toolbox(db: &std::path::Path, writes: bool) -> anyhow::Result<api::tools
         finder_for(&r, None, false, &LlmArgs::default())?
     };
     Ok(api::tools::Toolbox::new(store, finder, writes))
+}
+
+/// `opengraph serve`'s arguments.
+struct ServeArgs {
+    db: PathBuf,
+    bind: std::net::SocketAddr,
+    token_file: Option<PathBuf>,
+    read_only: bool,
+    workers: Option<usize>,
+    timeout_secs: f64,
+    body_limit_bytes: usize,
+    max_concurrent: usize,
+    cors_origin: Vec<String>,
+}
+
+/// Reads a write token from a file: trimmed, 16 characters or more, printable ASCII.
+fn read_token(path: &std::path::Path) -> anyhow::Result<String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| UsageError(format!("reading the token file {}: {e}", path.display())))?;
+    let token = text.trim().to_string();
+    if token.len() < 16 || !token.bytes().all(|b| b.is_ascii_graphic()) {
+        return Err(UsageError(format!(
+            "the token in {} must be 16 or more printable characters without spaces (e.g. `openssl rand -hex 32 > {}`)",
+            path.display(),
+            path.display()
+        ))
+        .into());
+    }
+    Ok(token)
+}
+
+/// `opengraph serve`: opens the map, checks every setting, then serves until Ctrl-C.
+fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    if !(a.timeout_secs.is_finite() && (0.1..=3600.0).contains(&a.timeout_secs)) {
+        return Err(UsageError(format!(
+            "--timeout-secs must be between 0.1 and 3600 (got {})",
+            a.timeout_secs
+        ))
+        .into());
+    }
+    for (name, v, max) in [
+        ("--body-limit-bytes", a.body_limit_bytes, 1usize << 30),
+        ("--max-concurrent", a.max_concurrent, 100_000),
+        ("--workers", a.workers.unwrap_or(1), 256),
+    ] {
+        if v == 0 || v > max {
+            return Err(UsageError(format!("{name} must be between 1 and {max} (got {v})")).into());
+        }
+    }
+    let token = a.token_file.as_deref().map(read_token).transpose()?;
+    api::http::check_bind(&a.bind, token.as_deref()).map_err(UsageError)?;
+    let writes = token.is_some() && !a.read_only;
+    let workers = a.workers.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(2)
+            .min(8)
+    });
+    let first = open_toolbox(&a.db, writes)?;
+    let mut boxes = Vec::with_capacity(workers);
+    for _ in 1..workers {
+        let finder = {
+            let r = first.store().read()?;
+            finder_for(&r, None, false, &LlmArgs::default())?
+        };
+        boxes.push(first.fork(finder));
+    }
+    boxes.push(first);
+    let service =
+        api::service::Service::new(boxes, std::time::Duration::from_secs_f64(a.timeout_secs))
+            .context("no workers")?;
+    let opts = api::http::ServeOptions {
+        bind: a.bind,
+        token,
+        body_limit_bytes: a.body_limit_bytes,
+        max_concurrent: a.max_concurrent,
+        cors_origins: a.cors_origin,
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(opts.bind)
+            .await
+            .map_err(|e| UsageError(format!("cannot listen on {}: {e}", opts.bind)))?;
+        let addr = listener.local_addr()?;
+        let app = api::http::router(service, &opts);
+        // a writing server holds the file's lock: leave a note where to reach it
+        let marker = writes.then(|| serving_marker(&a.db));
+        if let Some(m) = &marker {
+            let note = serde_json::json!({"url": format!("http://{addr}/"), "pid": std::process::id()});
+            if let Err(e) = std::fs::write(m, note.to_string()) {
+                errln!("note: could not write {}: {e}", m.display());
+            }
+        }
+        outln!("serving {} on http://{addr}/ (MCP: http://{addr}/mcp; API: http://{addr}/openapi.json)", a.db.display());
+        errln!(
+            "{workers} workers, {}; Ctrl-C stops",
+            if writes {
+                "writes need the token"
+            } else {
+                "read-only"
+            }
+        );
+        api::http::serve(listener, app, async {
+            shutdown_signal().await;
+        })
+        .await?;
+        if let Some(m) = &marker {
+            let _ = std::fs::remove_file(m);
+        }
+        errln!("stopped");
+        anyhow::Ok(())
+    })
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+async fn shutdown_signal() {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut term =
+            match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                Ok(t) => t,
+                Err(_) => {
+                    let _ = ctrl_c.await;
+                    return;
+                }
+            };
+        tokio::select! {
+            _ = ctrl_c => {},
+            _ = term.recv() => {},
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = ctrl_c.await;
+    }
 }
 
 /// Whether a ranking needs a language model.
@@ -1517,6 +1715,27 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
             }
         }
+        Command::Serve {
+            db,
+            bind,
+            token_file,
+            read_only,
+            workers,
+            timeout_secs,
+            body_limit_bytes,
+            max_concurrent,
+            cors_origin,
+        } => serve(ServeArgs {
+            db,
+            bind,
+            token_file,
+            read_only,
+            workers,
+            timeout_secs,
+            body_limit_bytes,
+            max_concurrent,
+            cors_origin,
+        })?,
         Command::Mcp { db, allow_writes } => {
             let tb = open_toolbox(&db, allow_writes)?;
             errln!(
@@ -1579,12 +1798,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut tb = open_toolbox(&db, writes)?;
             match tb.call(&name, &args) {
                 Ok(v) => outln!("{}", serde_json::to_string_pretty(&v)?),
-                Err(
-                    e
-                    @ (api::tools::ToolError::Unknown(_) | api::tools::ToolError::BadArguments(_)),
-                ) => {
-                    return Err(UsageError(e.to_string()).into());
-                }
+                Err(e) if e.exit_code() == 2 => return Err(UsageError(e.to_string()).into()),
                 Err(e) => return Err(e.into()),
             }
         }

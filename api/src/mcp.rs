@@ -1,10 +1,13 @@
-//! The MCP server over stdio (`opengraph mcp`): the tool registry ([`crate::tools`]) served
-//! with `rmcp`. It holds no logic: `tools/list` lists the registry, `tools/call` calls it and
+//! The MCP server (`opengraph mcp` over stdio, and `/mcp` inside `opengraph serve` over
+//! streamable HTTP): the tool registry ([`crate::tools`]) served with `rmcp` over the one
+//! [`Service`]. It holds no logic: `tools/list` lists the registry, `tools/call` calls it and
 //! answers the tool's JSON as structured content (and as text). Arguments that break a tool's
 //! schema and failed operations come back as tool errors the client shows (`isError`); an
-//! unknown tool is a JSON-RPC error (method not found).
+//! unknown tool is a JSON-RPC error (method not found); the mapping is
+//! [`ToolError::mcp_error_code`]. Over HTTP the write tools are listed only when the server
+//! has a token, and a call runs only with `Authorization: Bearer <token>`.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use rmcp::model::{
     CallToolRequestParams, CallToolResponse, CallToolResult, ContentBlock, Implementation,
@@ -13,12 +16,14 @@ use rmcp::model::{
 use rmcp::service::RequestContext;
 use rmcp::{ErrorData, RoleServer, ServerHandler, ServiceExt};
 
-use crate::tools::{ToolError, Toolbox};
+use crate::service::{Service, WriteGate};
+use crate::tools::Toolbox;
 
-/// The MCP server: the toolbox behind a lock (one call at a time).
+/// The MCP server over the service.
 #[derive(Clone)]
 pub struct McpServer {
-    toolbox: Arc<Mutex<Toolbox>>,
+    service: Arc<Service>,
+    gate: WriteGate,
 }
 
 impl std::fmt::Debug for McpServer {
@@ -28,23 +33,22 @@ impl std::fmt::Debug for McpServer {
 }
 
 impl McpServer {
-    /// A server over this toolbox.
-    pub fn new(toolbox: Toolbox) -> McpServer {
-        McpServer {
-            toolbox: Arc::new(Mutex::new(toolbox)),
-        }
+    /// A server over the service; `gate` decides who may call the write tools.
+    pub fn new(service: Arc<Service>, gate: WriteGate) -> McpServer {
+        McpServer { service, gate }
     }
 
     fn mcp_tools(&self) -> Vec<Tool> {
-        let tb = self.toolbox.lock().unwrap_or_else(|e| e.into_inner());
-        tb.tools()
+        let object = |v: serde_json::Value| match v {
+            serde_json::Value::Object(m) => m,
+            _ => serde_json::Map::new(),
+        };
+        self.service
+            .tools()
             .into_iter()
             .map(|t| {
-                let schema = match t.input_schema {
-                    serde_json::Value::Object(m) => m,
-                    _ => serde_json::Map::new(),
-                };
-                Tool::new(t.name, t.description, schema)
+                Tool::new(t.name, t.description, object(t.input_schema))
+                    .with_raw_output_schema(Arc::new(object(t.output_schema)))
             })
             .collect()
     }
@@ -72,21 +76,20 @@ impl ServerHandler for McpServer {
     async fn call_tool(
         &self,
         request: CallToolRequestParams,
-        _context: RequestContext<RoleServer>,
+        context: RequestContext<RoleServer>,
     ) -> Result<CallToolResponse, ErrorData> {
         let args = request
             .arguments
             .map(serde_json::Value::Object)
             .unwrap_or(serde_json::Value::Null);
-        let name = request.name.to_string();
-        let toolbox = self.toolbox.clone();
-        // the operations block (store reads, embedding, planning): off the async workers
-        let answer = tokio::task::spawn_blocking(move || {
-            let mut tb = toolbox.lock().unwrap_or_else(|e| e.into_inner());
-            tb.call(&name, &args)
-        })
-        .await
-        .map_err(|e| ErrorData::internal_error(e.to_string(), None))?;
+        // over HTTP the request's headers come with the context
+        let authorization = context
+            .extensions
+            .get::<axum::http::request::Parts>()
+            .and_then(|p| p.headers.get(axum::http::header::AUTHORIZATION))
+            .and_then(|v| v.to_str().ok());
+        let may_write = self.gate.allows(authorization);
+        let answer = self.service.call(&request.name, args, may_write).await;
         match answer {
             Ok(v) => {
                 let text = serde_json::to_string(&v).unwrap_or_default();
@@ -94,12 +97,14 @@ impl ServerHandler for McpServer {
                 r.content = vec![ContentBlock::text(text)];
                 Ok(r.into())
             }
-            Err(ToolError::Unknown(n)) => Err(ErrorData::new(
-                rmcp::model::ErrorCode::METHOD_NOT_FOUND,
-                format!("no tool named {n:?}"),
-                None,
-            )),
-            Err(e) => Ok(CallToolResult::error(vec![ContentBlock::text(e.to_string())]).into()),
+            Err(e) => match e.mcp_error_code() {
+                Some(code) => Err(ErrorData::new(
+                    rmcp::model::ErrorCode(code),
+                    e.to_string(),
+                    None,
+                )),
+                None => Ok(CallToolResult::error(vec![ContentBlock::text(e.to_string())]).into()),
+            },
         }
     }
 }
@@ -113,8 +118,11 @@ pub fn serve_stdio(toolbox: Toolbox) -> std::io::Result<()> {
         .worker_threads(2)
         .enable_all()
         .build()?;
+    // one client: one worker, no timeout beyond the tools' own (a Cypher call stops at 10 s)
+    let service = Service::new(vec![toolbox], std::time::Duration::from_secs(3600))
+        .ok_or_else(|| std::io::Error::other("no toolbox"))?;
     rt.block_on(async move {
-        let running = McpServer::new(toolbox)
+        let running = McpServer::new(service, WriteGate::Open)
             .serve(rmcp::transport::stdio())
             .await
             .map_err(|e| std::io::Error::other(e.to_string()))?;

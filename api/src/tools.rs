@@ -15,6 +15,8 @@
 //! | `get_instance` | one instance: caption, class, box, segment, relations |
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use graphstore::{Direction, GraphRead, Store, Value};
@@ -32,11 +34,25 @@ pub struct Tool {
     pub description: &'static str,
     /// JSON Schema (draft 2020-12) of its arguments.
     pub input_schema: Json,
+    /// JSON Schema (draft 2020-12) of its answer.
+    pub output_schema: Json,
     /// Whether it changes the map.
     pub writes: bool,
 }
 
-/// Why a tool call failed; each maps to one MCP error and one exit code.
+/// Why a call failed. This is the service's one error kind: [`ToolError::exit_code`],
+/// [`ToolError::http_status`] and [`ToolError::mcp_error_code`] below are the only place it
+/// is mapped to the CLI, HTTP and MCP.
+///
+/// | kind | exit | HTTP | MCP |
+/// |---|---|---|---|
+/// | `Unknown` | 2 | 404 | JSON-RPC error -32601 (method not found) |
+/// | `BadArguments` | 2 | 400 | tool result with `isError` |
+/// | `NotFound` | 2 | 404 | tool result with `isError` |
+/// | `Forbidden` | 2 | 401 | tool result with `isError` |
+/// | `Busy` | 1 | 503 | tool result with `isError` |
+/// | `TimedOut` | 1 | 504 | tool result with `isError` |
+/// | `Failed` | 1 | 500 | tool result with `isError` |
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ToolError {
@@ -46,15 +62,75 @@ pub enum ToolError {
     /// The arguments do not match the tool's schema, or name nothing.
     #[error("bad arguments: {0}")]
     BadArguments(String),
+    /// The arguments name a node that does not exist.
+    #[error("{0}")]
+    NotFound(String),
+    /// A write without the write token.
+    #[error("{0}")]
+    Forbidden(String),
+    /// Every worker stayed busy for the whole request timeout.
+    #[error("{0}")]
+    Busy(String),
+    /// The operation took longer than the request timeout.
+    #[error("{0}")]
+    TimedOut(String),
     /// The operation failed on the map.
     #[error("{0}")]
     Failed(String),
 }
 
+impl ToolError {
+    /// A short machine-readable code (`bad_request`, `not_found`, ...), the `code` of HTTP
+    /// error bodies.
+    pub fn code(&self) -> &'static str {
+        match self {
+            ToolError::Unknown(_) => "unknown_tool",
+            ToolError::BadArguments(_) => "bad_request",
+            ToolError::NotFound(_) => "not_found",
+            ToolError::Forbidden(_) => "unauthorized",
+            ToolError::Busy(_) => "busy",
+            ToolError::TimedOut(_) => "timeout",
+            ToolError::Failed(_) => "internal",
+        }
+    }
+
+    /// The CLI's exit code: 2 for the caller's input, 1 otherwise.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            ToolError::Unknown(_)
+            | ToolError::BadArguments(_)
+            | ToolError::NotFound(_)
+            | ToolError::Forbidden(_) => 2,
+            _ => 1,
+        }
+    }
+
+    /// The HTTP status.
+    pub fn http_status(&self) -> u16 {
+        match self {
+            ToolError::Unknown(_) | ToolError::NotFound(_) => 404,
+            ToolError::BadArguments(_) => 400,
+            ToolError::Forbidden(_) => 401,
+            ToolError::Busy(_) => 503,
+            ToolError::TimedOut(_) => 504,
+            ToolError::Failed(_) => 500,
+        }
+    }
+
+    /// The MCP JSON-RPC error code, or `None` where the error is a tool result with
+    /// `isError` (which the model sees and can act on).
+    pub fn mcp_error_code(&self) -> Option<i32> {
+        match self {
+            ToolError::Unknown(_) => Some(-32601),
+            _ => None,
+        }
+    }
+}
+
 /// The hint for a write tool asked for while writes are off.
 fn write_hint(name: &str) -> &'static str {
     if name == "write_cypher" {
-        " (write tools are offered only when writes are enabled: --writes, or mcp --allow-writes)"
+        " (write tools are offered only when writes are enabled: --writes, mcp --allow-writes, or serve with a --token-file)"
     } else {
         ""
     }
@@ -89,6 +165,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
                 "segment_id": {"type": "integer", "minimum": 0, "description": "a Segment node id"}},
                 "additionalProperties": false}),
             writes: false,
+            output_schema: Json::Null,
         },
         Tool {
             name: "find_objects",
@@ -99,6 +176,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
                 "class": {"type": "string", "description": "only this SemanticKITTI class"}},
                 "required": ["text"], "additionalProperties": false}),
             writes: false,
+            output_schema: Json::Null,
         },
         Tool {
             name: "get_instance",
@@ -107,12 +185,14 @@ pub fn tools(writes: bool) -> Vec<Tool> {
                 "id": {"type": "integer", "minimum": 0, "description": "an Instance node id"}},
                 "required": ["id"], "additionalProperties": false}),
             writes: false,
+            output_schema: Json::Null,
         },
         Tool {
             name: "get_schema",
             description: "The map's schema: node labels and relationship types with counts, indexes, and what each layer means. Call this before writing Cypher.",
             input_schema: json!({"type": "object", "properties": {}, "additionalProperties": false}),
             writes: false,
+            output_schema: Json::Null,
         },
         Tool {
             name: "locate",
@@ -122,6 +202,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
                 "k": {"type": "integer", "minimum": 1, "maximum": 20, "default": 3}},
                 "required": ["text"], "additionalProperties": false}),
             writes: false,
+            output_schema: Json::Null,
         },
         Tool {
             name: "plan_route",
@@ -131,6 +212,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
                 "to": text("where to go")},
                 "required": ["from", "to"], "additionalProperties": false}),
             writes: false,
+            output_schema: Json::Null,
         },
         Tool {
             name: "read_cypher",
@@ -140,6 +222,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
                 "params": {"type": "object", "description": "values for $name parameters"}},
                 "required": ["query"], "additionalProperties": false}),
             writes: false,
+            output_schema: Json::Null,
         },
     ];
     if writes {
@@ -151,17 +234,103 @@ pub fn tools(writes: bool) -> Vec<Tool> {
                 "params": {"type": "object", "description": "values for $name parameters"}},
                 "required": ["query"], "additionalProperties": false}),
             writes: true,
+            output_schema: Json::Null,
         });
+    }
+    for t in &mut v {
+        t.output_schema = output_schema(t.name);
     }
     v.sort_by_key(|t| t.name);
     v
 }
 
-/// The map and what calls share: the store, the finder, whether writes are on.
+/// The JSON Schema of a tool's answer (what every adapter returns for a successful call).
+fn output_schema(name: &str) -> Json {
+    let obj = |props: Json, required: &[&str]| json!({"type": "object", "properties": props, "required": required});
+    let id = json!({"type": "integer", "minimum": 0});
+    let num = json!({"type": "number"});
+    let s = json!({"type": "string"});
+    let s_or_null = json!({"type": ["string", "null"]});
+    let arr = |items: Json| json!({"type": "array", "items": items});
+    let xyz = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
+    let xy = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
+    let found = obj(
+        json!({"id": id, "caption": s, "class": s, "score": num, "similarity": num,
+               "centroid": xyz, "segment": {"type": ["array", "null"]},
+               "evidence": arr(json!({"type": "object"}))}),
+        &["id", "caption", "class", "score", "centroid", "evidence"],
+    );
+    let located = obj(
+        json!({"segment": id, "kind": s, "score": num, "position": xy,
+               "evidence": arr(json!({"type": "object"}))}),
+        &["segment", "kind", "score", "position", "evidence"],
+    );
+    let cypher = obj(
+        json!({"columns": arr(s.clone()), "rows": arr(json!({"type": "object"})),
+               "row_count": {"type": "integer", "minimum": 0}, "stats": {"type": "object"}}),
+        &["columns", "rows", "row_count", "stats"],
+    );
+    match name {
+        "describe_area" => json!({"type": "object", "anyOf": [
+            obj(json!({"environment": {"type": ["object", "null"]},
+                       "segments": arr(obj(json!({"id": id, "kind": s_or_null, "objects": {"type": "integer"},
+                                                  "common_classes": {"type": "array"}}),
+                                           &["id", "kind", "objects", "common_classes"]))}),
+                &["environment", "segments"]),
+            obj(json!({"id": id, "kind": s, "objects_by_class": {"type": "object"},
+                       "notable": arr(obj(json!({"id": id, "class": s, "caption": s}), &["id", "class", "caption"]))}),
+                &["id", "kind", "objects_by_class", "notable"]),
+        ]}),
+        "find_objects" => obj(
+            json!({"request": {"type": "object"}, "results": arr(found)}),
+            &["request", "results"],
+        ),
+        "get_instance" => obj(
+            json!({"id": id, "properties": {"type": "object"},
+                   "segment": {"type": ["object", "null"]}, "related": arr(json!({"type": "object"}))}),
+            &["id", "properties", "segment", "related"],
+        ),
+        "get_schema" => obj(
+            json!({"layers": s, "nodes": {"type": "object"}, "relationships": {"type": "object"},
+                   "indexes": arr(s.clone())}),
+            &["layers", "nodes", "relationships", "indexes"],
+        ),
+        "locate" => obj(
+            json!({"description": {"type": "object"}, "parsed_by": s_or_null,
+                   "results": arr(located), "timings_ms": {"type": "array"}}),
+            &["description", "results"],
+        ),
+        "plan_route" => {
+            let end = json!({"type": "object", "required": ["by"]});
+            let target = obj(
+                json!({"spec": s, "node": {"type": ["integer", "null"]}, "kind": s, "xy": xy}),
+                &["spec", "kind", "xy"],
+            );
+            obj(
+                json!({"start": end, "goal": end, "plan": obj(
+                    json!({"from": target, "to": target,
+                           "route": obj(json!({"nodes": arr(s.clone()), "polyline": arr(xy.clone()), "length_m": num}),
+                                        &["nodes", "polyline", "length_m"]),
+                           "path": {"type": "object"}}),
+                    &["from", "to", "route", "path"])}),
+                &["start", "goal", "plan"],
+            )
+        }
+        _ => cypher,
+    }
+}
+
+/// The map and what calls share: the store, the finder, whether writes are on. Toolboxes
+/// made with [`Toolbox::fork`] share one store and one write counter: after a write through
+/// any of them, each reloads its cached scene before its next call.
 pub struct Toolbox {
     store: Store,
     finder: Finder,
     writes: bool,
+    /// Writes made through this toolbox or its forks.
+    generation: Arc<AtomicU64>,
+    /// The generation this toolbox's scene cache was loaded at.
+    seen: u64,
 }
 
 impl std::fmt::Debug for Toolbox {
@@ -204,7 +373,30 @@ impl Toolbox {
             store,
             finder,
             writes,
+            generation: Arc::new(AtomicU64::new(0)),
+            seen: 0,
         }
+    }
+
+    /// Another toolbox over the same store with its own finder (for a pool of workers).
+    pub fn fork(&self, finder: Finder) -> Toolbox {
+        Toolbox {
+            store: self.store.clone(),
+            finder,
+            writes: self.writes,
+            generation: self.generation.clone(),
+            seen: self.generation.load(Ordering::SeqCst),
+        }
+    }
+
+    /// The store.
+    pub fn store(&self) -> &Store {
+        &self.store
+    }
+
+    /// Whether the write tools are offered.
+    pub fn writes(&self) -> bool {
+        self.writes
     }
 
     /// The tools this toolbox offers.
@@ -229,12 +421,22 @@ impl Toolbox {
             args.clone()
         };
         check_args(&args, &tool.input_schema)?;
+        let now = self.generation.load(Ordering::SeqCst);
+        if now != self.seen {
+            self.finder.forget_scene();
+            self.seen = now;
+        }
         let s = |k: &str| args[k].as_str().unwrap_or_default().to_string();
         let n = |k: &str, d: u64| args[k].as_u64().unwrap_or(d) as usize;
         match name {
             "get_schema" => self.get_schema(),
-            "read_cypher" | "write_cypher" => {
-                self.cypher(&s("query"), args.get("params"), name == "read_cypher")
+            "read_cypher" => self.cypher(&s("query"), args.get("params"), true),
+            "write_cypher" => {
+                let answer = self.cypher(&s("query"), args.get("params"), false);
+                // the scene caches of every fork are stale now
+                self.seen = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
+                self.finder.forget_scene();
+                answer
             }
             "find_objects" => {
                 let r = self.store.read().map_err(failed)?;
@@ -457,7 +659,7 @@ impl Toolbox {
         let node = r
             .node(id)
             .map_err(failed)?
-            .ok_or_else(|| ToolError::BadArguments(format!("no node {id}")))?;
+            .ok_or_else(|| ToolError::NotFound(format!("no node {id}")))?;
         if !r
             .label("Instance")
             .is_some_and(|l| node.labels.contains(&l))

@@ -1,7 +1,8 @@
-"""Drives `opengraph mcp` with the official MCP Python client (PyPI `mcp`) over stdio and
-prints one JSON object with what it saw, for api/tests/mcp.rs to check.
+"""Drives the OpenGraph MCP server with the official MCP Python client (PyPI `mcp`) and
+prints one JSON object with what it saw, for api/tests/mcp.rs and api/tests/serve.rs to check.
 
-usage: mcp_client.py OPENGRAPH_BINARY MAP [--allow-writes]
+usage: mcp_client.py OPENGRAPH_BINARY MAP [--allow-writes]   (stdio: starts `opengraph mcp`)
+       mcp_client.py http://HOST:PORT/mcp [--token TOKEN]    (streamable HTTP, `opengraph serve`)
 """
 import asyncio
 import json
@@ -28,10 +29,28 @@ def content(result):
     return bool(attr(result, "is_error", "isError")), structured, text
 
 
-async def main(binary, db, extra):
-    params = StdioServerParameters(command=binary, args=["mcp", "--db", db, *extra])
+async def main(argv):
     out = {}
-    async with stdio_client(params) as (read, write):
+    if argv[0].startswith("http"):
+        from mcp.client.streamable_http import streamable_http_client
+        from mcp.shared._httpx_utils import create_mcp_http_client
+
+        headers = {}
+        if "--token" in argv:
+            headers["Authorization"] = "Bearer " + argv[argv.index("--token") + 1]
+        async with create_mcp_http_client(headers=headers) as http:
+            async with streamable_http_client(argv[0], http_client=http) as (read, write):
+                await session_calls(read, write, out)
+    else:
+        binary, db, extra = argv[0], argv[1], argv[2:]
+        params = StdioServerParameters(command=binary, args=["mcp", "--db", db, *extra])
+        async with stdio_client(params) as (read, write):
+            await session_calls(read, write, out)
+    print(json.dumps(out))
+
+
+async def session_calls(read, write, out):
+    if True:
         async with ClientSession(read, write) as session:
             init = await asyncio.wait_for(session.initialize(), 30)
             out["server"] = attr(init, "server_info", "serverInfo").name
@@ -67,8 +86,7 @@ async def main(binary, db, extra):
             out["after_write"] = await call(
                 "read_cypher", {"query": "MATCH (n:Hack) RETURN count(n) AS n"}
             )
-    print(json.dumps(out))
 
 
 if __name__ == "__main__":
-    asyncio.run(main(sys.argv[1], sys.argv[2], sys.argv[3:]))
+    asyncio.run(main(sys.argv[1:]))

@@ -1,0 +1,651 @@
+//! The HTTP adapter (`opengraph serve`): axum routes over the [`Service`], the OpenAPI 3.1
+//! document at `/openapi.json` (built with utoipa from the same route table the router is
+//! built from), and MCP over streamable HTTP at `/mcp`.
+//!
+//! Every answer is JSON; an error is `{"error": {"code", "message"}}` with the status of
+//! [`ToolError::http_status`]. Instance points are binary: `application/octet-stream`,
+//! little-endian float32 `x y z` per point (12 bytes, world frame, metres), the count in the
+//! `X-Point-Count` header.
+//!
+//! Security: binds loopback unless told otherwise, and a non-loopback bind needs a token
+//! ([`check_bind`]); writes need `Authorization: Bearer <token>`; read routes run read-only
+//! Cypher (decided by the parser); request bodies are capped, requests are bounded in time
+//! and in number; CORS is off unless origins are configured.
+
+use std::collections::BTreeMap;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::body::Bytes;
+use axum::extract::rejection::BytesRejection;
+use axum::extract::{DefaultBodyLimit, Path, State};
+use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{MethodFilter, on};
+use axum::{Json, Router};
+use serde_json::{Value as JsonValue, json};
+use tokio::sync::Semaphore;
+use utoipa::openapi::path::{
+    HttpMethod, OperationBuilder, ParameterBuilder, ParameterIn, PathItem, PathsBuilder,
+};
+use utoipa::openapi::request_body::RequestBodyBuilder;
+use utoipa::openapi::response::ResponseBuilder;
+use utoipa::openapi::{
+    ContentBuilder, InfoBuilder, ObjectBuilder, OpenApiBuilder, Ref, Required, Type,
+};
+
+use crate::mcp::McpServer;
+use crate::service::{Service, WriteGate, error_body};
+use crate::tools::ToolError;
+
+/// Server settings; [`ServeOptions::default`] is what `opengraph serve` uses without flags.
+#[derive(Debug, Clone)]
+pub struct ServeOptions {
+    /// Where to listen (default 127.0.0.1:7878).
+    pub bind: SocketAddr,
+    /// The write token; `None` means the server is read-only.
+    pub token: Option<String>,
+    /// The largest request body in bytes (default 1 MiB).
+    pub body_limit_bytes: usize,
+    /// Requests in progress at once; more are answered 503 at once (default 64).
+    pub max_concurrent: usize,
+    /// Origins allowed to call the API from a browser (CORS); empty: CORS off.
+    pub cors_origins: Vec<String>,
+}
+
+impl Default for ServeOptions {
+    fn default() -> ServeOptions {
+        ServeOptions {
+            bind: SocketAddr::from(([127, 0, 0, 1], 7878)),
+            token: None,
+            body_limit_bytes: 1 << 20,
+            max_concurrent: 64,
+            cors_origins: Vec::new(),
+        }
+    }
+}
+
+/// Refuses a bind that would expose writes or the map without a token: any non-loopback
+/// address needs one.
+///
+/// # Errors
+/// A message for the user (exit 2).
+pub fn check_bind(bind: &SocketAddr, token: Option<&str>) -> Result<(), String> {
+    if !bind.ip().is_loopback() && token.is_none() {
+        return Err(format!(
+            "refusing to serve on {bind} without a token: other machines could reach the map. \
+             Pass --token-file FILE (and send Authorization: Bearer <token> for writes), or bind 127.0.0.1"
+        ));
+    }
+    Ok(())
+}
+
+/// What a route does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Op {
+    /// Liveness.
+    Health,
+    /// The map's summary.
+    Info,
+    /// The tool list.
+    Tools,
+    /// Any tool by name (`/api/tools/{name}`), the body its arguments.
+    CallTool,
+    /// One tool, the JSON body its arguments.
+    Tool(&'static str),
+    /// One tool without a body; `{id}` in the path becomes this argument.
+    ToolGet(&'static str, Option<&'static str>),
+    /// An instance's points, binary.
+    Points,
+    /// This document.
+    OpenApi,
+}
+
+/// One route: method, path, operation, summary.
+struct Route {
+    method: HttpMethod,
+    path: &'static str,
+    op: Op,
+    summary: &'static str,
+}
+
+/// Every route; the router and the OpenAPI document are both built from this table.
+fn routes() -> Vec<Route> {
+    use HttpMethod::{Get, Post};
+    let r = |method, path, op, summary| Route {
+        method,
+        path,
+        op,
+        summary,
+    };
+    vec![
+        r(
+            Get,
+            "/healthz",
+            Op::Health,
+            "Liveness: {\"status\": \"ok\"}.",
+        ),
+        r(
+            Get,
+            "/openapi.json",
+            Op::OpenApi,
+            "This OpenAPI 3.1 document.",
+        ),
+        r(
+            Get,
+            "/api/info",
+            Op::Info,
+            "The map's summary: node and relationship counts, environment, build metadata.",
+        ),
+        r(
+            Get,
+            "/api/schema",
+            Op::ToolGet("get_schema", None),
+            "Labels, relationship types, counts, indexes, and what each layer means.",
+        ),
+        r(
+            Get,
+            "/api/tools",
+            Op::Tools,
+            "The agent tools with their JSON Schemas (the write tools only when the server has a token).",
+        ),
+        r(
+            Post,
+            "/api/tools/{name}",
+            Op::CallTool,
+            "Call any agent tool by name; the body is its arguments.",
+        ),
+        r(
+            Post,
+            "/api/cypher",
+            Op::Tool("read_cypher"),
+            "Run a Cypher read (read-only by the parser; 10 s, 1000 rows).",
+        ),
+        r(
+            Post,
+            "/api/cypher/write",
+            Op::Tool("write_cypher"),
+            "Run a Cypher write as one transaction (needs the token).",
+        ),
+        r(
+            Post,
+            "/api/find",
+            Op::Tool("find_objects"),
+            "Find objects from a request in words, with evidence.",
+        ),
+        r(
+            Post,
+            "/api/locate",
+            Op::Tool("locate"),
+            "Road segments for a description of the surroundings.",
+        ),
+        r(
+            Post,
+            "/api/route",
+            Op::Tool("plan_route"),
+            "A route between two ends given in words or as specs.",
+        ),
+        r(
+            Get,
+            "/api/segments",
+            Op::ToolGet("describe_area", None),
+            "The environment and every road segment with counts.",
+        ),
+        r(
+            Get,
+            "/api/segments/{id}",
+            Op::ToolGet("describe_area", Some("segment_id")),
+            "One segment's objects by class and its notable objects.",
+        ),
+        r(
+            Get,
+            "/api/instances/{id}",
+            Op::ToolGet("get_instance", Some("id")),
+            "One instance: caption, class, box, segment, relations.",
+        ),
+        r(
+            Get,
+            "/api/instances/{id}/points",
+            Op::Points,
+            "One instance's points: little-endian float32 x y z per point (world frame, metres).",
+        ),
+    ]
+}
+
+#[derive(Clone)]
+struct AppState {
+    service: Arc<Service>,
+    gate: WriteGate,
+    openapi: Arc<JsonValue>,
+    inflight: Arc<Semaphore>,
+    body_limit_bytes: usize,
+}
+
+/// A JSON error response.
+fn error_response(e: &ToolError) -> Response {
+    let status = StatusCode::from_u16(e.http_status()).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
+    (status, Json(error_body(e))).into_response()
+}
+
+/// An error response with a status of its own (framework-level: size, method, route).
+fn plain_error(status: StatusCode, code: &str, message: String) -> Response {
+    (
+        status,
+        Json(json!({"error": {"code": code, "message": message}})),
+    )
+        .into_response()
+}
+
+/// A request refused before it reaches the service (body, path): status, code, message.
+struct HttpError(StatusCode, &'static str, String);
+
+impl IntoResponse for HttpError {
+    fn into_response(self) -> Response {
+        plain_error(self.0, self.1, self.2)
+    }
+}
+
+/// The JSON object in a request body; an empty body is `{}`.
+fn parse_args(body: Result<Bytes, BytesRejection>) -> Result<JsonValue, HttpError> {
+    let bytes = body.map_err(|rej| {
+        let status = rej.status();
+        let code = if status == StatusCode::PAYLOAD_TOO_LARGE {
+            "payload_too_large"
+        } else {
+            "bad_request"
+        };
+        HttpError(status, code, rej.body_text())
+    })?;
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Ok(json!({}));
+    }
+    let v: JsonValue = serde_json::from_slice(&bytes).map_err(|e| {
+        HttpError(
+            StatusCode::BAD_REQUEST,
+            "bad_json",
+            format!("the body is not valid JSON: {e}"),
+        )
+    })?;
+    if !v.is_object() {
+        return Err(HttpError(
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+            "the body must be a JSON object of arguments".into(),
+        ));
+    }
+    Ok(v)
+}
+
+/// A node id from the path.
+fn path_id(params: &BTreeMap<String, String>) -> Result<u64, HttpError> {
+    let raw = params.get("id").map(String::as_str).unwrap_or_default();
+    raw.parse::<u64>().map_err(|_| {
+        HttpError(
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+            format!("{raw:?} is not a node id (a non-negative integer)"),
+        )
+    })
+}
+
+async fn handle(
+    op: Op,
+    state: AppState,
+    params: BTreeMap<String, String>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> Response {
+    let svc = &state.service;
+    let authorization = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok());
+    let may_write = svc.writes() && state.gate.allows(authorization);
+    let answer = match op {
+        Op::Health => Ok(json!({"status": "ok"})),
+        Op::OpenApi => Ok((*state.openapi).clone()),
+        Op::Info => svc.info().await,
+        Op::Tools => {
+            serde_json::to_value(svc.tools()).map_err(|e| ToolError::Failed(e.to_string()))
+        }
+        Op::CallTool => {
+            let args = match parse_args(body) {
+                Ok(a) => a,
+                Err(r) => return r.into_response(),
+            };
+            let name = params.get("name").cloned().unwrap_or_default();
+            svc.call(&name, args, may_write).await
+        }
+        Op::Tool(name) => {
+            let args = match parse_args(body) {
+                Ok(a) => a,
+                Err(r) => return r.into_response(),
+            };
+            svc.call(name, args, may_write).await
+        }
+        Op::ToolGet(name, arg) => {
+            let mut args = json!({});
+            if let Some(arg) = arg {
+                match path_id(&params) {
+                    Ok(id) => args[arg] = json!(id),
+                    Err(r) => return r.into_response(),
+                }
+            }
+            svc.call(name, args, may_write).await
+        }
+        Op::Points => {
+            let id = match path_id(&params) {
+                Ok(id) => id,
+                Err(r) => return r.into_response(),
+            };
+            return match svc.points(id).await {
+                Ok((n, bytes)) => (
+                    [
+                        (
+                            header::CONTENT_TYPE,
+                            HeaderValue::from_static("application/octet-stream"),
+                        ),
+                        (
+                            header::HeaderName::from_static("x-point-count"),
+                            HeaderValue::from(n),
+                        ),
+                    ],
+                    bytes,
+                )
+                    .into_response(),
+                Err(e) => error_response(&e),
+            };
+        }
+    };
+    match answer {
+        Ok(v) => Json(v).into_response(),
+        Err(e) => error_response(&e),
+    }
+}
+
+/// Answers 413 at once for a declared `Content-Length` over the limit (without reading the
+/// body; a body without a length is cut off at the limit by the extractor), and 503 at once
+/// when `max_concurrent` requests are already in progress.
+async fn guard(
+    State(state): State<AppState>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let declared = req
+        .headers()
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok());
+    if let Some(n) = declared
+        && n > state.body_limit_bytes as u64
+    {
+        return plain_error(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "payload_too_large",
+            format!(
+                "the body is {n} bytes; this server takes {} at most (--body-limit-bytes)",
+                state.body_limit_bytes
+            ),
+        );
+    }
+    let Ok(_permit) = state.inflight.clone().try_acquire_owned() else {
+        return plain_error(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "busy",
+            "too many requests in progress; try again shortly".into(),
+        );
+    };
+    next.run(req).await
+}
+
+/// The OpenAPI 3.1 document of [`routes`], with the tools' JSON Schemas as components.
+pub fn openapi(service: &Service) -> JsonValue {
+    let tools = crate::tools::tools(true);
+    let schema_ref = |name: String| Ref::from_schema_name(name);
+    let json_content = |name: String| ContentBuilder::new().schema(Some(schema_ref(name))).build();
+    let error = ResponseBuilder::new()
+        .description("An error: {\"error\": {\"code\", \"message\"}}")
+        .content("application/json", json_content("Error".into()))
+        .build();
+    let mut paths = PathsBuilder::new();
+    let mut schemas: BTreeMap<String, JsonValue> = BTreeMap::new();
+    for route in routes() {
+        let mut op = OperationBuilder::new()
+            .summary(Some(route.summary))
+            .operation_id(Some(format!(
+                "{}{}",
+                match route.method {
+                    HttpMethod::Post => "post",
+                    _ => "get",
+                },
+                route.path.replace(['/', '{', '}', '.'], "_")
+            )));
+        if route.path.contains("{id}") {
+            op = op.parameter(
+                ParameterBuilder::new()
+                    .name("id")
+                    .parameter_in(ParameterIn::Path)
+                    .required(Required::True)
+                    .schema(Some(
+                        ObjectBuilder::new()
+                            .schema_type(Type::Integer)
+                            .minimum(Some(0)),
+                    )),
+            );
+        }
+        if route.path.contains("{name}") {
+            op = op.parameter(
+                ParameterBuilder::new()
+                    .name("name")
+                    .parameter_in(ParameterIn::Path)
+                    .required(Required::True)
+                    .schema(Some(ObjectBuilder::new().schema_type(Type::String))),
+            );
+        }
+        let tool = match route.op {
+            Op::Tool(t) | Op::ToolGet(t, _) => tools.iter().find(|x| x.name == t),
+            _ => None,
+        };
+        let ok = match (route.op, tool) {
+            (Op::Points, _) => ResponseBuilder::new()
+                .description("Little-endian float32 x y z per point (12 bytes, world frame, metres); X-Point-Count gives the count.")
+                .content("application/octet-stream", ContentBuilder::new().build())
+                .build(),
+            (_, Some(t)) => {
+                schemas.insert(format!("{}_output", t.name), t.output_schema.clone());
+                ResponseBuilder::new()
+                    .description("The tool's answer.")
+                    .content("application/json", json_content(format!("{}_output", t.name)))
+                    .build()
+            }
+            (op, None) => {
+                let name = match op {
+                    Op::Health => "Health",
+                    Op::Info => "Info",
+                    Op::Tools => "ToolList",
+                    Op::OpenApi => "OpenApiDocument",
+                    _ => "AnyAnswer",
+                };
+                ResponseBuilder::new()
+                    .description("JSON")
+                    .content("application/json", json_content(name.into()))
+                    .build()
+            }
+        };
+        if let (Op::Tool(_), Some(t)) = (route.op, tool) {
+            schemas.insert(format!("{}_input", t.name), t.input_schema.clone());
+            op = op.request_body(Some(
+                RequestBodyBuilder::new()
+                    .required(Some(Required::True))
+                    .content(
+                        "application/json",
+                        json_content(format!("{}_input", t.name)),
+                    )
+                    .build(),
+            ));
+        }
+        if route.op == Op::CallTool {
+            op = op.request_body(Some(
+                RequestBodyBuilder::new()
+                    .content("application/json", json_content("ToolArguments".into()))
+                    .build(),
+            ));
+        }
+        op = op.response("200", ok);
+        for status in ["400", "401", "404", "413", "500", "503", "504"] {
+            op = op.response(status, error.clone());
+        }
+        paths = paths.path(route.path, PathItem::new(route.method, op.build()));
+    }
+    let doc = OpenApiBuilder::new()
+        .info(
+            InfoBuilder::new()
+                .title("OpenGraph")
+                .version(env!("CARGO_PKG_VERSION"))
+                .description(Some(format!(
+                    "A 3D scene graph of a street map as a service. Writes {}. MCP (streamable HTTP) is at /mcp.",
+                    if service.writes() {
+                        "need Authorization: Bearer <token>"
+                    } else {
+                        "are off on this server"
+                    }
+                )))
+                .build(),
+        )
+        .paths(paths.build())
+        .build();
+    let mut v = serde_json::to_value(&doc).unwrap_or_else(|_| json!({}));
+    // the tools' JSON Schemas verbatim (OpenAPI 3.1 schemas are JSON Schema 2020-12)
+    schemas.insert(
+        "Error".into(),
+        json!({"type": "object", "required": ["error"], "properties": {"error": {
+            "type": "object", "required": ["code", "message"],
+            "properties": {"code": {"type": "string"}, "message": {"type": "string"}}}}}),
+    );
+    schemas.insert(
+        "Health".into(),
+        json!({"type": "object", "required": ["status"], "properties": {"status": {"const": "ok"}}}),
+    );
+    schemas.insert(
+        "Info".into(),
+        json!({"type": "object", "required": ["nodes", "relationships"]}),
+    );
+    schemas.insert(
+        "ToolList".into(),
+        json!({"type": "array", "items": {"type": "object",
+            "required": ["name", "description", "input_schema", "output_schema", "writes"]}}),
+    );
+    schemas.insert(
+        "OpenApiDocument".into(),
+        json!({"type": "object", "required": ["openapi", "paths"]}),
+    );
+    schemas.insert("ToolArguments".into(), json!({"type": "object"}));
+    schemas.insert("AnyAnswer".into(), json!({}));
+    v["components"] = json!({"schemas": schemas});
+    v
+}
+
+/// The whole application: API routes, `/openapi.json`, `/mcp`, limits.
+pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
+    let gate = match &opts.token {
+        Some(t) => WriteGate::Token(Arc::from(t.as_str())),
+        None => WriteGate::Token(Arc::from("")), // nothing matches an empty token
+    };
+    let state = AppState {
+        openapi: Arc::new(openapi(&service)),
+        service: service.clone(),
+        gate: gate.clone(),
+        inflight: Arc::new(Semaphore::new(opts.max_concurrent.max(1))),
+        body_limit_bytes: opts.body_limit_bytes,
+    };
+    let mut app = Router::new();
+    for route in routes() {
+        let op = route.op;
+        let filter = match route.method {
+            HttpMethod::Post => MethodFilter::POST,
+            _ => MethodFilter::GET,
+        };
+        app = app.route(
+            route.path,
+            on(
+                filter,
+                move |State(st): State<AppState>,
+                      params: Option<Path<BTreeMap<String, String>>>,
+                      headers: HeaderMap,
+                      body: Result<Bytes, BytesRejection>| async move {
+                    let params = params.map(|p| p.0).unwrap_or_default();
+                    handle(op, st, params, headers, body).await
+                },
+            ),
+        );
+    }
+    let mut mcp_config =
+        rmcp::transport::streamable_http_server::StreamableHttpServerConfig::default();
+    if !opts.bind.ip().is_loopback() {
+        mcp_config.allowed_hosts.push(opts.bind.ip().to_string());
+        mcp_config.allowed_hosts.push(opts.bind.to_string());
+    }
+    let mcp_service = service.clone();
+    let mcp = rmcp::transport::streamable_http_server::StreamableHttpService::new(
+        move || Ok(McpServer::new(mcp_service.clone(), gate.clone())),
+        Arc::new(
+            rmcp::transport::streamable_http_server::session::local::LocalSessionManager::default(),
+        ),
+        mcp_config,
+    );
+    app = app
+        .nest_service("/mcp", mcp)
+        .fallback(|method: Method, uri: axum::http::Uri| async move {
+            plain_error(
+                StatusCode::NOT_FOUND,
+                "not_found",
+                format!(
+                    "no route {method} {}; the routes are listed at /openapi.json",
+                    uri.path()
+                ),
+            )
+        })
+        .method_not_allowed_fallback(|method: Method, uri: axum::http::Uri| async move {
+            plain_error(
+                StatusCode::METHOD_NOT_ALLOWED,
+                "method_not_allowed",
+                format!(
+                    "{method} is not allowed on {}; see /openapi.json",
+                    uri.path()
+                ),
+            )
+        })
+        .layer(axum::middleware::from_fn_with_state(state.clone(), guard))
+        .layer(DefaultBodyLimit::max(opts.body_limit_bytes));
+    if !opts.cors_origins.is_empty() {
+        let origins: Vec<HeaderValue> = opts
+            .cors_origins
+            .iter()
+            .filter_map(|o| HeaderValue::from_str(o).ok())
+            .collect();
+        app = app.layer(
+            tower_http::cors::CorsLayer::new()
+                .allow_origin(origins)
+                .allow_methods([Method::GET, Method::POST])
+                .allow_headers([header::CONTENT_TYPE, header::AUTHORIZATION]),
+        );
+    }
+    app.with_state(state)
+}
+
+/// Serves until `shutdown` resolves.
+///
+/// # Errors
+/// The listener fails.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    app: Router,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    axum::serve(listener, app)
+        .with_graceful_shutdown(shutdown)
+        .await
+}
+
+/// How long a request may take by default.
+pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(30);

@@ -1,0 +1,261 @@
+//! The service every network front end calls: a pool of [`Toolbox`]es over one store, so
+//! that requests run side by side (each on its own read snapshot), bounded in number and in
+//! time. The HTTP server ([`crate::http`]) and the MCP server ([`crate::mcp`]) are adapters over
+//! it; neither holds logic of its own.
+//!
+//! Writes: the store has one writer at a time (redb); write tools run only for callers that
+//! presented the write token (`may_write`), and every worker reloads its scene cache after a
+//! write (see [`Toolbox::fork`]).
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use graphstore::{GraphRead, Store};
+use serde_json::{Value as Json, json};
+use tokio::sync::Semaphore;
+
+use crate::tools::{Tool, ToolError, ToolResult, Toolbox};
+
+/// A pool of toolboxes over one store.
+pub struct Service {
+    store: Store,
+    idle: Mutex<Vec<Toolbox>>,
+    permits: Arc<Semaphore>,
+    writes: bool,
+    timeout: Duration,
+    workers: usize,
+}
+
+impl std::fmt::Debug for Service {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Service")
+            .field("store", &self.store.path())
+            .field("workers", &self.workers)
+            .field("writes", &self.writes)
+            .field("timeout", &self.timeout)
+            .finish()
+    }
+}
+
+impl Service {
+    /// A service over these toolboxes (one per worker, made with [`Toolbox::fork`] so that
+    /// they share one store). `timeout` bounds each call: the wait for a free worker and the
+    /// work itself.
+    ///
+    /// # Panics
+    /// Never; an empty list is refused by returning `None`.
+    pub fn new(toolboxes: Vec<Toolbox>, timeout: Duration) -> Option<Arc<Service>> {
+        let first = toolboxes.first()?;
+        let store = first.store().clone();
+        let writes = first.writes();
+        let workers = toolboxes.len();
+        Some(Arc::new(Service {
+            store,
+            idle: Mutex::new(toolboxes),
+            permits: Arc::new(Semaphore::new(workers)),
+            writes,
+            timeout,
+            workers,
+        }))
+    }
+
+    /// The store (for operations that need no toolbox, like reading points).
+    pub fn store(&self) -> &Store {
+        &self.store
+    }
+
+    /// Whether the write tools exist on this service (a token is configured and the store is
+    /// open for writing).
+    pub fn writes(&self) -> bool {
+        self.writes
+    }
+
+    /// The request timeout.
+    pub fn timeout(&self) -> Duration {
+        self.timeout
+    }
+
+    /// The tools a caller sees: the write tools only where the service has them.
+    pub fn tools(&self) -> Vec<Tool> {
+        crate::tools::tools(self.writes)
+    }
+
+    /// Calls a tool on a free worker.
+    ///
+    /// # Errors
+    /// [`ToolError::Forbidden`] for a write tool without `may_write`; [`ToolError::Busy`] when
+    /// no worker is free within the timeout; [`ToolError::TimedOut`] when the call runs past
+    /// it (the worker finishes in the background and rejoins the pool); otherwise the tool's
+    /// own error.
+    pub async fn call(
+        self: &Arc<Self>,
+        name: &str,
+        args: Json,
+        may_write: bool,
+    ) -> ToolResult<Json> {
+        if let Some(t) = self.tools().iter().find(|t| t.name == name)
+            && t.writes
+            && !may_write
+        {
+            return Err(ToolError::Forbidden(format!(
+                "{name} changes the map: send the write token (Authorization: Bearer <token>)"
+            )));
+        }
+        let name = name.to_string();
+        self.run(move |tb| tb.call(&name, &args)).await
+    }
+
+    /// The map's summary (`opengraph info --json`): counts, environment, build metadata.
+    ///
+    /// # Errors
+    /// The store fails.
+    pub async fn info(self: &Arc<Self>) -> ToolResult<Json> {
+        self.run(|tb| {
+            let text =
+                crate::info::json(tb.store()).map_err(|e| ToolError::Failed(e.to_string()))?;
+            serde_json::from_str(&text).map_err(|e| ToolError::Failed(e.to_string()))
+        })
+        .await
+    }
+
+    /// One instance's points as little-endian float32 `x y z` triples (12 bytes a point, world
+    /// frame, metres), and how many there are.
+    ///
+    /// # Errors
+    /// [`ToolError::NotFound`] when no node has the id, [`ToolError::BadArguments`] when it
+    /// is not an Instance.
+    pub async fn points(self: &Arc<Self>, id: u64) -> ToolResult<(usize, Vec<u8>)> {
+        self.run(move |tb| {
+            let failed = |e: graphstore::Error| ToolError::Failed(e.to_string());
+            let r = tb.store().read().map_err(failed)?;
+            let node = r
+                .node(id)
+                .map_err(failed)?
+                .ok_or_else(|| ToolError::NotFound(format!("no node {id}")))?;
+            if !r
+                .label("Instance")
+                .is_some_and(|l| node.labels.contains(&l))
+            {
+                return Err(ToolError::BadArguments(format!(
+                    "node {id} is not an Instance"
+                )));
+            }
+            let pc = r
+                .point_cloud(id, "points")
+                .map_err(failed)?
+                .unwrap_or_default();
+            let mut bytes = Vec::with_capacity(pc.xyz.len() * 12);
+            for p in &pc.xyz {
+                for c in p {
+                    bytes.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            Ok((pc.xyz.len(), bytes))
+        })
+        .await
+    }
+
+    /// Runs `f` on a free toolbox off the async workers, within the timeout.
+    async fn run<T: Send + 'static>(
+        self: &Arc<Self>,
+        f: impl FnOnce(&mut Toolbox) -> ToolResult<T> + Send + 'static,
+    ) -> ToolResult<T> {
+        let secs = self.timeout.as_secs_f64();
+        let permit = tokio::time::timeout(self.timeout, self.permits.clone().acquire_owned())
+            .await
+            .map_err(|_| {
+                ToolError::Busy(format!(
+                    "all {} workers stayed busy for {secs:.0} s; try again later",
+                    self.workers
+                ))
+            })?
+            .map_err(|_| ToolError::Failed("the service is shutting down".into()))?;
+        let me = self.clone();
+        let job = tokio::task::spawn_blocking(move || {
+            let mut tb = me
+                .idle
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .pop()
+                .expect("a permit guarantees an idle toolbox");
+            let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(&mut tb)));
+            me.idle.lock().unwrap_or_else(|e| e.into_inner()).push(tb);
+            drop(permit);
+            out.unwrap_or_else(|_| Err(ToolError::Failed("the operation panicked".into())))
+        });
+        match tokio::time::timeout(self.timeout, job).await {
+            Ok(Ok(answer)) => answer,
+            Ok(Err(e)) => Err(ToolError::Failed(e.to_string())),
+            Err(_) => Err(ToolError::TimedOut(format!(
+                "the request took longer than {secs:.0} s"
+            ))),
+        }
+    }
+}
+
+/// The error body every HTTP route answers: `{"error": {"code", "message"}}`.
+pub fn error_body(e: &ToolError) -> Json {
+    json!({"error": {"code": e.code(), "message": e.to_string()}})
+}
+
+/// Who may write: everyone the adapter serves (stdio MCP with `--allow-writes`: the one local
+/// client), or only requests that carry the token.
+#[derive(Clone)]
+pub enum WriteGate {
+    /// No write check beyond the service's own `writes`.
+    Open,
+    /// `Authorization: Bearer <token>` must match.
+    Token(Arc<str>),
+}
+
+impl std::fmt::Debug for WriteGate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WriteGate::Open => f.write_str("Open"),
+            WriteGate::Token(_) => f.write_str("Token(..)"),
+        }
+    }
+}
+
+impl WriteGate {
+    /// Whether a request with this `Authorization` header value may write. The token is
+    /// compared in constant time (`subtle`).
+    pub fn allows(&self, authorization: Option<&str>) -> bool {
+        match self {
+            WriteGate::Open => true,
+            WriteGate::Token(token) => {
+                let Some(given) = authorization.and_then(|h| h.strip_prefix("Bearer ")) else {
+                    return false;
+                };
+                use subtle::ConstantTimeEq;
+                // equal lengths first (the length of a token is not the secret)
+                !token.is_empty()
+                    && given.len() == token.len()
+                    && bool::from(given.as_bytes().ct_eq(token.as_bytes()))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_token_must_match_exactly() {
+        let g = WriteGate::Token(Arc::from("s3cret-token"));
+        assert!(g.allows(Some("Bearer s3cret-token")));
+        for bad in [
+            None,
+            Some(""),
+            Some("s3cret-token"),
+            Some("Bearer s3cret-toke"),
+            Some("Bearer s3cret-token "),
+            Some("bearer s3cret-token"),
+            Some("Bearer S3cret-token"),
+        ] {
+            assert!(!g.allows(bad), "{bad:?}");
+        }
+        assert!(WriteGate::Open.allows(None));
+    }
+}

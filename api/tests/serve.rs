@@ -1,0 +1,695 @@
+//! `opengraph serve` over real loopback HTTP: every route in the OpenAPI document answers, and
+//! its answers validate against the document's schemas; HTTP and the CLI tool adapter give the
+//! same answers; writes need the token and read routes are read-only by the parser; hostile
+//! requests get a clear 4xx and change nothing; a non-loopback bind needs a token; a CLI
+//! command against a served map says where the server is; MCP over streamable HTTP with the
+//! official Python client.
+
+mod common;
+use common::{json, og, s, sim_map};
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use serde_json::{Value, json};
+
+/// A running server; killed on drop.
+struct Server {
+    child: Child,
+    url: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `opengraph serve` on 127.0.0.1 port 0 and waits (60 s at most) for its address.
+fn serve(db: &Path, extra: &[&str]) -> Server {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0"])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = BufReader::new(stdout).read_line(&mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx
+        .recv_timeout(Duration::from_secs(60))
+        .expect("the server printed its address within 60 s");
+    let start = line.find("http://").expect("an address in the first line");
+    let url = line[start..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .trim_end_matches('/')
+        .to_string();
+    Server { child, url }
+}
+
+fn agent() -> ureq::Agent {
+    ureq::Agent::config_builder()
+        .timeout_global(Some(Duration::from_secs(60)))
+        .http_status_as_error(false)
+        .build()
+        .into()
+}
+
+/// (status, content type, body bytes) of a request.
+fn request(
+    method: &str,
+    url: &str,
+    headers: &[(&str, &str)],
+    body: Option<&[u8]>,
+) -> (u16, String, Vec<u8>) {
+    try_request(method, url, headers, body).unwrap_or_else(|e| panic!("{method} {url}: {e}"))
+}
+
+/// [`request`], or the transport error (a server may answer 413 and close the connection
+/// while a client is still sending an oversized body).
+fn try_request(
+    method: &str,
+    url: &str,
+    headers: &[(&str, &str)],
+    body: Option<&[u8]>,
+) -> Result<(u16, String, Vec<u8>), ureq::Error> {
+    let a = agent();
+    let resp = match (method, body) {
+        ("GET", _) => {
+            let mut r = a.get(url);
+            for (k, v) in headers {
+                r = r.header(*k, *v);
+            }
+            r.call()
+        }
+        (m, b) => {
+            let mut r = match m {
+                "POST" => a.post(url),
+                "PUT" => a.put(url),
+                _ => a.patch(url),
+            };
+            for (k, v) in headers {
+                r = r.header(*k, *v);
+            }
+            r.send(b.unwrap_or_default())
+        }
+    };
+    let mut resp = resp?;
+    let status = resp.status().as_u16();
+    let ct = resp
+        .headers()
+        .get("content-type")
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or_default()
+        .to_string();
+    let bytes = resp
+        .body_mut()
+        .with_config()
+        .limit(64 << 20)
+        .read_to_vec()?;
+    Ok((status, ct, bytes))
+}
+
+fn get(url: &str) -> (u16, Value) {
+    let (st, _, b) = request("GET", url, &[], None);
+    (st, serde_json::from_slice(&b).unwrap_or(Value::Null))
+}
+
+fn post(url: &str, body: &Value, token: Option<&str>) -> (u16, Value) {
+    let auth = token.map(|t| format!("Bearer {t}"));
+    let headers: Vec<(&str, &str)> = auth
+        .as_deref()
+        .map(|a| vec![("Authorization", a)])
+        .unwrap_or_default();
+    let (st, _, b) = request("POST", url, &headers, Some(body.to_string().as_bytes()));
+    (st, serde_json::from_slice(&b).unwrap_or(Value::Null))
+}
+
+/// One small simulated city mapped once for all tests here (hash embedder: no model files).
+fn map() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    let dir = DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        sim_map(
+            dir.path(),
+            &["--seed", "3", "--frames", "24"],
+            &["--embedder", "hash"],
+        );
+        dir
+    });
+    // each test copies what it writes to
+    Box::leak(dir.path().join("city.og").into_boxed_path())
+}
+
+/// A copy of the map in a fresh folder (for servers that write).
+fn copy_of_map() -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("city.og");
+    std::fs::copy(map(), &db).unwrap();
+    (dir, db)
+}
+
+fn write_token(dir: &Path) -> (std::path::PathBuf, String) {
+    let token = "test-token-0123456789abcdef".to_string();
+    let path = dir.join("token");
+    std::fs::write(&path, format!("{token}\n")).unwrap();
+    (path, token)
+}
+
+/// Validates `value` against the schema named by a `$ref` into the document's components.
+fn assert_valid(doc: &Value, schema_ref: &str, value: &Value, what: &str) {
+    let name = schema_ref.rsplit('/').next().unwrap();
+    let schema = &doc["components"]["schemas"][name];
+    assert!(!schema.is_null(), "{what}: no schema {schema_ref}");
+    let v = jsonschema::validator_for(schema).unwrap();
+    let errors: Vec<String> = v.iter_errors(value).map(|e| e.to_string()).collect();
+    assert!(
+        errors.is_empty(),
+        "{what}: the answer breaks {name}: {errors:?}\n{value}"
+    );
+}
+
+#[test]
+fn every_route_answers_as_its_openapi_document_says() {
+    let db = map();
+    let srv = serve(db, &[]);
+    let (st, doc) = get(&format!("{}/openapi.json", srv.url));
+    assert_eq!(st, 200);
+    assert_eq!(doc["openapi"], "3.1.0");
+    // an instance and a segment to ask about
+    let ids = json(&og(&[
+        "query",
+        "--db",
+        s(db),
+        "--read-only",
+        "--json",
+        "MATCH (i:Instance) WITH i ORDER BY id(i) LIMIT 1 MATCH (g:Segment) RETURN id(i) AS i, min(id(g)) AS g",
+    ]));
+    let (inst, seg) = (ids[0]["i"].as_u64().unwrap(), ids[0]["g"].as_u64().unwrap());
+    // a valid request for every documented route: (method, path) -> (url path, body)
+    let sample = |method: &str, path: &str| -> (String, Option<Value>) {
+        let p = path
+            .replace("/segments/{id}", &format!("/segments/{seg}"))
+            .replace("{id}", &inst.to_string())
+            .replace("{name}", "get_schema");
+        let body = match (method, path) {
+            ("post", "/api/tools/{name}") => Some(json!({})),
+            ("post", "/api/cypher") => {
+                Some(json!({"query": "MATCH (s:Segment) RETURN count(s) AS n"}))
+            }
+            ("post", "/api/cypher/write") => Some(json!({"query": "RETURN 1 AS one"})),
+            ("post", "/api/find") => Some(json!({"text": "the bench near the bus stop", "k": 3})),
+            ("post", "/api/locate") => {
+                Some(json!({"text": "I'm at a T-junction next to a traffic light"}))
+            }
+            ("post", "/api/route") => Some(json!({"from": "the T-junction", "to": "a bus stop"})),
+            ("post", other) => panic!("no sample request for POST {other}: add one"),
+            _ => None,
+        };
+        (p, body)
+    };
+    let mut seen = 0;
+    for (path, item) in doc["paths"].as_object().unwrap() {
+        for (method, op) in item.as_object().unwrap() {
+            let (p, body) = sample(method, path);
+            let url = format!("{}{p}", srv.url);
+            let what = format!("{} {path}", method.to_uppercase());
+            let ok = &op["responses"]["200"]["content"];
+            if path == "/api/cypher/write" {
+                // a read-only server has no write tool: a JSON 404 that says how to enable it
+                let (st, v) = post(&url, body.as_ref().unwrap(), None);
+                assert_eq!(st, 404, "{what}: {v}");
+                assert_valid(&doc, "#/components/schemas/Error", &v, &what);
+                assert!(
+                    v["error"]["message"]
+                        .as_str()
+                        .unwrap()
+                        .contains("--token-file")
+                );
+                seen += 1;
+                continue;
+            }
+            let (st, ct, bytes) = match &body {
+                Some(b) => request("POST", &url, &[], Some(b.to_string().as_bytes())),
+                None => request("GET", &url, &[], None),
+            };
+            assert_eq!(st, 200, "{what}: {}", String::from_utf8_lossy(&bytes));
+            if let Some(schema) = ok["application/json"]["schema"]["$ref"].as_str() {
+                assert!(ct.starts_with("application/json"), "{what}: {ct}");
+                let v: Value = serde_json::from_slice(&bytes).unwrap();
+                assert_valid(&doc, schema, &v, &what);
+            } else {
+                assert!(ok.get("application/octet-stream").is_some(), "{what}");
+                assert_eq!(ct, "application/octet-stream");
+                assert!(
+                    !bytes.is_empty() && bytes.len() % 12 == 0,
+                    "{what}: {} bytes",
+                    bytes.len()
+                );
+            }
+            seen += 1;
+        }
+    }
+    assert_eq!(seen, 15, "every route is documented and was exercised");
+
+    // the points are the instance's: inside its bounding box (1 cm for the store's rounding)
+    let (_, _, bytes) = request(
+        "GET",
+        &format!("{}/api/instances/{inst}/points", srv.url),
+        &[],
+        None,
+    );
+    let (_, inst_json) = get(&format!("{}/api/instances/{inst}", srv.url));
+    let bbox = &inst_json["properties"]["bbox"];
+    let (lo, hi) = (&bbox[0], &bbox[1]);
+    assert_eq!(
+        (bytes.len() / 12) as u64,
+        inst_json["properties"]["point_count"].as_u64().unwrap()
+    );
+    for p in bytes.chunks_exact(12) {
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            let v = f64::from(f32::from_le_bytes(p[k * 4..k * 4 + 4].try_into().unwrap()));
+            let (l, h) = (lo[axis].as_f64().unwrap(), hi[axis].as_f64().unwrap());
+            assert!(
+                v >= l - 0.01 && v <= h + 0.01,
+                "{axis} = {v} outside [{l}, {h}]"
+            );
+        }
+    }
+
+    // conformance: HTTP and the CLI tool adapter give the same answers
+    for (route, tool, args) in [
+        (
+            "/api/find",
+            "find_objects",
+            json!({"text": "the bench near the bus stop", "k": 3}),
+        ),
+        (
+            "/api/locate",
+            "locate",
+            json!({"text": "a T-junction with a bus stop"}),
+        ),
+        (
+            "/api/cypher",
+            "read_cypher",
+            json!({"query": "MATCH (i:Instance) RETURN i.class AS c, count(*) AS n ORDER BY c"}),
+        ),
+    ] {
+        let (st, mut http) = post(&format!("{}{route}", srv.url), &args, None);
+        assert_eq!(st, 200);
+        let mut cli = json(&og(&["tool", "--db", s(db), tool, &args.to_string()]));
+        // timings differ between runs
+        http.as_object_mut().unwrap().remove("timings_ms");
+        cli.as_object_mut().unwrap().remove("timings_ms");
+        assert_eq!(http, cli, "HTTP and CLI answers differ for {tool}");
+    }
+}
+
+#[test]
+fn writes_need_the_token_and_reads_are_read_only() {
+    let (dir, db) = copy_of_map();
+    let (token_file, token) = write_token(dir.path());
+    let srv = serve(&db, &["--token-file", s(&token_file)]);
+    let create = json!({"query": "CREATE (n:Hack {x: 1}) RETURN id(n) AS id"});
+    let count = || {
+        let (st, v) = post(
+            &format!("{}/api/cypher", srv.url),
+            &json!({"query": "MATCH (n:Hack) RETURN count(n) AS n"}),
+            None,
+        );
+        assert_eq!(st, 200, "{v}");
+        v["rows"][0]["n"].as_u64().unwrap()
+    };
+    let write_url = format!("{}/api/cypher/write", srv.url);
+    // no token, a wrong one, one with a changed last character
+    for t in [None, Some("nope"), Some("test-token-0123456789abcdeF")] {
+        let (st, v) = post(&write_url, &create, t);
+        assert_eq!(st, 401, "{t:?}: {v}");
+        assert!(v["error"]["message"].as_str().unwrap().contains("token"));
+    }
+    // the generic tool route is gated the same way
+    let (st, _) = post(
+        &format!("{}/api/tools/write_cypher", srv.url),
+        &create,
+        None,
+    );
+    assert_eq!(st, 401);
+    assert_eq!(count(), 0);
+    // a write through the read route is refused by the parser, token or not
+    for t in [None, Some(token.as_str())] {
+        let (st, v) = post(&format!("{}/api/cypher", srv.url), &create, t);
+        assert_eq!(st, 400, "{v}");
+        assert!(
+            v["error"]["message"]
+                .as_str()
+                .unwrap()
+                .contains("read-only"),
+            "{v}"
+        );
+    }
+    assert_eq!(count(), 0);
+    // with the token the write happens, and find sees the change (the scene caches reload)
+    let (st, v) = post(&write_url, &create, Some(&token));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(count(), 1);
+    let find = |text: &str| {
+        let (st, v) = post(
+            &format!("{}/api/find", srv.url),
+            &json!({"text": text, "k": 1}),
+            None,
+        );
+        assert_eq!(st, 200, "{v}");
+        v["results"][0]["id"].as_u64()
+    };
+    let before = find("a bench").unwrap();
+    let (st, v) = post(
+        &write_url,
+        &json!({"query": "MATCH (i:Instance) WHERE id(i) = $id DETACH DELETE i", "params": {"id": before}}),
+        Some(&token),
+    );
+    assert_eq!(st, 200, "{v}");
+    // both workers answer (two requests at least), and neither returns the deleted node
+    for _ in 0..4 {
+        assert_ne!(
+            find("a bench"),
+            Some(before),
+            "find returned a deleted instance"
+        );
+    }
+    // a CLI command on the map names the server
+    let out = og(&["info", "--db", s(&db)]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&srv.url) && err.contains("opengraph serve"),
+        "{err}"
+    );
+    drop(srv);
+    // the marker goes with the server... unless it was killed; a later open still works
+    let store = graphstore::Store::open_read_only(&db).unwrap();
+    assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new());
+}
+
+#[test]
+fn hostile_requests_get_a_clear_4xx_and_change_nothing() {
+    let (dir, db) = copy_of_map();
+    let (token_file, token) = write_token(dir.path());
+    let srv = serve(
+        &db,
+        &[
+            "--token-file",
+            s(&token_file),
+            "--body-limit-bytes",
+            "65536",
+        ],
+    );
+    let (_, before) = get(&format!("{}/api/info", srv.url));
+    let deep = "[".repeat(60_000);
+    let big = format!("{{\"text\": \"{}\"}}", "a".repeat(200_000));
+    let bodies: Vec<(&str, Vec<u8>)> = vec![
+        ("not JSON", b"hello".to_vec()),
+        ("truncated", br#"{"text": "the bench"#.to_vec()),
+        ("an array", b"[1, 2, 3]".to_vec()),
+        ("a string", br#""text""#.to_vec()),
+        ("deep nesting", deep.into_bytes()),
+        ("oversized", big.into_bytes()),
+        (
+            "invalid UTF-8",
+            vec![b'{', b'"', 0xff, 0xfe, b'"', b':', b'1', b'}'],
+        ),
+        ("NaN", br#"{"text": NaN}"#.to_vec()),
+        (
+            "wrong types",
+            br#"{"text": 5, "k": "five", "query": [], "from": {}, "to": null}"#.to_vec(),
+        ),
+        (
+            "unknown fields",
+            br#"{"text": "a bench", "query": "MATCH (n) DETACH DELETE n", "evil": true}"#.to_vec(),
+        ),
+        ("huge k", br#"{"text": "a bench", "k": 1e300}"#.to_vec()),
+        ("negative k", br#"{"text": "a bench", "k": -1}"#.to_vec()),
+        ("empty text", br#"{"text": ""}"#.to_vec()),
+        (
+            "a write as a read",
+            br#"{"query": "MATCH (n) DETACH DELETE n"}"#.to_vec(),
+        ),
+        ("bad Cypher", br#"{"query": "MATCH (n RETURN"}"#.to_vec()),
+        (
+            "params overflow",
+            br#"{"query": "RETURN $x", "params": {"x": 99999999999999999999999}}"#.to_vec(),
+        ),
+        ("NUL bytes", b"{\"text\": \"\\u0000\\u0000\"}".to_vec()),
+    ];
+    let posts = [
+        "/api/find",
+        "/api/locate",
+        "/api/route",
+        "/api/cypher",
+        "/api/cypher/write",
+        "/api/tools/find_objects",
+        "/api/tools/write_cypher",
+        "/api/tools/no_such_tool",
+    ];
+    let headers_sets: [&[(&str, &str)]; 4] = [
+        &[],
+        &[("Content-Type", "text/evil; charset=nope")],
+        &[("Authorization", "Bearer ")],
+        &[("Authorization", "Basic Zm9vOmJhcg==")],
+    ];
+    let mut n = 0;
+    let mut too_large = 0;
+    for path in posts {
+        for (what, body) in &bodies {
+            for headers in headers_sets {
+                let label = format!("POST {path} with {what} and {headers:?}");
+                let answer =
+                    try_request("POST", &format!("{}{path}", srv.url), headers, Some(body));
+                n += 1;
+                let (st, ct, bytes) = match answer {
+                    Ok(a) => a,
+                    // refused before the client finished sending: fine for an oversized body
+                    Err(ureq::Error::Io(e)) if *what == "oversized" => {
+                        assert!(
+                            matches!(
+                                e.kind(),
+                                std::io::ErrorKind::BrokenPipe
+                                    | std::io::ErrorKind::ConnectionReset
+                            ),
+                            "{label}: {e}"
+                        );
+                        continue;
+                    }
+                    Err(e) => panic!("{label}: {e}"),
+                };
+                if *what == "oversized" {
+                    assert_eq!(st, 413, "{label}");
+                    too_large += 1;
+                }
+                // a few bodies are valid for some routes (unknown fields, a write as a read, ...)
+                // only where the route accepts them: never a 5xx, never a write
+                assert!((200..500).contains(&st), "{label}: {st}");
+                if st >= 400 {
+                    assert!(ct.starts_with("application/json"), "{label}: {ct}");
+                    let v: Value = serde_json::from_slice(&bytes).unwrap_or(Value::Null);
+                    let msg = v["error"]["message"].as_str().unwrap_or_default();
+                    assert!(
+                        msg.len() > 10,
+                        "{label}: no clear message: {}",
+                        String::from_utf8_lossy(&bytes)
+                    );
+                }
+            }
+        }
+    }
+    // bad paths and methods
+    for (method, path, want) in [
+        ("GET", "/api/instances/-1", 400),
+        ("GET", "/api/instances/99999999999999999999999", 400),
+        ("GET", "/api/instances/%00", 400),
+        ("GET", "/api/instances/4294967295000", 404),
+        ("GET", "/api/instances/4294967295000/points", 404),
+        ("GET", "/api/segments/abc", 400),
+        ("GET", "/api/nothing", 404),
+        ("GET", "/api/find", 405),
+        ("PUT", "/api/find", 405),
+        ("GET", "/../../etc/passwd", 404),
+    ] {
+        let (st, ct, bytes) = request(method, &format!("{}{path}", srv.url), &[], Some(b"{}"));
+        n += 1;
+        assert_eq!(
+            st,
+            want,
+            "{method} {path}: {}",
+            String::from_utf8_lossy(&bytes)
+        );
+        assert!(ct.starts_with("application/json"), "{method} {path}: {ct}");
+    }
+    assert!(n > 500);
+    // a client that sends a body over the limit is answered 413 or cut off while sending
+    // (above); one that declares it gets the 413 at once, before sending it
+    let addr = srv.url.trim_start_matches("http://");
+    let mut sock = std::net::TcpStream::connect(addr).unwrap();
+    sock.set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    use std::io::{Read, Write};
+    sock.write_all(
+        b"POST /api/find HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 200000\r\n\r\n",
+    )
+    .unwrap();
+    let mut head = vec![0u8; 4096];
+    let got = sock
+        .read(&mut head)
+        .expect("an answer before the body was sent");
+    let text = String::from_utf8_lossy(&head[..got]);
+    assert!(text.starts_with("HTTP/1.1 413"), "{text}");
+    assert!(text.contains("--body-limit-bytes"), "{text}");
+    let _ = too_large;
+    // the server still answers, and the map is as it was
+    let (st, after) = get(&format!("{}/api/info", srv.url));
+    assert_eq!(st, 200);
+    assert_eq!(before["nodes"], after["nodes"]);
+    assert_eq!(before["relationships"], after["relationships"]);
+    drop(srv);
+    let _ = token;
+    let store = graphstore::Store::open_read_only(&db).unwrap();
+    assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new());
+}
+
+#[test]
+fn bad_settings_are_refused_before_serving() {
+    let db = map();
+    let dir = tempfile::tempdir().unwrap();
+    let short = dir.path().join("short");
+    std::fs::write(&short, "abc").unwrap();
+    for (args, needle) in [
+        (vec!["--bind", "0.0.0.0:0"], "without a token"),
+        (vec!["--token-file", s(&short)], "16 or more"),
+        (vec!["--token-file", "/nonexistent/token"], "token file"),
+        (vec!["--timeout-secs", "nan"], "--timeout-secs"),
+        (vec!["--timeout-secs=-1"], "--timeout-secs"),
+        (vec!["--workers", "0"], "--workers"),
+        (vec!["--body-limit-bytes", "0"], "--body-limit-bytes"),
+        (vec!["--max-concurrent", "0"], "--max-concurrent"),
+    ] {
+        let mut a = vec!["serve", "--db", s(db)];
+        a.extend(args.iter().copied());
+        if !args.contains(&"--bind") {
+            a.extend(["--bind", "127.0.0.1:0"]);
+        }
+        let out = og(&a);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
+
+fn python_with_mcp() -> Option<std::path::PathBuf> {
+    let venv = std::env::var_os("OPENGRAPH_VENV")
+        .map(std::path::PathBuf::from)
+        .or_else(|| {
+            std::env::var_os("HOME").map(|h| std::path::Path::new(&h).join(".cache/opengraph/venv"))
+        })?;
+    let py = venv.join("bin/python");
+    let ok = Command::new(&py)
+        .args(["-c", "import mcp"])
+        .status()
+        .is_ok_and(|s| s.success());
+    ok.then_some(py)
+}
+
+fn mcp_client(py: &Path, url: &str, token: Option<&str>) -> Value {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/mcp_client.py");
+    let mut cmd = Command::new(py);
+    cmd.arg(&script).arg(url);
+    if let Some(t) = token {
+        cmd.args(["--token", t]);
+    }
+    let child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    let out = rx
+        .recv_timeout(Duration::from_secs(300))
+        .expect("the MCP client finished within 300 s")
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "client failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(text.lines().last().unwrap_or_default()).unwrap()
+}
+
+#[test]
+fn a_real_mcp_client_over_streamable_http() {
+    let Some(py) = python_with_mcp() else {
+        eprintln!("skipping: no Python with the mcp package (run scripts/setup.sh)");
+        return;
+    };
+    let (dir, db) = copy_of_map();
+    let (token_file, token) = write_token(dir.path());
+    let srv = serve(&db, &["--token-file", s(&token_file)]);
+    let url = format!("{}/mcp", srv.url);
+    // without the token: the write tool is listed (the server has a token) but refused
+    let r = mcp_client(&py, &url, None);
+    assert_eq!(r["server"], "opengraph");
+    assert!(
+        r["tools"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|t| t == "write_cypher")
+    );
+    assert_eq!(r["find"]["is_error"], false, "{}", r["find"]);
+    assert!(!r["find"]["value"]["results"].as_array().unwrap().is_empty());
+    assert_eq!(r["cypher_write_refused"]["is_error"], true);
+    assert_eq!(r["locate"]["is_error"], false, "{}", r["locate"]);
+    assert_eq!(r["bad_args"]["is_error"], true);
+    assert_eq!(r["write"]["is_error"], true, "{}", r["write"]);
+    assert!(r["write"]["text"].as_str().unwrap().contains("token"));
+    assert_eq!(r["after_write"]["value"]["rows"][0]["n"], 0);
+    // MCP and HTTP answer find alike
+    let (_, http) = post(
+        &format!("{}/api/find", srv.url),
+        &json!({"text": "the bench near the bus stop", "k": 3}),
+        None,
+    );
+    assert_eq!(http, r["find"]["value"]);
+    // with the token the write happens
+    let r = mcp_client(&py, &url, Some(&token));
+    assert_eq!(r["write"]["is_error"], false, "{}", r["write"]);
+    assert_eq!(r["after_write"]["value"]["rows"][0]["n"], 1);
+}
+
+#[test]
+fn a_read_only_server_leaves_the_map_to_other_readers() {
+    let db = map();
+    let srv = serve(db, &[]);
+    // a read-only server holds no write lock: the CLI reads alongside it
+    let out = og(&["info", "--db", s(db), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (st, v) = get(&format!("{}/api/info", srv.url));
+    assert_eq!(st, 200);
+    assert_eq!(json(&out)["nodes"], v["nodes"]);
+}
