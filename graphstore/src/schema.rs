@@ -375,6 +375,24 @@ pub fn opengraph_schema() -> Schema {
                 "Provenance and checkpoint of a map build (lets `build --resume` continue).".into(),
         },
     );
+    s.labels.insert(
+        "MapEdit".into(),
+        LabelRule {
+            properties: vec![
+                req("text", T::String),
+                req("kind", T::String),
+                req("time_unix_s", T::Float),
+                req("undone", T::Bool),
+                opt("parsed_by", T::String),
+                opt("summary", T::String),
+                opt("touched", T::List),
+                opt("target", T::Int),
+                opt("undone_unix_s", T::Float),
+            ],
+            unique: vec![],
+            description: "An applied map edit (remove, move, change, add) from a described change; its `diff` payload lets `update --undo` revert it exactly.".into(),
+        },
+    );
     s.relationships.insert(
         "CONTAINS".into(),
         rel(

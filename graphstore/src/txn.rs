@@ -764,6 +764,33 @@ impl<'a> WriteTxn<'a> {
         Ok(id)
     }
 
+    /// Re-creates a deleted node under its old id (for undoing an edit exactly): the id must
+    /// have been handed out before and be free now.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when the id was never used or a node has it; schema errors as
+    /// for [`WriteTxn::create_node`].
+    pub fn restore_node(
+        &mut self,
+        id: u64,
+        labels: &[LabelId],
+        props: Vec<(PropKey, Value)>,
+    ) -> Result<()> {
+        if id >= self.next_node || Raw::load_rec(self, id)?.is_some() {
+            return Err(Error::InvalidValue(format!(
+                "cannot restore node {id}: the id is in use or was never handed out"
+            )));
+        }
+        let mut ls: Vec<u32> = labels.iter().map(|l| l.0).collect();
+        ls.sort_unstable();
+        ls.dedup();
+        let rec = NodeRec {
+            labels: ls,
+            props: raw_props(&normalize_props(props)),
+        };
+        self.apply_node(id, None, Some(&rec))
+    }
+
     /// Creates a node from names: `create("Instance", &[("caption", "a bench".into())])`.
     pub fn create_node_named(&mut self, labels: &[&str], props: &[(&str, Value)]) -> Result<u64> {
         let ls = labels
@@ -897,6 +924,45 @@ impl<'a> WriteTxn<'a> {
         self.bump(2, 1, 1)?;
         self.next_rel += 1;
         Ok(id)
+    }
+
+    /// Re-creates a deleted relationship under its old id (for undoing an edit exactly).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when the id was never used or a relationship has it; missing
+    /// ends and schema errors as for [`WriteTxn::create_rel`].
+    pub fn restore_rel(
+        &mut self,
+        id: u64,
+        start: u64,
+        ty: RelType,
+        end: u64,
+        props: Vec<(PropKey, Value)>,
+    ) -> Result<()> {
+        if id >= self.next_rel || Raw::load_rel(self, id)?.is_some() {
+            return Err(Error::InvalidValue(format!(
+                "cannot restore relationship {id}: the id is in use or was never handed out"
+            )));
+        }
+        let s = self.rec(start)?;
+        let e = if end == start {
+            s.clone()
+        } else {
+            self.rec(end)?
+        };
+        let props = raw_props(&normalize_props(props));
+        self.check_rel(ty.0, &s, &e, &props)?;
+        let bytes = codec::encode_rel(ty.0, start, end, &props);
+        self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
+        self.adj
+            .insert(&(start, 0u8, ty.0, id), &end)
+            .map_err(storage)?;
+        self.adj
+            .insert(&(end, 1u8, ty.0, id), &start)
+            .map_err(storage)?;
+        self.bump(1, ty.0, 1)?;
+        self.bump(2, 1, 1)?;
+        Ok(())
     }
 
     /// Creates a relationship from names.

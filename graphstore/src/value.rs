@@ -31,6 +31,32 @@ pub enum Value {
     Bytes(Vec<u8>),
 }
 
+impl Value {
+    /// The value in the store's own binary encoding: exact for every value (NaN, -0.0,
+    /// integers beyond 2^53, vectors, bytes), unlike JSON.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        crate::codec::encode_value(&mut out, self);
+        out
+    }
+
+    /// Decodes [`Value::to_bytes`].
+    ///
+    /// # Errors
+    /// [`crate::Error::Corrupt`] for bytes that are not one whole encoded value.
+    pub fn from_bytes(bytes: &[u8]) -> crate::Result<Value> {
+        let mut r = crate::codec::Reader::new(bytes, "value");
+        let v = r.value()?;
+        if !r.is_empty() {
+            return Err(crate::error::corrupt(
+                "value",
+                format!("extra bytes after the value ({} in all)", bytes.len()),
+            ));
+        }
+        Ok(v)
+    }
+}
+
 /// The type of a [`Value`], used by schema rules.
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
