@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod chat;
+pub mod edit;
 pub mod embed;
 mod error;
 pub mod graph_find;

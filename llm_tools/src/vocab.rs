@@ -127,6 +127,11 @@ const COLOURS: [&str; 16] = [
     "orange", "beige", "pink", "purple", "gold", "cream",
 ];
 
+/// The colour words in a text, sorted, without repeats ("gray" counts as "grey").
+pub fn colours(text: &str) -> Vec<&'static str> {
+    colours_of(text)
+}
+
 fn colours_of(text: &str) -> Vec<&'static str> {
     let t = text.to_lowercase();
     let mut out: Vec<&'static str> = t
