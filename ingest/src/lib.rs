@@ -11,6 +11,7 @@ pub mod eval_locate;
 pub mod eval_retrieval;
 pub mod hierarchy;
 pub mod llm;
+pub mod map_edit;
 pub mod mapping;
 pub mod sources;
 

@@ -45,7 +45,7 @@ pub struct InstanceBox {
 }
 
 impl InstanceBox {
-    fn centre(&self) -> [f64; 3] {
+    pub(crate) fn centre(&self) -> [f64; 3] {
         [0, 1, 2].map(|i| (self.min[i] + self.max[i]) / 2.0)
     }
     fn volume(&self) -> f64 {
