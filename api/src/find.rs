@@ -153,6 +153,14 @@ impl Finder {
         Ok(self.scene.as_ref().expect("loaded"))
     }
 
+    /// Sentence embeddings of `texts` with the map's embedder.
+    ///
+    /// # Errors
+    /// The embedder fails.
+    pub fn embed(&mut self, texts: &[&str]) -> Result<Vec<Vec<f32>>> {
+        self.embedder.embed(texts)
+    }
+
     /// Drops the cached scene, so the next request reloads it (after the map changed).
     pub fn forget_scene(&mut self) {
         self.scene = None;

@@ -187,6 +187,18 @@ fn routes() -> Vec<Route> {
             "A route between two ends given in words or as specs.",
         ),
         r(
+            Post,
+            "/api/update",
+            Op::Tool("update_map"),
+            "Propose (and with apply, commit) a map edit from a described change (needs the token).",
+        ),
+        r(
+            Post,
+            "/api/update/undo",
+            Op::Tool("undo_map_edit"),
+            "Undo an applied map edit exactly (needs the token).",
+        ),
+        r(
             Get,
             "/api/segments",
             Op::ToolGet("describe_area", None),

@@ -9,3 +9,4 @@ pub mod mcp;
 pub mod plan;
 pub mod service;
 pub mod tools;
+pub mod update;

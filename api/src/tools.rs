@@ -13,6 +13,8 @@
 //! | `plan_route` | a route between two ends given in words or as specs (`navigate`) |
 //! | `describe_area` | top-down: the environment's segments, or one segment's objects |
 //! | `get_instance` | one instance: caption, class, box, segment, relations |
+//! | `update_map` | propose (and with `apply`, commit) an edit from a described change |
+//! | `undo_map_edit` | revert an applied edit exactly |
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -129,7 +131,7 @@ impl ToolError {
 
 /// The hint for a write tool asked for while writes are off.
 fn write_hint(name: &str) -> &'static str {
-    if name == "write_cypher" {
+    if matches!(name, "write_cypher" | "update_map" | "undo_map_edit") {
         " (write tools are offered only when writes are enabled: --writes, mcp --allow-writes, or serve with a --token-file)"
     } else {
         ""
@@ -151,7 +153,8 @@ const LAYERS: &str = "An OpenGraph map is a hierarchy: one Environment node CONT
 CONNECTS to each other; LaneNode nodes (the lane graph along the driven path) are linked by LANE \
 relationships (length_m); Instance nodes are mapped objects (caption, class, centroid point3d, bbox, \
 feature vector) with IN_SEGMENT to their segment and RELATED to nearby instances (relation, \
-distance_m). Node ids (id(n)) are the ids every tool takes and returns.";
+distance_m). MapEdit nodes record applied map edits (text, kind, undone). Node ids (id(n)) are \
+the ids every tool takes and returns.";
 
 /// Every tool, sorted by name; `write_cypher` only when `writes` is true.
 pub fn tools(writes: bool) -> Vec<Tool> {
@@ -226,6 +229,25 @@ pub fn tools(writes: bool) -> Vec<Tool> {
         },
     ];
     if writes {
+        v.push(Tool {
+            name: "update_map",
+            description: "Update the map from a described change: 'the bush under the street sign at the crossing is gone', 'the bench by the bus stop was moved next to the post box', 'the bench by the bus stop is now red', 'there is a new bin next to the post box'. Without apply it only proposes the edit (the object it found, with candidates); with apply=true it commits it and returns the edit id. An ambiguous description lists the candidates and changes nothing.",
+            input_schema: json!({"type": "object", "properties": {
+                "text": text("the described change"),
+                "apply": {"type": "boolean", "default": false, "description": "commit the edit"}},
+                "required": ["text"], "additionalProperties": false}),
+            writes: true,
+            output_schema: Json::Null,
+        });
+        v.push(Tool {
+            name: "undo_map_edit",
+            description: "Undo an applied map edit exactly (its id is update_map's applied.edit_id; edits are listed by MATCH (e:MapEdit) RETURN id(e), e.text, e.undone). A later edit touching the same objects must be undone first.",
+            input_schema: json!({"type": "object", "properties": {
+                "edit_id": {"type": "integer", "minimum": 0, "description": "a MapEdit node id"}},
+                "required": ["edit_id"], "additionalProperties": false}),
+            writes: true,
+            output_schema: Json::Null,
+        });
         v.push(Tool {
             name: "write_cypher",
             description: "Run a Cypher statement that may write (CREATE, SET, DELETE, MERGE), as one transaction: a failure changes nothing. 10 s time limit.",
@@ -316,6 +338,17 @@ fn output_schema(name: &str) -> Json {
                 &["start", "goal", "plan"],
             )
         }
+        "update_map" => obj(
+            json!({"request": {"type": "object"}, "parsed_by": s, "proposal": s, "ambiguous": {"type": "boolean"},
+                   "target": {"type": ["object", "null"]}, "anchor": {"type": ["object", "null"]},
+                   "position": {"type": ["array", "null"]}, "caption": s_or_null,
+                   "applied": {"anyOf": [{"type": "null"}, obj(json!({"edit_id": id, "kind": s}), &["edit_id", "kind"])]}}),
+            &["request", "parsed_by", "proposal", "ambiguous", "applied"],
+        ),
+        "undo_map_edit" => obj(
+            json!({"edit_id": id, "text": s, "kind": s, "undone": {"const": true}, "summary": {"type": "object"}}),
+            &["edit_id", "text", "kind", "undone"],
+        ),
         _ => cypher,
     }
 }
@@ -392,6 +425,11 @@ impl Toolbox {
     /// The store.
     pub fn store(&self) -> &Store {
         &self.store
+    }
+
+    /// The finder and the store, for operations outside the registry.
+    pub fn parts(&mut self) -> (&mut Finder, &Store) {
+        (&mut self.finder, &self.store)
     }
 
     /// Whether the write tools are offered.
@@ -495,6 +533,29 @@ impl Toolbox {
                 // the poses are for a robot; an agent needs the route
                 plan.path.poses.clear();
                 serde_json::to_value(NavigateAnswer { start, goal, plan }).map_err(failed)
+            }
+            "update_map" => {
+                let a = crate::update::update(
+                    &mut self.finder,
+                    &self.store,
+                    &crate::update::UpdateRequest {
+                        text: s("text"),
+                        apply: args["apply"].as_bool().unwrap_or(false),
+                    },
+                )?;
+                if a.applied.is_some() {
+                    self.seen = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
+                }
+                serde_json::to_value(a).map_err(failed)
+            }
+            "undo_map_edit" => {
+                let a = crate::update::undo(
+                    &mut self.finder,
+                    &self.store,
+                    args["edit_id"].as_u64().unwrap_or_default(),
+                )?;
+                self.seen = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
+                serde_json::to_value(a).map_err(failed)
             }
             "describe_area" => self.describe_area(args["segment_id"].as_u64()),
             "get_instance" => self.get_instance(args["id"].as_u64().unwrap_or_default()),
@@ -745,7 +806,10 @@ mod tests {
                 "{}",
                 t.name
             );
-            assert_eq!(t.writes, t.name == "write_cypher");
+            assert_eq!(
+                t.writes,
+                matches!(t.name, "write_cypher" | "update_map" | "undo_map_edit")
+            );
         }
         assert!(tools(false).iter().all(|t| !t.writes));
         let names: Vec<&str> = tools(false).iter().map(|t| t.name).collect();

@@ -209,6 +209,8 @@ fn every_route_answers_as_its_openapi_document_says() {
                 Some(json!({"query": "MATCH (s:Segment) RETURN count(s) AS n"}))
             }
             ("post", "/api/cypher/write") => Some(json!({"query": "RETURN 1 AS one"})),
+            ("post", "/api/update") => Some(json!({"text": "the bench is gone"})),
+            ("post", "/api/update/undo") => Some(json!({"edit_id": 1})),
             ("post", "/api/find") => Some(json!({"text": "the bench near the bus stop", "k": 3})),
             ("post", "/api/locate") => {
                 Some(json!({"text": "I'm at a T-junction next to a traffic light"}))
@@ -226,8 +228,8 @@ fn every_route_answers_as_its_openapi_document_says() {
             let url = format!("{}{p}", srv.url);
             let what = format!("{} {path}", method.to_uppercase());
             let ok = &op["responses"]["200"]["content"];
-            if path == "/api/cypher/write" {
-                // a read-only server has no write tool: a JSON 404 that says how to enable it
+            if ["/api/cypher/write", "/api/update", "/api/update/undo"].contains(&path.as_str()) {
+                // a read-only server has no write tools: a JSON 404 that says how to enable them
                 let (st, v) = post(&url, body.as_ref().unwrap(), None);
                 assert_eq!(st, 404, "{what}: {v}");
                 assert_valid(&doc, "#/components/schemas/Error", &v, &what);
@@ -261,7 +263,7 @@ fn every_route_answers_as_its_openapi_document_says() {
             seen += 1;
         }
     }
-    assert_eq!(seen, 15, "every route is documented and was exercised");
+    assert_eq!(seen, 17, "every route is documented and was exercised");
 
     // the points are the instance's: inside its bounding box (1 cm for the store's rounding)
     let (_, _, bytes) = request(
@@ -402,6 +404,69 @@ fn writes_need_the_token_and_reads_are_read_only() {
 }
 
 #[test]
+fn map_updates_over_http_need_the_token_and_undo_exactly() {
+    let (dir, db) = copy_of_map();
+    let (token_file, token) = write_token(dir.path());
+    // an instance with a caption no other has
+    let v = common::read_query(
+        &db,
+        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+         WITH i.caption AS c, collect(id(i)) AS ids WHERE size(ids) = 1 RETURN ids[0] AS id, c ORDER BY id LIMIT 1",
+    );
+    let (id, caption) = (
+        v[0]["id"].as_u64().unwrap(),
+        v[0]["c"].as_str().unwrap().to_string(),
+    );
+    let srv = serve(&db, &["--token-file", s(&token_file)]);
+    let url = |p: &str| format!("{}{p}", srv.url);
+    let (_, before) = get(&url("/api/info"));
+    let body = json!({"text": format!("{caption} is gone"), "apply": true});
+    let (st, v) = post(&url("/api/update"), &body, None);
+    assert_eq!(st, 401, "{v}");
+    let (st, v) = post(&url("/api/update"), &body, Some(&token));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["target"]["candidates"][0]["id"].as_u64(), Some(id), "{v}");
+    let edit = v["applied"]["edit_id"].as_u64().expect("applied");
+    let (st, _) = get(&url(&format!("/api/instances/{id}")));
+    assert_eq!(st, 404);
+    // find over HTTP no longer returns it (every worker reloads its scene)
+    for _ in 0..4 {
+        let (_, f) = post(&url("/api/find"), &json!({"text": caption, "k": 3}), None);
+        assert!(
+            f["results"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .all(|r| r["id"].as_u64() != Some(id))
+        );
+    }
+    let (st, v) = post(&url("/api/update/undo"), &json!({"edit_id": edit}), None);
+    assert_eq!(st, 401, "{v}");
+    let (st, v) = post(
+        &url("/api/update/undo"),
+        &json!({"edit_id": edit}),
+        Some(&token),
+    );
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["undone"], true);
+    let (st, _) = get(&url(&format!("/api/instances/{id}")));
+    assert_eq!(st, 200);
+    let (_, after) = get(&url("/api/info"));
+    assert_eq!(before["relationships"], after["relationships"]);
+    let mut nodes = after["nodes"].clone();
+    assert_eq!(nodes["MapEdit"], 1);
+    nodes.as_object_mut().unwrap().remove("MapEdit");
+    assert_eq!(before["nodes"], nodes);
+    // undoing twice is the caller's error
+    let (st, v) = post(
+        &url("/api/update/undo"),
+        &json!({"edit_id": edit}),
+        Some(&token),
+    );
+    assert_eq!(st, 400, "{v}");
+}
+
+#[test]
 fn hostile_requests_get_a_clear_4xx_and_change_nothing() {
     let (dir, db) = copy_of_map();
     let (token_file, token) = write_token(dir.path());
@@ -457,6 +522,8 @@ fn hostile_requests_get_a_clear_4xx_and_change_nothing() {
         "/api/route",
         "/api/cypher",
         "/api/cypher/write",
+        "/api/update",
+        "/api/update/undo",
         "/api/tools/find_objects",
         "/api/tools/write_cypher",
         "/api/tools/no_such_tool",

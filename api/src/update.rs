@@ -1,0 +1,422 @@
+//! The map-update operation (`opengraph update`, the `update_map` tool, `POST /api/update`):
+//! a described change ("the bush under the street sign at the crossing is gone") is parsed
+//! ([`llm_tools::edit`]), its object resolved with graph-aware `find` (anchors and all), and
+//! turned into a proposed edit that is shown first; with `apply` it is committed as one
+//! transaction ([`ingest::map_edit`]) and recorded as a `MapEdit` node that `undo` reverts.
+//!
+//! A description that fits several objects about equally well (the best two scores within
+//! [`AMBIGUITY_MARGIN`]) lists them and changes nothing.
+
+use graphstore::{GraphRead, Store};
+use ingest::map_edit::{Applied, Change};
+use llm_tools::edit::{EditKind, EditRequest, parse_edit_rules, recaption};
+use llm_tools::graph_find::GraphFound;
+use serde::Serialize;
+
+use crate::find::{FindRequest, Finder, ParserKind, Ranking};
+use crate::tools::{ToolError, ToolResult};
+
+/// Who parses change descriptions, recorded with every edit.
+pub const PARSED_BY: &str = "rules (edit_rules@v1)";
+
+/// Two candidates whose scores differ by less than this are too close to choose between.
+pub const AMBIGUITY_MARGIN: f64 = 0.05;
+
+/// The default size of an added object: ground extent (two axes) and height, metres.
+pub const ADDED_SIZE_M: [f64; 3] = [0.8, 0.8, 1.0];
+
+/// A map-update request.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UpdateRequest {
+    /// The described change.
+    pub text: String,
+    /// Commit the proposed edit (otherwise only show it).
+    pub apply: bool,
+}
+
+/// An object the change refers to, resolved.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Resolved {
+    /// The phrase.
+    pub phrase: String,
+    /// Candidates best first (the first is chosen unless `ambiguous`).
+    pub candidates: Vec<GraphFound>,
+    /// Whether the best two are too close to choose.
+    pub ambiguous: bool,
+}
+
+/// The answer: what was understood, the proposed edit, and what was applied.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UpdateAnswer {
+    /// The parsed change.
+    pub request: EditRequest,
+    /// Who parsed it.
+    pub parsed_by: String,
+    /// The object changed (remove, move, change).
+    pub target: Option<Resolved>,
+    /// The object it is placed by (move, add).
+    pub anchor: Option<Resolved>,
+    /// The edit in words, or why there is none.
+    pub proposal: String,
+    /// Whether the description is ambiguous (nothing is changed then).
+    pub ambiguous: bool,
+    /// The new ground position (move, add), metres in the map's ground frame.
+    pub position: Option<[f64; 2]>,
+    /// The new caption (change, add).
+    pub caption: Option<String>,
+    /// What was committed (with `apply`).
+    pub applied: Option<Applied>,
+}
+
+fn resolve(finder: &mut Finder, r: &impl GraphRead, phrase: &str) -> ToolResult<Resolved> {
+    let a = finder
+        .find(
+            r,
+            &FindRequest {
+                text: phrase.to_string(),
+                k: 5,
+                class: None,
+                near: None,
+                ranking: Ranking::Graph {
+                    parser: ParserKind::Rules,
+                    rerank: false,
+                },
+                rerank_n: 10,
+            },
+        )
+        .map_err(|e| ToolError::BadArguments(e.to_string()))?;
+    if a.results.is_empty() {
+        return Err(ToolError::NotFound(format!(
+            "nothing in the map matches {phrase:?}"
+        )));
+    }
+    let ambiguous =
+        a.results.len() > 1 && a.results[0].score - a.results[1].score < AMBIGUITY_MARGIN;
+    Ok(Resolved {
+        phrase: phrase.to_string(),
+        candidates: a.results.into_iter().take(3).collect(),
+        ambiguous,
+    })
+}
+
+fn failed(e: impl std::fmt::Display) -> ToolError {
+    ToolError::Failed(e.to_string())
+}
+
+/// Ground box (min, max) and base height of an instance.
+fn ground_box(
+    r: &impl GraphRead,
+    frame: ingest::hierarchy::frame::GroundFrame,
+    id: u64,
+) -> ToolResult<([f64; 2], [f64; 2], f64, f64)> {
+    let (min, max) = r
+        .node_prop(id, "bbox")
+        .map_err(failed)?
+        .and_then(|v| v.as_box3d())
+        .ok_or_else(|| ToolError::Failed(format!("instance {id} has no box")))?;
+    let (a, b) = (frame.ground(min), frame.ground(max));
+    let (ha, hb) = (frame.height(min), frame.height(max));
+    Ok((
+        [a[0].min(b[0]), a[1].min(b[1])],
+        [a[0].max(b[0]), a[1].max(b[1])],
+        ha.min(hb),
+        ha.max(hb),
+    ))
+}
+
+/// The unit ground direction from `p` toward the nearest road (segment centreline or centre).
+fn toward_road(p: [f64; 2], segments: &[llm_tools::locate::SegmentInfo]) -> [f64; 2] {
+    let mut best: Option<(f64, [f64; 2])> = None;
+    for s in segments {
+        let q = match &s.area {
+            planner::area::SegmentArea::Disc { centre, .. } => *centre,
+            planner::area::SegmentArea::Corridor { centreline, .. } => centreline
+                .windows(2)
+                .map(|w| planner::route::closest_on_segment(p, w[0], w[1]).1)
+                .min_by(|a, b| {
+                    (a[0] - p[0])
+                        .hypot(a[1] - p[1])
+                        .total_cmp(&(b[0] - p[0]).hypot(b[1] - p[1]))
+                })
+                .unwrap_or(s.centroid),
+        };
+        let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+        if best.is_none_or(|(bd, _)| d < bd) {
+            best = Some((d, q));
+        }
+    }
+    unit(best.map_or([1.0, 0.0], |(_, q)| [q[0] - p[0], q[1] - p[1]]))
+}
+
+fn unit(v: [f64; 2]) -> [f64; 2] {
+    let n = v[0].hypot(v[1]);
+    if n < 1e-9 {
+        [1.0, 0.0]
+    } else {
+        [v[0] / n, v[1] / n]
+    }
+}
+
+/// Where an object of half-extent `half_m` goes when placed `relation` the anchor: beside
+/// it (next_to and the like: boxes 0.3 m apart; near: 2 m apart) along `dir`, or on it.
+fn place(anchor: ([f64; 2], [f64; 2]), relation: &str, half_m: f64, dir: [f64; 2]) -> [f64; 2] {
+    let c = [
+        (anchor.0[0] + anchor.1[0]) / 2.0,
+        (anchor.0[1] + anchor.1[1]) / 2.0,
+    ];
+    if matches!(relation, "on" | "under") {
+        return c;
+    }
+    let anchor_half = ((anchor.1[0] - anchor.0[0]).abs() * dir[0].abs()
+        + (anchor.1[1] - anchor.0[1]).abs() * dir[1].abs())
+        / 2.0;
+    let gap = if relation == "near" { 2.0 } else { 0.3 };
+    let d = anchor_half + half_m + gap;
+    [c[0] + dir[0] * d, c[1] + dir[1] * d]
+}
+
+/// The SemanticKITTI class whose prompts are nearest to `caption` (as the build assigns).
+fn class_for(finder: &mut Finder, caption: &str) -> ToolResult<String> {
+    let prompts = ingest::classes::prompts();
+    let mut texts: Vec<&str> = prompts.iter().map(|p| p.1).collect();
+    texts.push(caption);
+    let v = finder.embed(&texts).map_err(failed)?;
+    let (me, rest) = v.split_last().ok_or_else(|| failed("no embedding"))?;
+    let best = rest
+        .iter()
+        .zip(&prompts)
+        .map(|(e, p)| (llm_tools::embed::cosine(e, me), p.0))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|x| x.1)
+        .unwrap_or(0);
+    Ok(ingest::classes::class_name(best)
+        .unwrap_or("unlabeled")
+        .to_string())
+}
+
+/// Understands a described change, proposes the edit, and applies it when asked.
+///
+/// # Errors
+/// [`ToolError::BadArguments`] for a sentence that is no change the parser knows;
+/// [`ToolError::NotFound`] when nothing matches; [`ToolError::Forbidden`]-free: the caller
+/// gates writes. The store is unchanged on every error and when the description is ambiguous.
+pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolResult<UpdateAnswer> {
+    let request =
+        parse_edit_rules(&req.text).map_err(|e| ToolError::BadArguments(e.to_string()))?;
+    let r = store.read().map_err(failed)?;
+    let frame =
+        ingest::map_edit::ground_frame(&r).map_err(|e| ToolError::BadArguments(e.to_string()))?;
+    let target = match &request.target {
+        Some(t) => Some(resolve(finder, &r, t)?),
+        None => None,
+    };
+    let anchor = match &request.place {
+        Some((_, a)) => Some(resolve(finder, &r, a)?),
+        None => None,
+    };
+    let ambiguous = target.as_ref().is_some_and(|t| t.ambiguous)
+        || anchor.as_ref().is_some_and(|a| a.ambiguous);
+    let best = |x: &Option<Resolved>| x.as_ref().map(|x| x.candidates[0].clone());
+    let (t, a) = (best(&target), best(&anchor));
+    let segments = finder.segments(&r).map_err(failed)?.to_vec();
+    let mut position = None;
+    let mut caption = None;
+    let (change, proposal) = match request.kind {
+        EditKind::Remove => {
+            let t = t.expect("a remove names its object");
+            (
+                Change::Remove { id: t.id },
+                format!(
+                    "remove instance {} ({}: \"{}\") with its points and relationships",
+                    t.id, t.class, t.caption
+                ),
+            )
+        }
+        EditKind::Move => {
+            let (t, a) = (t.expect("a target"), a.expect("an anchor"));
+            if t.id == a.id {
+                return Err(ToolError::BadArguments(format!(
+                    "the object and the place it moved to are the same instance ({})",
+                    t.id
+                )));
+            }
+            let relation = request
+                .place
+                .as_ref()
+                .map(|p| p.0.clone())
+                .unwrap_or_default();
+            let (tmin, tmax, _, _) = ground_box(&r, frame, t.id)?;
+            let amin_max = ground_box(&r, frame, a.id)?;
+            let half = ((tmax[0] - tmin[0]).max(tmax[1] - tmin[1])) / 2.0;
+            let ac = [
+                (amin_max.0[0] + amin_max.1[0]) / 2.0,
+                (amin_max.0[1] + amin_max.1[1]) / 2.0,
+            ];
+            let dir = toward_road(ac, &segments);
+            let to = place((amin_max.0, amin_max.1), &relation, half, dir);
+            position = Some(to);
+            (
+                Change::Move {
+                    id: t.id,
+                    to_ground: to,
+                },
+                format!(
+                    "move instance {} (\"{}\") {} instance {} (\"{}\"), to ({:.1}, {:.1}); its segment and relations are re-derived",
+                    t.id,
+                    t.caption,
+                    relation.replace('_', " "),
+                    a.id,
+                    a.caption,
+                    to[0],
+                    to[1]
+                ),
+            )
+        }
+        EditKind::Change => {
+            let t = t.expect("a target");
+            let new_description = request.new_description.clone().unwrap_or_default();
+            let new_caption = if request.replaced {
+                new_description.clone()
+            } else {
+                recaption(&t.caption, &new_description)
+            };
+            let feature = finder
+                .embed(&[new_caption.as_str()])
+                .map_err(failed)?
+                .pop()
+                .ok_or_else(|| failed("no embedding"))?;
+            let class = if request.replaced {
+                Some(class_for(finder, &new_caption)?)
+            } else {
+                None
+            };
+            caption = Some(new_caption.clone());
+            (
+                Change::Recaption {
+                    id: t.id,
+                    caption: new_caption.clone(),
+                    feature,
+                    class: class.clone(),
+                },
+                format!(
+                    "change instance {} from \"{}\" to \"{}\"{}",
+                    t.id,
+                    t.caption,
+                    new_caption,
+                    class.map(|c| format!(" (class {c})")).unwrap_or_default()
+                ),
+            )
+        }
+        EditKind::Add => {
+            let a = a.expect("an anchor");
+            let relation = request
+                .place
+                .as_ref()
+                .map(|p| p.0.clone())
+                .unwrap_or_default();
+            let new_caption = request.new_description.clone().unwrap_or_default();
+            let (amin, amax, abase, atop) = ground_box(&r, frame, a.id)?;
+            let ac = [(amin[0] + amax[0]) / 2.0, (amin[1] + amax[1]) / 2.0];
+            let dir = toward_road(ac, &segments);
+            let to = place((amin, amax), &relation, ADDED_SIZE_M[0] / 2.0, dir);
+            let base = if relation == "on" { atop } else { abase };
+            let feature = finder
+                .embed(&[new_caption.as_str()])
+                .map_err(failed)?
+                .pop()
+                .ok_or_else(|| failed("no embedding"))?;
+            let class = class_for(finder, &new_caption)?;
+            position = Some(to);
+            caption = Some(new_caption.clone());
+            (
+                Change::Add {
+                    caption: new_caption.clone(),
+                    class: class.clone(),
+                    feature,
+                    centre_ground: to,
+                    base_height_m: base,
+                    size_m: ADDED_SIZE_M,
+                },
+                format!(
+                    "add \"{}\" (class {}, a {:.1} x {:.1} x {:.1} m box) {} instance {} (\"{}\"), at ({:.1}, {:.1})",
+                    new_caption,
+                    class,
+                    ADDED_SIZE_M[0],
+                    ADDED_SIZE_M[1],
+                    ADDED_SIZE_M[2],
+                    relation.replace('_', " "),
+                    a.id,
+                    a.caption,
+                    to[0],
+                    to[1]
+                ),
+            )
+        }
+    };
+    drop(r);
+    let proposal = if ambiguous {
+        let which = |x: &Option<Resolved>| {
+            x.as_ref().filter(|x| x.ambiguous).map(|x| {
+                format!(
+                    "{:?} fits {}",
+                    x.phrase,
+                    x.candidates
+                        .iter()
+                        .map(|c| format!("{} (\"{}\", score {:.2})", c.id, c.caption, c.score))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })
+        };
+        format!(
+            "ambiguous, nothing changed: {}; say more (what stands next to it, which road segment)",
+            [which(&target), which(&anchor)]
+                .into_iter()
+                .flatten()
+                .collect::<Vec<_>>()
+                .join("; ")
+        )
+    } else {
+        proposal
+    };
+    let applied = if req.apply && !ambiguous {
+        let a =
+            ingest::map_edit::apply(store, &change, &req.text, PARSED_BY).map_err(|e| match e {
+                ingest::Error::Invalid(m) => ToolError::BadArguments(m),
+                other => ToolError::Failed(other.to_string()),
+            })?;
+        finder.forget_scene();
+        Some(a)
+    } else {
+        None
+    };
+    Ok(UpdateAnswer {
+        request,
+        parsed_by: PARSED_BY.into(),
+        target,
+        anchor,
+        proposal,
+        ambiguous,
+        position,
+        caption,
+        applied,
+    })
+}
+
+/// Reverts a map edit (see [`ingest::map_edit::undo`]).
+///
+/// # Errors
+/// [`ToolError::BadArguments`] for an id that is no applied `MapEdit`, or one a later edit
+/// depends on.
+pub fn undo(
+    finder: &mut Finder,
+    store: &Store,
+    edit_id: u64,
+) -> ToolResult<ingest::map_edit::EditInfo> {
+    let info = ingest::map_edit::undo(store, edit_id).map_err(|e| match e {
+        ingest::Error::Invalid(m) => ToolError::BadArguments(m),
+        other => ToolError::Failed(other.to_string()),
+    })?;
+    finder.forget_scene();
+    Ok(info)
+}
