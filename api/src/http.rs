@@ -100,6 +100,12 @@ enum Op {
     Points,
     /// This document.
     OpenApi,
+    /// The web viewer's page.
+    Page,
+    /// The web viewer's script.
+    Script,
+    /// What the viewer draws.
+    View,
 }
 
 /// One route: method, path, operation, summary.
@@ -131,6 +137,19 @@ fn routes() -> Vec<Route> {
             "/openapi.json",
             Op::OpenApi,
             "This OpenAPI 3.1 document.",
+        ),
+        r(
+            Get,
+            "/",
+            Op::Page,
+            "The web viewer: a bird's-eye view of the map with find, locate and route.",
+        ),
+        r(Get, "/viewer.js", Op::Script, "The web viewer's script."),
+        r(
+            Get,
+            "/api/view",
+            Op::View,
+            "What the viewer draws: instance points on the ground plane (subsampled), lane polylines, segment outlines, class colours.",
         ),
         r(
             Get,
@@ -316,6 +335,21 @@ async fn handle(
     let answer = match op {
         Op::Health => Ok(json!({"status": "ok"})),
         Op::OpenApi => Ok((*state.openapi).clone()),
+        Op::Page => {
+            return (
+                [(header::CONTENT_TYPE, "text/html; charset=utf-8")],
+                crate::view::PAGE_HTML,
+            )
+                .into_response();
+        }
+        Op::Script => {
+            return (
+                [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
+                crate::view::VIEWER_JS,
+            )
+                .into_response();
+        }
+        Op::View => svc.view().await,
         Op::Info => svc.info().await,
         Op::Tools => {
             serde_json::to_value(svc.tools()).map_err(|e| ToolError::Failed(e.to_string()))
@@ -459,6 +493,14 @@ pub fn openapi(service: &Service) -> JsonValue {
             _ => None,
         };
         let ok = match (route.op, tool) {
+            (Op::Page, _) => ResponseBuilder::new()
+                .description("The viewer's HTML page.")
+                .content("text/html", ContentBuilder::new().build())
+                .build(),
+            (Op::Script, _) => ResponseBuilder::new()
+                .description("The viewer's JavaScript.")
+                .content("text/javascript", ContentBuilder::new().build())
+                .build(),
             (Op::Points, _) => ResponseBuilder::new()
                 .description("Little-endian float32 x y z per point (12 bytes, world frame, metres); X-Point-Count gives the count.")
                 .content("application/octet-stream", ContentBuilder::new().build())
@@ -476,6 +518,7 @@ pub fn openapi(service: &Service) -> JsonValue {
                     Op::Info => "Info",
                     Op::Tools => "ToolList",
                     Op::OpenApi => "OpenApiDocument",
+                    Op::View => "View",
                     _ => "AnyAnswer",
                 };
                 ResponseBuilder::new()
@@ -552,6 +595,18 @@ pub fn openapi(service: &Service) -> JsonValue {
         json!({"type": "object", "required": ["openapi", "paths"]}),
     );
     schemas.insert("ToolArguments".into(), json!({"type": "object"}));
+    schemas.insert(
+        "View".into(),
+        json!({"type": "object", "required": ["ground", "bounds", "instances", "lanes", "segments", "colours"],
+               "properties": {
+                   "bounds": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4},
+                   "instances": {"type": "array", "items": {"type": "object",
+                       "required": ["id", "class", "caption", "surface", "points"],
+                       "properties": {"points": {"type": "array", "items": {"type": "number"}}}}},
+                   "lanes": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
+                   "segments": {"type": "array", "items": {"type": "object", "required": ["id", "kind", "outline"]}},
+                   "colours": {"type": "object", "additionalProperties": {"type": "string", "pattern": "^#[0-9a-f]{6}$"}}}}),
+    );
     schemas.insert("AnyAnswer".into(), json!({}));
     v["components"] = json!({"schemas": schemas});
     v

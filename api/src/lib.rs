@@ -10,3 +10,4 @@ pub mod plan;
 pub mod service;
 pub mod tools;
 pub mod update;
+pub mod view;

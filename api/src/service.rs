@@ -118,6 +118,15 @@ impl Service {
         .await
     }
 
+    /// What the web viewer draws ([`crate::view::view`]).
+    ///
+    /// # Errors
+    /// The store fails or has no ground frame.
+    pub async fn view(self: &Arc<Self>) -> ToolResult<Json> {
+        self.run(|tb| crate::view::view(tb.store()).map_err(ToolError::Failed))
+            .await
+    }
+
     /// One instance's points as little-endian float32 `x y z` triples (12 bytes a point, world
     /// frame, metres), and how many there are.
     ///

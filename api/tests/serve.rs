@@ -251,6 +251,25 @@ fn every_route_answers_as_its_openapi_document_says() {
                 assert!(ct.starts_with("application/json"), "{what}: {ct}");
                 let v: Value = serde_json::from_slice(&bytes).unwrap();
                 assert_valid(&doc, schema, &v, &what);
+            } else if let Some(kind) = ["text/html", "text/javascript"]
+                .into_iter()
+                .find(|k| ok.get(*k).is_some())
+            {
+                // the viewer: its page and script, served by the binary
+                assert!(ct.starts_with(kind), "{what}: {ct}");
+                let text = String::from_utf8(bytes).unwrap();
+                assert!(
+                    text.contains(if kind == "text/html" {
+                        "viewer.js"
+                    } else {
+                        "/api/view"
+                    }),
+                    "{what}"
+                );
+                assert!(
+                    !text.contains("http://") && !text.contains("https://"),
+                    "{what}: an external resource"
+                );
             } else {
                 assert!(ok.get("application/octet-stream").is_some(), "{what}");
                 assert_eq!(ct, "application/octet-stream");
@@ -263,7 +282,7 @@ fn every_route_answers_as_its_openapi_document_says() {
             seen += 1;
         }
     }
-    assert_eq!(seen, 17, "every route is documented and was exercised");
+    assert_eq!(seen, 20, "every route is documented and was exercised");
 
     // the points are the instance's: inside its bounding box (1 cm for the store's rounding)
     let (_, _, bytes) = request(

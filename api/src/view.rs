@@ -1,0 +1,157 @@
+//! What the web viewer draws (`GET /api/view`): every instance's points on the ground plane
+//! (subsampled, coloured by SemanticKITTI class in the page, as the paper renders its maps),
+//! the lane graph's polylines and the road segments' outlines, in the map's ground frame
+//! (metres; KITTI maps: x right, z forward).
+
+use graphstore::{Direction, GraphRead, Store, Value};
+use serde_json::{Value as Json, json};
+
+/// Points kept per object (per surface tile for road, sidewalk, parking, terrain, other-ground).
+pub const POINTS_PER_OBJECT: usize = 64;
+/// Points kept per surface tile.
+pub const POINTS_PER_SURFACE: usize = 96;
+
+fn r2(v: f64) -> f64 {
+    (v * 100.0).round() / 100.0
+}
+
+/// Every `step`-th point so that at most `max` remain (deterministic).
+fn subsample<T: Copy>(v: &[T], max: usize) -> Vec<T> {
+    if v.len() <= max {
+        return v.to_vec();
+    }
+    let step = v.len().div_ceil(max);
+    v.iter().step_by(step).copied().collect()
+}
+
+/// The viewer's data: `{ground, bounds: [minx, miny, maxx, maxy], instances: [{id, class,
+/// caption, surface, points: [x0, y0, x1, y1, ...]}], lanes: [[x0, y0, ...]], segments: [{id,
+/// kind, outline: [x0, y0, ...]}]}` with ground coordinates in metres (2 decimals).
+///
+/// # Errors
+/// The store fails or has no ground frame.
+pub fn view(store: &Store) -> Result<Json, String> {
+    let r = store.read().map_err(|e| e.to_string())?;
+    let g = planner::graph::ground_of_store(&r).map_err(|e| e.to_string())?;
+    let surfaces = llm_tools::graph_find::SURFACE_CLASSES;
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    let mut grow = |p: [f64; 2]| {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    };
+    let err = |e: graphstore::Error| e.to_string();
+    let mut instances = Vec::new();
+    for id in r.nodes_with_label("Instance").map_err(err)? {
+        let text = |k: &str| -> Result<String, String> {
+            Ok(match r.node_prop(id, k).map_err(err)? {
+                Some(Value::String(s)) => s,
+                _ => String::new(),
+            })
+        };
+        let class = text("class")?;
+        let surface = surfaces.contains(&class.as_str());
+        let mut pts: Vec<[f64; 2]> = match r.point_cloud(id, "points").map_err(err)? {
+            Some(pc) if !pc.xyz.is_empty() => subsample(
+                &pc.xyz,
+                if surface {
+                    POINTS_PER_SURFACE
+                } else {
+                    POINTS_PER_OBJECT
+                },
+            )
+            .into_iter()
+            .map(|p| g.of([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]))
+            .collect(),
+            _ => Vec::new(),
+        };
+        if pts.is_empty() {
+            // an object without points (added by a map edit): its box's corners
+            if let Some((a, b)) = r
+                .node_prop(id, "bbox")
+                .map_err(err)?
+                .and_then(|v| v.as_box3d())
+            {
+                let (a, b) = (g.of(a), g.of(b));
+                pts = vec![a, [a[0], b[1]], b, [b[0], a[1]]];
+            }
+        }
+        pts.iter().for_each(|p| grow(*p));
+        instances.push(json!({
+            "id": id,
+            "class": class,
+            "caption": text("caption")?,
+            "surface": surface,
+            "points": pts.iter().flat_map(|p| [r2(p[0]), r2(p[1])]).collect::<Vec<f64>>(),
+        }));
+    }
+    let mut lanes = Vec::new();
+    if let Some(lane) = r.rel_type("LANE") {
+        for n in r.nodes_with_label("LaneNode").map_err(err)? {
+            for adj in r
+                .neighbours(n, Direction::Outgoing, Some(lane))
+                .map_err(err)?
+            {
+                let Some(rel) = r.rel(adj.rel).map_err(err)? else {
+                    continue;
+                };
+                let line = r
+                    .prop_key("polyline")
+                    .and_then(|k| rel.get(k).cloned())
+                    .and_then(|v| match v {
+                        Value::List(l) => Some(l),
+                        _ => None,
+                    })
+                    .unwrap_or_default();
+                let pts: Vec<f64> = line
+                    .iter()
+                    .filter_map(Value::as_point3)
+                    .flat_map(|p| {
+                        let q = g.of(p);
+                        grow(q);
+                        [r2(q[0]), r2(q[1])]
+                    })
+                    .collect();
+                if !pts.is_empty() {
+                    lanes.push(json!(pts));
+                }
+            }
+        }
+    }
+    let segments: Vec<Json> = llm_tools::locate::load_segments(&r, g)
+        .map_err(|e| e.to_string())?
+        .iter()
+        .map(|s| {
+            json!({
+                "id": s.id,
+                "kind": s.kind,
+                "outline": s.area.outline(24).iter().flat_map(|p| [r2(p[0]), r2(p[1])]).collect::<Vec<f64>>(),
+            })
+        })
+        .collect();
+    let mut colours = serde_json::Map::new();
+    for i in &instances {
+        let c = i["class"].as_str().unwrap_or_default();
+        let (r8, g8, b8) = planner::render::class_colour(c);
+        colours.insert(c.to_string(), json!(format!("#{r8:02x}{g8:02x}{b8:02x}")));
+    }
+    if !lo[0].is_finite() {
+        lo = [0.0, 0.0];
+        hi = [1.0, 1.0];
+    }
+    Ok(json!({
+        "ground": match g { planner::Ground::XZ => "xz", planner::Ground::XY => "xy" },
+        "bounds": [r2(lo[0]), r2(lo[1]), r2(hi[0]), r2(hi[1])],
+        "instances": instances,
+        "lanes": lanes,
+        "segments": segments,
+        "colours": colours,
+    }))
+}
+
+/// The viewer page (HTML, no external resources).
+pub const PAGE_HTML: &str = include_str!("web/index.html");
+/// The viewer's script.
+pub const VIEWER_JS: &str = include_str!("web/viewer.js");
