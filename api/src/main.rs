@@ -494,6 +494,17 @@ enum Command {
         #[command(subcommand)]
         what: EvalCommand,
     },
+    /// Make a new, empty store to try Cypher on (as `sqlite3 new.db` or a fresh Neo4j):
+    /// `opengraph query --db new.og "CREATE (:Place {name: 'home'})"`. With --schema opengraph
+    /// it carries the OpenGraph map schema (labels, constraints, indexes).
+    Init {
+        /// The store file to create (must not exist yet).
+        #[arg(long)]
+        db: PathBuf,
+        /// `none` (schema-free) or `opengraph` (the map schema).
+        #[arg(long, default_value = "none", value_parser = ["none", "opengraph"])]
+        schema: String,
+    },
     /// Build a small hand-made demo graph with the OpenGraph schema (a stand-in until
     /// `sim` exists), then print its summary.
     Demo {
@@ -2428,6 +2439,36 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     row("medoid", &m.medoid)?;
                 }
             }
+        }
+        Command::Init { db, schema } => {
+            if db.exists() {
+                return Err(UsageError(format!(
+                    "{} already exists; init makes a new store (query it with opengraph query --db {})",
+                    db.display(),
+                    db.display()
+                ))
+                .into());
+            }
+            if let Some(parent) = db.parent().filter(|p| !p.as_os_str().is_empty())
+                && !parent.is_dir()
+            {
+                return Err(UsageError(format!(
+                    "cannot create {}: the folder {} does not exist",
+                    db.display(),
+                    parent.display()
+                ))
+                .into());
+            }
+            let store = graphstore::Store::create(&db)
+                .with_context(|| format!("creating {}", db.display()))?;
+            if schema == "opengraph" {
+                store.set_schema(graphstore::opengraph_schema())?;
+            }
+            outln!(
+                "created {} (schema: {schema}); try: opengraph query --db {} \"CREATE (p:Place {{name: 'home'}}) RETURN p\"",
+                db.display(),
+                db.display()
+            );
         }
         Command::Demo { db } => {
             if db.exists() {

@@ -1,7 +1,7 @@
 //! The `opengraph` binary: demo, info, export and its exit codes.
 
 mod common;
-use common::{first_lane_node, og, ok, s};
+use common::{first_lane_node, json, og, ok, s};
 
 #[test]
 fn demo_info_export_roundtrip() {
@@ -375,4 +375,53 @@ fn find_locate_navigate_and_eval_arguments_are_checked() {
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: {err}");
     }
+}
+
+#[test]
+fn init_makes_an_empty_store_to_try_cypher_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("new.og");
+    let out = og(&["init", "--db", s(&db)]);
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("created"));
+    let v = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--json",
+        "CREATE (a:Place {name: 'home'})-[:ROAD {km: 2.5}]->(b:Place {name: 'work'}) RETURN a.name AS a, b.name AS b",
+    ]));
+    assert_eq!(v[0]["a"], "home");
+    let v = json(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--read-only",
+        "--json",
+        "MATCH (:Place)-[r:ROAD]->(p:Place) RETURN p.name AS p, r.km AS km",
+    ]));
+    assert_eq!(v[0]["p"], "work");
+    assert_eq!(v[0]["km"], 2.5);
+    // an existing file and a missing folder are the user's errors
+    let out = og(&["init", "--db", s(&db)]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("already exists"));
+    let out = og(&["init", "--db", s(&dir.path().join("no/such/dir/x.og"))]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("does not exist"));
+    // with the map schema, its constraints hold
+    let db2 = dir.path().join("map.og");
+    ok(&og(&["init", "--db", s(&db2), "--schema", "opengraph"]));
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db2),
+        "CREATE (:Instance {caption: 'no id'})",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
