@@ -1,0 +1,776 @@
+//! The command line: clap definitions and value parsers.
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+use super::common::ranking_of;
+
+/// OpenGraph: an open-vocabulary hierarchical 3D scene graph for outdoor environments.
+#[derive(Debug, Parser)]
+#[command(name = "opengraph", version, about, propagate_version = true)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub(crate) command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum Command {
+    /// Print node counts per label and relationship counts per type.
+    Info {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Print `{"nodes": {LABEL: n}, "relationships": {TYPE: n}}` instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Export the whole graph (payloads such as point clouds are left out).
+    Export {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// node-link (networkx JSON) or graphml.
+        #[arg(long, value_parser = ["node-link", "graphml"])]
+        format: String,
+        /// Output file.
+        #[arg(long)]
+        out: PathBuf,
+        /// node-link only: key of the edge list; `links` for networkx older than 3.6.
+        #[arg(long, default_value = "edges", value_parser = ["edges", "links"])]
+        edges_key: String,
+    },
+    /// Extract the lane graph and road segments from a KITTI-format trajectory.
+    Lanes {
+        /// poses.txt (3x4 world-from-cam0 per line).
+        #[arg(long)]
+        poses: PathBuf,
+        /// calib.txt: use the velodyne position (pose x Tr) instead of the camera's.
+        #[arg(long)]
+        calib: Option<PathBuf>,
+        /// Use every N-th pose.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+        stride: u32,
+        /// GeoJSON output (ground-plane metres: KITTI x and z).
+        #[arg(long)]
+        out: PathBuf,
+        /// Bird's-eye PNG: trajectory, lane edges, nodes coloured by kind, segment areas.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// Print `{"nodes": [{"id", "kind", "xy"}], "edges": [{"from", "to", "length_m"}]}`.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write the hierarchy (environment, segments, lane graph) into a store from a KITTI-format
+    /// trajectory, and link the store's instances (IN_SEGMENT, geometric RELATED). Replaces a
+    /// previous hierarchy in that store.
+    Hierarchy {
+        /// The store file (created if missing).
+        #[arg(long)]
+        db: PathBuf,
+        /// poses.txt (3x4 world-from-cam0 per line).
+        #[arg(long)]
+        poses: PathBuf,
+        /// calib.txt: use the velodyne position (pose x Tr) instead of the camera's.
+        #[arg(long)]
+        calib: Option<PathBuf>,
+        /// Name of the environment node.
+        #[arg(long, default_value = "environment")]
+        name: String,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Route over the store's lane graph (A*) and refine it into a drivable path with OMPL.
+    Plan {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Start: X,Y (ground plane), or lane:ID, segment:ID, instance:ID, node:ID with a node id
+        /// (the id `find`, `query` and exports print).
+        #[arg(long, allow_hyphen_values = true)]
+        from: String,
+        /// Goal, in the same forms.
+        #[arg(long, allow_hyphen_values = true)]
+        to: String,
+        #[command(flatten)]
+        opts: PlanArgs,
+        /// Print `{"route": {...}, "path": {...}}` as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Plan a route described in words: "from the bus stop by the crossroads to somewhere I
+    /// can post a letter". Each end is found (graph-aware `find`) or located (`locate`, for a
+    /// road place or a description), or given as a spec with --from / --to; then `plan`.
+    Navigate {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The request ("from A to B", "take me to B" with --from).
+        text: Option<String>,
+        /// The start, in words or as a spec (X,Y, lane:ID, segment:ID, instance:ID, node:ID);
+        /// overrides the text's.
+        #[arg(long, allow_hyphen_values = true)]
+        from: Option<String>,
+        /// The goal, in words or as a spec; overrides the text's.
+        #[arg(long, allow_hyphen_values = true)]
+        to: Option<String>,
+        /// Who parses the ends: the rule parser or the language model.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        #[command(flatten)]
+        llm: LlmArgs,
+        #[command(flatten)]
+        opts: PlanArgs,
+        /// Print {"start", "goal", "plan"} as JSON: each end with how it was resolved and its
+        /// evidence, the route and the path.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Build an object map from a KITTI-layout sequence and per-frame detections (or the
+    /// SemanticKITTI label oracle), then the hierarchy over the whole trajectory.
+    Build {
+        /// The sequence directory (velodyne/, calib.txt, poses.txt; labels/ for the oracle).
+        #[arg(long)]
+        kitti: PathBuf,
+        /// A directory of detections files NNNNNN.json (docs/detections.md).
+        #[arg(
+            long,
+            conflicts_with = "oracle_labels",
+            required_unless_present = "oracle_labels"
+        )]
+        detections: Option<PathBuf>,
+        /// Use the SemanticKITTI label oracle instead of detections.
+        #[arg(long)]
+        oracle_labels: bool,
+        /// Key frames A..B (half-open); default: every frame with a scan and detections/labels.
+        #[arg(long, value_parser = parse_range)]
+        frames: Option<std::ops::Range<u32>>,
+        /// Use every N-th frame.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+        stride: u32,
+        /// Scans accumulated into each key frame (overrides the config's mapping.accumulate).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        accumulate: Option<u32>,
+        /// poses.txt from another path.
+        #[arg(long)]
+        poses: Option<PathBuf>,
+        /// TOML file with [mapping], [oracle] and [hierarchy] tables (docs/config.md).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Continue a build that was interrupted (same arguments).
+        #[arg(long)]
+        resume: bool,
+        /// Name of the environment node.
+        #[arg(long, default_value = "environment")]
+        name: String,
+        /// Sentence embedder: minilm (the real model), or hash (deterministic bag of words,
+        /// for tests; captures no meaning).
+        #[arg(long, default_value = "minilm", value_parser = ["minilm", "hash"])]
+        embedder: String,
+        /// The language model that merges each object's captions after mapping (overrides the
+        /// config's [llm] table; default none: the medoid caption).
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write the label oracle's detections for a sequence as detections files.
+    Oracle {
+        /// The sequence directory (velodyne/, labels/, calib.txt, poses.txt).
+        #[arg(long)]
+        kitti: PathBuf,
+        /// Output directory for NNNNNN.json.
+        #[arg(long)]
+        out: PathBuf,
+        /// Frames A..B (half-open); default: every labelled frame.
+        #[arg(long, value_parser = parse_range)]
+        frames: Option<std::ops::Range<u32>>,
+    },
+    /// Generate a synthetic city and a drive through it: a KITTI-layout sequence (calib,
+    /// 10 Hz poses, LiDAR scans with SemanticKITTI labels), detections files, and ground
+    /// truth (objects, roads, what produced each detection). Byte-identical for a seed.
+    Sim {
+        /// Output directory (must not already hold a sequence).
+        #[arg(long)]
+        out: PathBuf,
+        /// Seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// small (~1 km of road), medium (~5 km) or city (>= 20 km, >= 20,000 objects).
+        #[arg(long, default_value = "small", value_parser = ["small", "medium", "city"])]
+        size: String,
+        /// Sensor frames (scan + labels + detections), spread evenly over the drive.
+        /// Default: 300 small, 600 medium, 1000 city.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        frames: Option<u32>,
+        /// Probability that a visible object is not detected.
+        #[arg(long, default_value_t = 0.05)]
+        miss_rate: f64,
+        /// Mean false-positive detections per frame.
+        #[arg(long, default_value_t = 0.2)]
+        false_positives: f64,
+        /// Probability of a caption phrased differently from the ground truth.
+        #[arg(long, default_value_t = 0.5)]
+        paraphrase_rate: f64,
+        /// Probability of a caption with a wrong colour.
+        #[arg(long, default_value_t = 0.05)]
+        wrong_attribute_rate: f64,
+        /// Masks are eroded or dilated by up to this many pixels.
+        #[arg(long, default_value_t = 1)]
+        mask_noise_px: u32,
+        /// No detection noise at all (overrides the five options above).
+        #[arg(long)]
+        no_noise: bool,
+        /// Worker threads (the output does not depend on it); default: all cores.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Label relations between close objects with a language model (the paper's LLM relation
+    /// inference): RELATED {source: "llm", relation, confidence, model, prompt} beside the
+    /// geometric edges. Resumable: pairs already labelled by the same model and prompt are
+    /// skipped, and every answer is cached in the map.
+    Relations {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Stop starting new pairs after this many seconds (run again to continue).
+        #[arg(long, value_parser = parse_budget, allow_hyphen_values = true)]
+        budget_secs: Option<f64>,
+        /// Label at most this many pairs in this run.
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+        max_pairs: Option<u64>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Merge each object's captions into one with a language model (the paper's LLM caption
+    /// merge); `build --llm` runs the same pass after mapping. Resumable and cached.
+    Captions {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// How many of an object's latest captions are merged.
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(2..=16))]
+        recent: u64,
+        /// Stop starting new merges after this many seconds (run again to continue).
+        #[arg(long, value_parser = parse_budget, allow_hyphen_values = true)]
+        budget_secs: Option<f64>,
+        /// Merge at most this many objects in this run.
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+        max_items: Option<u64>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Open-vocabulary retrieval over the map's hierarchy: the request is parsed into a
+    /// target, anchors with relations and a segment constraint ("the bench near the bus stop
+    /// at the T-junction", "somewhere I can post a letter"), and instances are scored by
+    /// similarity, relation fit to the anchors, RELATED edges and IN_SEGMENT. Ground surfaces
+    /// are answers only when asked for. `--plain` ranks by the cosine of the whole text alone.
+    Find {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// What to look for, in words.
+        text: String,
+        /// How many results.
+        #[arg(short, long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        k: u64,
+        /// Only this class.
+        #[arg(long)]
+        class: Option<String>,
+        /// Only within R metres of ground point X,Y (KITTI x and z): `--near X,Y,R`.
+        #[arg(long, value_parser = parse_near)]
+        near: Option<([f64; 2], f64)>,
+        /// Sentence embedder; default: the one the map was built with.
+        #[arg(long, value_parser = ["minilm", "hash"])]
+        embedder: Option<String>,
+        #[command(flatten)]
+        rank: RankArgs,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print a JSON array of results: {"id", "caption", "class", "score", "centroid",
+        /// "similarity", "segment", "segment_match", "evidence"}; the parsed request goes to
+        /// stderr.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Where am I? Road segments ranked for a description of the surroundings ("I'm at a
+    /// T-junction, there's a bus stop on my left and a red car parked opposite"): segment kind
+    /// and landmarks matched against the map, with a position estimate and evidence.
+    Locate {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The description.
+        text: String,
+        /// How many segments.
+        #[arg(short, long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        k: u64,
+        /// Who parses the description: the rule parser or the language model.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print the answer as JSON: {"description", "parsed_by", "results": [{"segment",
+        /// "kind", "score", "kind_match", "position", "evidence"}], "timings_ms"}.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The agent tools (names, descriptions, JSON Schemas of their arguments) that the MCP
+    /// server and `ask` offer, as JSON.
+    Tools {
+        /// Include the write tools.
+        #[arg(long)]
+        writes: bool,
+    },
+    /// Call one agent tool on a map with JSON arguments and print its JSON answer (what an MCP
+    /// client gets).
+    Tool {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The tool's name (see `opengraph tools`).
+        name: String,
+        /// Its arguments as a JSON object.
+        #[arg(default_value = "{}")]
+        args: String,
+        /// Enable the write tools (opens the store for writing).
+        #[arg(long)]
+        writes: bool,
+    },
+    /// Serve the map's agent tools over MCP on stdin/stdout (for Claude Desktop, IDE agents
+    /// and the like; see docs/serve.md). Read-only unless --allow-writes.
+    Mcp {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Offer write_cypher (opens the store for writing).
+        #[arg(long)]
+        allow_writes: bool,
+    },
+    /// Update the map from a described change ("the bush under the street sign at the
+    /// crossing is gone", "the bench by the bus stop is now red", "there is a new bin next to
+    /// the post box"): shows the proposed edit; --apply commits it as one transaction and
+    /// prints its edit id; --undo ID reverts an edit exactly; --list shows the edits.
+    Update {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The described change.
+        #[arg(required_unless_present_any = ["undo", "list"])]
+        text: Option<String>,
+        /// Commit the proposed edit (an ambiguous description changes nothing; exit 2).
+        #[arg(long)]
+        apply: bool,
+        /// Revert this edit (a MapEdit node id).
+        #[arg(long, conflicts_with_all = ["text", "apply", "list"])]
+        undo: Option<u64>,
+        /// List the recorded edits.
+        #[arg(long, conflicts_with_all = ["text", "apply"])]
+        list: bool,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Serve the map over HTTP: a JSON API (routes in /openapi.json), MCP over streamable HTTP
+    /// at /mcp. Binds 127.0.0.1 unless told otherwise; read-only unless a write token is given
+    /// (--token-file; send it as `Authorization: Bearer <token>`). See docs/serve.md.
+    Serve {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Address to listen on; port 0 picks a free port (the address is printed).
+        #[arg(long, default_value = "127.0.0.1:7878")]
+        bind: std::net::SocketAddr,
+        /// A file holding the write token (16 characters or more). Without it the server is
+        /// read-only; a non-loopback --bind needs it.
+        #[arg(long)]
+        token_file: Option<PathBuf>,
+        /// Refuse writes even with a token (the store is opened read-only).
+        #[arg(long)]
+        read_only: bool,
+        /// Requests served side by side (each worker holds a sentence embedder, ~100 MB);
+        /// default: the number of cores.
+        #[arg(long)]
+        workers: Option<usize>,
+        /// Seconds a request may wait and run.
+        #[arg(long, default_value_t = 30.0)]
+        timeout_secs: f64,
+        /// The largest request body in bytes.
+        #[arg(long, default_value_t = 1 << 20)]
+        body_limit_bytes: usize,
+        /// Requests in progress at once; more get 503.
+        #[arg(long, default_value_t = 64)]
+        max_concurrent: usize,
+        /// A browser origin allowed to call the API (CORS); repeat for more. Default: CORS off.
+        #[arg(long)]
+        cors_origin: Vec<String>,
+    },
+    /// Ask a question about the map in words; a language model answers by calling the agent
+    /// tools (find_objects, locate, plan_route, read_cypher, ...). Prints each tool call and the
+    /// answer; --json prints the whole transcript.
+    Ask {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The question.
+        question: String,
+        /// Rounds of tool calls before giving up.
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(1..=20))]
+        max_steps: u64,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print {"question", "model", "steps", "answer", "stopped", "transcript"} as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run a Cypher statement against a store and print a table (or JSON rows).
+    Query {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// A parameter `name=value` for `$name`; the value is read as JSON when it parses as
+        /// JSON (3, 2.5, "x", [1,2], {"a":1}, true, null), else as a plain string. Repeatable.
+        #[arg(long = "param", value_parser = parse_param)]
+        params: Vec<(String, graphstore::cypher::Val)>,
+        /// Print a JSON array of row objects keyed by column.
+        #[arg(long)]
+        json: bool,
+        /// Refuse statements that write.
+        #[arg(long)]
+        read_only: bool,
+        /// Stop the statement after this many seconds (a write is rolled back).
+        #[arg(long, default_value_t = 30.0)]
+        timeout_secs: f64,
+        /// Fail when the result has more rows than this (add LIMIT).
+        #[arg(long, default_value_t = 100_000)]
+        max_rows: usize,
+        /// The statement; `EXPLAIN <statement>` prints its plan.
+        cypher: String,
+    },
+    /// Evaluate a map.
+    Eval {
+        #[command(subcommand)]
+        what: EvalCommand,
+    },
+    /// Make a new, empty store to try Cypher on (as `sqlite3 new.db` or a fresh Neo4j):
+    /// `opengraph query --db new.og "CREATE (:Place {name: 'home'})"`. With --schema opengraph
+    /// it carries the OpenGraph map schema (labels, constraints, indexes).
+    Init {
+        /// The store file to create (must not exist yet).
+        #[arg(long)]
+        db: PathBuf,
+        /// `none` (schema-free) or `opengraph` (the map schema).
+        #[arg(long, default_value = "none", value_parser = ["none", "opengraph"])]
+        schema: String,
+    },
+    /// Build a small hand-made demo graph with the OpenGraph schema (a stand-in until
+    /// `sim` exists), then print its summary.
+    Demo {
+        /// The store file to create (must not exist yet).
+        #[arg(long)]
+        db: PathBuf,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum EvalCommand {
+    /// Agreement of the map's LLM relations, and of the geometric labels of the same pairs,
+    /// with the relations that follow from the simulator's ground-truth boxes (inside, on,
+    /// under, next to, near).
+    Relations {
+        /// The store file (built from the simulator's detections, after `relations`).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Attribute accuracy of the map's object captions (colour, material, noun) against the
+    /// simulator's ground truth; after an LLM merge, the medoid captions on the same objects.
+    Captions {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Retrieval R@1/2/3 per query type (named, relational, functional) against the
+    /// simulator's objects: a hit is a returned instance lying on an object that satisfies
+    /// the query's predicate. Queries: JSON Lines (see ingest/data/retrieval_small_city.jsonl).
+    Retrieval {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// The query file.
+        #[arg(long)]
+        queries: PathBuf,
+        #[command(flatten)]
+        rank: RankArgs,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print every query's outcome.
+        #[arg(long)]
+        verbose: bool,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Localisation top-1/top-3 against the simulator: descriptions generated from its ground
+    /// truth (junction kinds and the objects near true spots, paraphrased, some left out) and
+    /// the map segment that holds each spot.
+    Locate {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/roads.json and objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Descriptions per spot.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=20))]
+        per_spot: u64,
+        /// Seed of the description generator.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Who parses the descriptions.
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        #[command(flatten)]
+        llm: LlmArgs,
+        /// Print every description's outcome.
+        #[arg(long)]
+        verbose: bool,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Instance precision and recall against the simulator's objects: map instances (not
+    /// surface tiles) and true objects matched one-to-one by ground-footprint IoU >= 0.5;
+    /// recall per true class, precision per map class.
+    Instances {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/objects.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Per-class IoU, mean IoU and macro F1 of the map against SemanticKITTI labels.
+    Semseg {
+        /// The store file.
+        #[arg(long)]
+        db: PathBuf,
+        /// The sequence directory with labels/.
+        #[arg(long)]
+        kitti: PathBuf,
+        /// Only these frames A..B (half-open).
+        #[arg(long, value_parser = parse_range)]
+        frames: Option<std::ops::Range<u32>>,
+        /// poses.txt from another path.
+        #[arg(long)]
+        poses: Option<PathBuf>,
+        /// A labelled point takes the class of the nearest map point within this radius.
+        #[arg(long, default_value_t = 0.3)]
+        max_dist_m: f32,
+        /// Print `{"miou", "f1", "per_class", "source", ...}`.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// How `find` and `eval retrieval` rank.
+#[derive(clap::Args, Debug, Clone)]
+pub(crate) struct RankArgs {
+    /// Rank by the cosine of the whole text with each instance's feature only (no parsing,
+    /// no graph).
+    #[arg(long, conflicts_with_all = ["parser", "rerank"])]
+    pub(crate) plain: bool,
+    /// Who parses the request: the rule parser or the language model.
+    #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+    pub(crate) parser: String,
+    /// Re-rank with a language model (OpenGraph-LLM): it picks the best three of the first
+    /// --rerank-n results.
+    #[arg(long, value_parser = ["llm"])]
+    pub(crate) rerank: Option<String>,
+    /// Results shown to the re-ranking model.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=30))]
+    pub(crate) rerank_n: u64,
+}
+
+impl RankArgs {
+    pub(crate) fn ranking(&self) -> api::find::Ranking {
+        ranking_of(self.plain, &self.parser, self.rerank.is_some())
+    }
+}
+
+/// Planner settings shared by `plan` and `navigate`; each is checked (finite, in range)
+/// before any work.
+#[derive(clap::Args, Debug, Clone)]
+pub(crate) struct PlanArgs {
+    /// Minimum turning radius of the vehicle, metres, in [0.5, 100].
+    #[arg(long, default_value_t = 5.0, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
+    pub(crate) turning_radius_m: f64,
+    /// Time budget for OMPL, milliseconds, in [0, 60000]; 0 returns the route polyline as a
+    /// fallback.
+    #[arg(long, default_value_t = 200.0, value_parser = in_range(0.0, 60000.0), allow_hyphen_values = true)]
+    pub(crate) budget_ms: f64,
+    /// Half-width of the corridor around the route the path must stay in, metres, in
+    /// [0.5, 100].
+    #[arg(long, default_value_t = 6.0, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
+    pub(crate) corridor_m: f64,
+    /// Points farther than this from every lane are refused, metres, in [0, 1000].
+    #[arg(long, default_value_t = 15.0, value_parser = in_range(0.0, 1000.0), allow_hyphen_values = true)]
+    pub(crate) snap_m: f64,
+    /// Draw the map (instances in SemanticKITTI class colours), the lane graph, the route
+    /// (blue), the path, the boxes that block it, the start (green) and the goal (red).
+    #[arg(long)]
+    pub(crate) png: Option<PathBuf>,
+}
+
+impl PlanArgs {
+    pub(crate) fn options(&self) -> api::plan::PlanOptions {
+        api::plan::PlanOptions {
+            turning_radius_m: self.turning_radius_m,
+            budget_ms: self.budget_ms,
+            corridor_m: self.corridor_m,
+            snap_m: self.snap_m,
+            png: self.png.clone(),
+        }
+    }
+}
+
+/// A clap parser for a finite number in `[lo, hi]`.
+pub(crate) fn in_range(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let v: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("{s:?} is not a number"))?;
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(v)
+        } else {
+            Err(format!("{s} is outside [{lo}, {hi}]"))
+        }
+    }
+}
+
+/// Which language model to use: the same three flags on every command that needs one.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub(crate) struct LlmArgs {
+    /// Language model: local (llama.cpp on a GGUF file), openai (an OpenAI-compatible server:
+    /// OPENAI_BASE_URL, OPENAI_MODEL, OPENAI_API_KEY) or none.
+    #[arg(long, value_parser = ["local", "openai", "none"])]
+    pub(crate) llm: Option<String>,
+    /// For local: the GGUF file (default: the default model that scripts/setup.sh fetched);
+    /// for openai: the model name.
+    #[arg(long)]
+    pub(crate) llm_model: Option<String>,
+    /// For openai: the server's base URL, e.g. http://127.0.0.1:8080/v1.
+    #[arg(long)]
+    pub(crate) llm_url: Option<String>,
+}
+
+impl LlmArgs {
+    /// The flags laid over `base` (the `[llm]` table of a config, or the default).
+    pub(crate) fn config(
+        &self,
+        mut base: llm_tools::LlmConfig,
+        default_backend: &str,
+    ) -> llm_tools::LlmConfig {
+        if let Some(b) = &self.llm {
+            base.backend = b.clone();
+        } else if base.backend == "none" {
+            base.backend = default_backend.to_string();
+        }
+        if let Some(m) = &self.llm_model {
+            if base.backend == "local" {
+                base.model_path = Some(PathBuf::from(m));
+            } else {
+                base.model = Some(m.clone());
+            }
+        }
+        if let Some(u) = &self.llm_url {
+            base.url = Some(u.clone());
+        }
+        base
+    }
+}
+
+pub(crate) fn parse_budget(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number of seconds"))?;
+    if v.is_finite() && v > 0.0 && v <= 7.0 * 86400.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{s}: the budget must be a finite number of seconds in (0, 604800]"
+        ))
+    }
+}
+
+pub(crate) fn parse_near(s: &str) -> Result<([f64; 2], f64), String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("expected X,Y,R in metres: {e}"))?;
+    match v[..] {
+        [x, y, r] if v.iter().all(|a| a.is_finite()) && r >= 0.0 => Ok(([x, y], r)),
+        _ => Err("expected X,Y,R: three finite numbers, R >= 0".into()),
+    }
+}
+
+pub(crate) fn parse_range(s: &str) -> Result<std::ops::Range<u32>, String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("{s:?} is not a range A..B"))?;
+    let n = |x: &str| {
+        x.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{x:?} is not a frame number"))
+    };
+    let (a, b) = (n(a)?, n(b)?);
+    if a >= b {
+        return Err(format!("{s}: the range is empty (A..B is half-open)"));
+    }
+    Ok(a..b)
+}
+
+pub(crate) fn parse_param(s: &str) -> Result<(String, graphstore::cypher::Val), String> {
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("--param takes name=value, got {s:?}"))?;
+    let k = k.trim().trim_start_matches('$');
+    if k.is_empty() || !k.chars().all(|c| c.is_alphanumeric() || c == '_') {
+        return Err(format!("--param: {k:?} is not a parameter name"));
+    }
+    let v = graphstore::cypher::param_from_text(v).map_err(|e| format!("--param {k}: {e}"))?;
+    Ok((k.to_string(), v))
+}

@@ -1,0 +1,43 @@
+//! `opengraph ask`.
+
+use super::args::*;
+use super::common::*;
+
+/// `opengraph ask`.
+pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
+    let Command::Ask {
+        db,
+        question,
+        max_steps,
+        llm,
+        json,
+    } = cmd
+    else {
+        unreachable!("run dispatches only Command::Ask here")
+    };
+    let mut model = open_llm(&llm.config(llm_tools::LlmConfig::default(), "local"), "ask")?;
+    let mut tb = open_toolbox(&db, false)?;
+    let a = api::ask::ask(model.as_mut(), &mut tb, &question, max_steps as usize)?;
+    if json {
+        outln!("{}", serde_json::to_string_pretty(&a)?);
+    } else {
+        for s in &a.steps {
+            errln!(
+                "tool {}({}){}",
+                s.tool,
+                s.arguments,
+                if s.is_error {
+                    format!(" -> error: {}", s.result)
+                } else {
+                    String::new()
+                }
+            );
+        }
+        match (&a.answer, &a.stopped) {
+            (Some(t), _) => outln!("{t}"),
+            (None, Some(why)) => errln!("no answer: {why}"),
+            _ => {}
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,411 @@
+//! What the commands share: opening stores, models and toolboxes, the error kinds and exit
+//! codes, printing.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use super::args::*;
+
+/// Opens the language model `cfg` names; a usage error when it names none.
+pub(crate) fn open_llm(
+    cfg: &llm_tools::LlmConfig,
+    what: &str,
+) -> anyhow::Result<Box<dyn llm_tools::ChatModel>> {
+    match llm_tools::chat::open(cfg)? {
+        Some(m) => {
+            errln!("language model: {}", m.model_id());
+            Ok(m)
+        }
+        None => Err(UsageError(format!(
+            "{what} needs a language model: pass --llm local (or openai with --llm-url)"
+        ))
+        .into()),
+    }
+}
+
+pub(crate) fn print_pass(name: &str, r: &ingest::llm::PassReport) -> anyhow::Result<()> {
+    outln!(
+        "{name}: {} done in this run ({} from the cache), {} done before, {} left of {}; {:.0} ms per question, {:.1} s in all\nmodel {}, prompt {}",
+        r.done,
+        r.cached,
+        r.already_done,
+        r.left,
+        r.total,
+        r.ms_per_item,
+        r.secs,
+        r.model,
+        r.prompt
+    );
+    for (label, n) in &r.labels {
+        outln!("  {label:<24} {n}");
+    }
+    if !r.rejected.is_empty() {
+        errln!(
+            "{} answers broke the answer schema and were skipped (a later run asks again):",
+            r.rejected.len()
+        );
+        for why in r.rejected.iter().take(5) {
+            errln!("  {why}");
+        }
+    }
+    Ok(())
+}
+
+/// Prints a plan: JSON, or the ends (with how `navigate` resolved them), route and path.
+pub(crate) fn print_plan(
+    p: &api::plan::PlanAnswer,
+    json: bool,
+    resolved: Option<(&api::plan::Resolved, &api::plan::Resolved)>,
+) -> anyhow::Result<()> {
+    if let Some(w) = &p.path.warning {
+        errln!("warning: {w}");
+    }
+    if json {
+        let v = serde_json::json!({
+            "from": p.from,
+            "to": p.to,
+            "route": {"nodes": p.route.nodes, "length_m": p.route.length_m},
+            "path": {"poses": p.path.poses, "length_m": p.path.length_m, "planner": p.path.planner},
+        });
+        outln!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
+    let end = |t: &planner::Target| match t.node {
+        Some(n) => format!("{} node {n} at ({:.1}, {:.1})", t.kind, t.xy[0], t.xy[1]),
+        None => format!("point ({:.1}, {:.1})", t.xy[0], t.xy[1]),
+    };
+    let how = |r: Option<&api::plan::Resolved>| match r {
+        Some(api::plan::Resolved::Find { text, result }) => {
+            format!("  <- find {text:?}: {}", result.caption)
+        }
+        Some(api::plan::Resolved::Locate { text, result }) => {
+            format!("  <- locate {text:?}: {} segment", result.kind)
+        }
+        _ => String::new(),
+    };
+    outln!(
+        "from: {}{}\nto:   {}{}",
+        end(&p.from),
+        how(resolved.map(|r| r.0)),
+        end(&p.to),
+        how(resolved.map(|r| r.1))
+    );
+    outln!(
+        "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes)",
+        p.route.nodes.len(),
+        p.route.length_m,
+        p.timings_ms[0],
+        p.path.poses.len(),
+        p.path.length_m,
+        p.path.planner,
+        p.timings_ms[1],
+        p.blocking
+    );
+    Ok(())
+}
+
+/// The ranking the find flags ask for.
+pub(crate) fn ranking_of(plain: bool, parser: &str, rerank: bool) -> api::find::Ranking {
+    if plain {
+        api::find::Ranking::Plain
+    } else {
+        api::find::Ranking::Graph {
+            parser: if parser == "llm" {
+                api::find::ParserKind::Llm
+            } else {
+                api::find::ParserKind::Rules
+            },
+            rerank,
+        }
+    }
+}
+
+/// Opens a map for writing or read-only, naming the file in the error. When a server holds
+/// the map (its marker file [`serving_marker`] exists), the error says where to reach it.
+pub(crate) fn open_store(
+    db: &std::path::Path,
+    writable: bool,
+) -> anyhow::Result<graphstore::Store> {
+    let opened = if writable {
+        graphstore::Store::open(db)
+    } else {
+        graphstore::Store::open_read_only(db)
+    };
+    match opened {
+        Err(e @ graphstore::Error::InUse { .. }) => {
+            let served = std::fs::read_to_string(serving_marker(db))
+                .ok()
+                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+                .and_then(|v| v["url"].as_str().map(str::to_string));
+            match served {
+                Some(url) => Err(anyhow::Error::new(e).context(format!(
+                    "opening {}: `opengraph serve` holds it; reach the map through the server at {url} \
+                     (POST {url}api/cypher with {{\"query\": ...}}, the routes are in {url}openapi.json, MCP at {url}mcp)",
+                    db.display()
+                ))),
+                None => Err(anyhow::Error::new(e).context(format!("opening {}", db.display()))),
+            }
+        }
+        other => other.with_context(|| format!("opening {}", db.display())),
+    }
+}
+
+/// The file a writing server leaves beside the map (`MAP.serving.json`: url, pid) while it
+/// holds it, so that other commands can say where to reach it.
+pub(crate) fn serving_marker(db: &std::path::Path) -> PathBuf {
+    let mut name = db.file_name().unwrap_or_default().to_os_string();
+    name.push(".serving.json");
+    db.with_file_name(name)
+}
+
+/// Opens a map read-only (several readers may share it), naming the file in the error.
+pub(crate) fn open_read(db: &std::path::Path) -> anyhow::Result<graphstore::Store> {
+    open_store(db, false)
+}
+
+/// The median of some latencies (0 for none); sorts them.
+pub(crate) fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The toolbox over a map: read-only unless `writes`.
+pub(crate) fn open_toolbox(
+    db: &std::path::Path,
+    writes: bool,
+) -> anyhow::Result<api::tools::Toolbox> {
+    let store = open_store(db, writes)?;
+    let finder = {
+        let r = store.read()?;
+        finder_for(&r, None, false, &LlmArgs::default())?
+    };
+    Ok(api::tools::Toolbox::new(store, finder, writes))
+}
+
+/// Whether a ranking needs a language model.
+pub(crate) fn needs_llm(ranking: api::find::Ranking) -> bool {
+    matches!(
+        ranking,
+        api::find::Ranking::Graph {
+            parser: api::find::ParserKind::Llm,
+            ..
+        } | api::find::Ranking::Graph { rerank: true, .. }
+    )
+}
+
+pub(crate) fn parser_of(name: &str) -> api::find::ParserKind {
+    if name == "llm" {
+        api::find::ParserKind::Llm
+    } else {
+        api::find::ParserKind::Rules
+    }
+}
+
+/// A finder with the map's embedder (or the one asked for, if it agrees) and, when the
+/// ranking needs one, the language model.
+pub(crate) fn finder_for(
+    r: &impl graphstore::GraphRead,
+    embedder: Option<String>,
+    needs_llm: bool,
+    llm: &LlmArgs,
+) -> anyhow::Result<api::find::Finder> {
+    let built = llm_tools::retrieve::map_embedder(r)?;
+    let name = match (embedder, built) {
+        (Some(e), Some(b)) if e != b => {
+            return Err(UsageError(format!(
+                "the map was built with the {b} embedder; query it with the same one (--embedder {b})"
+            ))
+            .into());
+        }
+        (Some(e), _) => e,
+        (None, b) => b.unwrap_or_else(|| "minilm".into()),
+    };
+    let model = if needs_llm {
+        Some(open_llm(
+            &llm.config(llm_tools::LlmConfig::default(), "local"),
+            "--parser llm and --rerank llm",
+        )?)
+    } else {
+        None
+    };
+    Ok(api::find::Finder::new(make_embedder(&name)?, model))
+}
+
+pub(crate) fn make_embedder(name: &str) -> anyhow::Result<Box<dyn llm_tools::Embedder + Send>> {
+    Ok(match name {
+        "hash" => Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+        _ => Box::new(
+            llm_tools::MiniLm::from_dir(&llm_tools::embed::default_models_dir())
+                .context("loading the sentence embedder")?,
+        ),
+    })
+}
+
+/// Peak resident memory of this process in MiB (Linux), if known.
+pub(crate) fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// Whether an error is a write to a closed pipe.
+pub(crate) fn is_closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// Errors caused by what the user gave us (exit code 2), as opposed to internal failures (1).
+pub(crate) fn is_input_error(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        if let Some(g) = c.downcast_ref::<graphstore::Error>() {
+            return !matches!(
+                g,
+                graphstore::Error::Storage(_) | graphstore::Error::Io { .. }
+            );
+        }
+        if let Some(p) = c.downcast_ref::<planner::Error>() {
+            return !matches!(
+                p,
+                planner::Error::Render(_) | planner::Error::Store(graphstore::Error::Storage(_))
+            );
+        }
+        if let Some(l) = c.downcast_ref::<llm_tools::Error>() {
+            return llm_input_error(l);
+        }
+        if let Some(i) = c.downcast_ref::<ingest::Error>() {
+            return match i {
+                ingest::Error::Llm(l) => llm_input_error(l),
+                _ => !matches!(
+                    i,
+                    ingest::Error::Render(_) | ingest::Error::Store(graphstore::Error::Storage(_))
+                ),
+            };
+        }
+        c.downcast_ref::<UsageError>().is_some()
+    })
+}
+
+/// Missing or bad model files, bad settings and requests a server refuses are the user's to
+/// fix (exit 2); a model or server failing on a good request is not.
+pub(crate) fn llm_input_error(e: &llm_tools::Error) -> bool {
+    matches!(
+        e,
+        llm_tools::Error::ModelMissing { .. }
+            | llm_tools::Error::BadModel { .. }
+            | llm_tools::Error::Invalid(_)
+            | llm_tools::Error::LlmHttp { .. }
+    )
+}
+
+/// Shortens a rendered cell for the table view.
+pub(crate) fn cell(text: String) -> String {
+    const MAX: usize = 60;
+    if text.chars().count() <= MAX {
+        text
+    } else {
+        let mut t: String = text.chars().take(MAX - 1).collect();
+        t.push('…');
+        t
+    }
+}
+
+/// A problem with the arguments that clap cannot see.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub(crate) struct UsageError(pub(crate) String);
+
+pub(crate) fn sim_summary(r: &ingest::sources::sim::SimReport) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "city: {:.0} m of road; junctions: {}",
+        r.road_length_m,
+        r.junctions
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "objects: {} ({})",
+        r.object_count,
+        r.objects
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "drive: {} poses at 10 Hz over {:.0} m; {} sensor frames, {} LiDAR points, {} detections ({} visible objects missed on purpose)",
+        r.poses, r.drive_length_m, r.frames, r.lidar_points, r.detections, r.missed
+    );
+    let _ = writeln!(
+        s,
+        "time: scene {:.2} s, sensors {:.1} s; written to {}",
+        r.scene_secs,
+        r.sensor_secs,
+        r.out.display()
+    );
+    s
+}
+
+pub(crate) fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "key frames: {} ({} this run{}), detections from {}: {} ({} dropped), non-finite points dropped: {}",
+        r.frames_total,
+        r.frames_run,
+        r.resumed_at
+            .map(|f| format!(", resumed at frame {f}"))
+            .unwrap_or_default(),
+        r.source,
+        r.detections,
+        r.detections_dropped,
+        r.nonfinite_points
+    );
+    let total: usize = r.instances_per_class.values().sum();
+    let _ = writeln!(s, "instances: {total}");
+    for (c, n) in &r.instances_per_class {
+        let _ = writeln!(s, "  {c:<14} {n}");
+    }
+    let _ = writeln!(
+        s,
+        "post-processing: {} dropped, {} merged, {} points denoised",
+        r.post.dropped.len(),
+        r.post.merged.len(),
+        r.post.denoised_points
+    );
+    let stages: Vec<String> = r
+        .ms_per_frame
+        .iter()
+        .map(|(k, v)| format!("{k} {v:.1}"))
+        .collect();
+    let _ = writeln!(s, "ms per key frame: {}", stages.join(", "));
+    if let Some(h) = &r.hierarchy {
+        let lanes: Vec<String> = h
+            .lane_nodes
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "hierarchy: lane nodes {}, {} lane edges, {} instances linked to segments",
+            lanes.join(", "),
+            h.lane_edges,
+            h.instances_linked
+        );
+    }
+    if let Some(m) = rss_mib {
+        let _ = writeln!(s, "peak RSS: {m:.0} MiB");
+    }
+    s
+}

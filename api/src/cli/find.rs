@@ -1,0 +1,108 @@
+//! `opengraph find`.
+
+use super::args::*;
+use super::common::*;
+
+/// `opengraph find`.
+pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
+    let Command::Find {
+        db,
+        text,
+        k,
+        class,
+        near,
+        embedder,
+        rank,
+        llm,
+        json,
+    } = cmd
+    else {
+        unreachable!("run dispatches only Command::Find here")
+    };
+    let store = open_read(&db)?;
+    let r = store.read()?;
+    let ranking = rank.ranking();
+    let rerank_n = rank.rerank_n;
+    let mut finder = finder_for(&r, embedder, needs_llm(ranking), &llm)?;
+    if let Some(c) = &class
+        && !ingest::classes::CLASSES.contains(&c.as_str())
+    {
+        return Err(UsageError(format!(
+            "--class {c:?} is not one of the 19 SemanticKITTI classes a map's instances carry: {}",
+            ingest::classes::CLASSES.join(", ")
+        ))
+        .into());
+    }
+    let req = api::find::FindRequest {
+        text,
+        k: k as usize,
+        class,
+        near,
+        ranking,
+        rerank_n: rerank_n as usize,
+    };
+    let a = finder.find(&r, &req)?;
+    if let Some(p) = &a.request {
+        errln!("request: {}", serde_json::to_string(p)?);
+    }
+    for (what, by) in [("parsed", &a.parsed_by), ("re-ranked", &a.reranked_by)] {
+        if let Some(m) = by {
+            errln!("{what} by {m}");
+        }
+    }
+    if json {
+        outln!("{}", serde_json::to_string_pretty(&a.results)?);
+    } else {
+        outln!(
+            "{:>8}  {:>6}  {:<16} {:>26}  caption",
+            "id",
+            "score",
+            "class",
+            "centroid [x, y, z] m"
+        );
+        for h in &a.results {
+            outln!(
+                "{:>8}  {:>6.3}  {:<16} {:>26}  {}",
+                h.id,
+                h.score,
+                h.class,
+                format!(
+                    "[{:.1}, {:.1}, {:.1}]",
+                    h.centroid[0], h.centroid[1], h.centroid[2]
+                ),
+                h.caption
+            );
+            if let Some((sid, kind)) = &h.segment
+                && a.request.as_ref().is_some_and(|r| r.segment.is_some())
+            {
+                outln!("{:>18}in segment {sid} ({kind})", "");
+            }
+            for e in &h.evidence {
+                outln!(
+                    "{:>18}{} '{}': node {} at {:.1} m ({}){}",
+                    "",
+                    e.relation.replace('_', " "),
+                    e.anchor,
+                    e.anchor_id,
+                    e.distance_m,
+                    e.anchor_caption,
+                    e.related
+                        .as_ref()
+                        .map_or(String::new(), |x| format!(", RELATED {x}"))
+                );
+            }
+        }
+        errln!(
+            "{} results; parse {:.1} ms, rank {:.1} ms{}",
+            a.results.len(),
+            a.timings_ms[0],
+            a.timings_ms[1],
+            if a.reranked_by.is_some() {
+                format!(", re-rank {:.0} ms", a.timings_ms[2])
+            } else {
+                String::new()
+            }
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,98 @@
+//! `opengraph query`.
+
+use super::args::*;
+use super::common::*;
+
+/// `opengraph query`.
+pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
+    let Command::Query {
+        db,
+        params,
+        json,
+        read_only,
+        timeout_secs,
+        max_rows,
+        cypher,
+    } = cmd
+    else {
+        unreachable!("run dispatches only Command::Query here")
+    };
+    if !(timeout_secs.is_finite() && timeout_secs > 0.0) {
+        return Err(UsageError(format!(
+            "--timeout-secs must be positive, got {timeout_secs}"
+        ))
+        .into());
+    }
+    let store = open_store(&db, !read_only)?;
+    let opts = graphstore::cypher::QueryOptions {
+        params: params.into_iter().collect(),
+        timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
+        row_limit: Some(max_rows),
+        read_only,
+        ..graphstore::cypher::QueryOptions::default()
+    };
+    let t0 = std::time::Instant::now();
+    let r = store.query(&cypher, &opts)?;
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    if let Some(plan) = &r.plan {
+        out!("{plan}");
+        return Ok(());
+    }
+    if json {
+        outln!("{}", serde_json::to_string_pretty(&r.rows_json())?);
+    } else {
+        let cells: Vec<Vec<String>> = r
+            .rows
+            .iter()
+            .map(|row| row.iter().map(|v| cell(r.render(v))).collect())
+            .collect();
+        let mut width: Vec<usize> = r.columns.iter().map(|c| c.chars().count()).collect();
+        for row in &cells {
+            for (w, c) in width.iter_mut().zip(row) {
+                *w = (*w).max(c.chars().count());
+            }
+        }
+        let line = |vals: &[String]| {
+            let parts: Vec<String> = vals
+                .iter()
+                .zip(&width)
+                .map(|(v, w)| format!("{v}{}", " ".repeat(w - v.chars().count())))
+                .collect();
+            format!("| {} |", parts.join(" | "))
+        };
+        if !r.columns.is_empty() {
+            outln!("{}", line(&r.columns));
+            let rule: Vec<String> = width.iter().map(|w| "-".repeat(*w)).collect();
+            outln!("{}", line(&rule));
+            for row in &cells {
+                outln!("{}", line(row));
+            }
+        }
+    }
+    let st = r.stats;
+    let mut wrote = Vec::new();
+    for (n, what) in [
+        (st.nodes_created, "nodes created"),
+        (st.nodes_deleted, "nodes deleted"),
+        (st.relationships_created, "relationships created"),
+        (st.relationships_deleted, "relationships deleted"),
+        (st.properties_set, "properties set"),
+        (st.properties_removed, "properties removed"),
+        (st.labels_added, "labels added"),
+        (st.labels_removed, "labels removed"),
+    ] {
+        if n > 0 {
+            wrote.push(format!("{n} {what}"));
+        }
+    }
+    errln!(
+        "{} row(s) in {ms:.1} ms{}",
+        r.rows.len(),
+        if wrote.is_empty() {
+            String::new()
+        } else {
+            format!("; {}", wrote.join(", "))
+        }
+    );
+    Ok(())
+}

@@ -1,0 +1,38 @@
+//! `opengraph relations`.
+
+use super::args::*;
+use super::common::*;
+
+/// `opengraph relations`.
+pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
+    let Command::Relations {
+        db,
+        llm,
+        budget_secs,
+        max_pairs,
+        json,
+    } = cmd
+    else {
+        unreachable!("run dispatches only Command::Relations here")
+    };
+    let cfg = llm.config(llm_tools::LlmConfig::default(), "local");
+    let mut m = open_llm(&cfg, "relations")?;
+    let store = open_store(&db, true)?;
+    let opts = ingest::llm::PassOptions {
+        budget: budget_secs.map(std::time::Duration::from_secs_f64),
+        max_items: max_pairs.map(|n| n as usize),
+        ..ingest::llm::PassOptions::default()
+    };
+    let r = ingest::llm::infer_relations(
+        &store,
+        m.as_mut(),
+        &ingest::hierarchy::relations::RelationConfig::default(),
+        &opts,
+    )?;
+    if json {
+        outln!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        print_pass("relations", &r)?;
+    }
+    Ok(())
+}

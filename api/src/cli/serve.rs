@@ -1,0 +1,176 @@
+//! `opengraph serve`: the HTTP server (viewer, JSON API, MCP at /mcp) over one map.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use super::args::{Command, LlmArgs};
+use super::common::*;
+
+/// `opengraph serve`'s arguments.
+pub(crate) struct ServeArgs {
+    pub(crate) db: PathBuf,
+    pub(crate) bind: std::net::SocketAddr,
+    pub(crate) token_file: Option<PathBuf>,
+    pub(crate) read_only: bool,
+    pub(crate) workers: Option<usize>,
+    pub(crate) timeout_secs: f64,
+    pub(crate) body_limit_bytes: usize,
+    pub(crate) max_concurrent: usize,
+    pub(crate) cors_origin: Vec<String>,
+}
+
+/// Reads a write token from a file: trimmed, 16 characters or more, printable ASCII.
+pub(crate) fn read_token(path: &std::path::Path) -> anyhow::Result<String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| UsageError(format!("reading the token file {}: {e}", path.display())))?;
+    let token = text.trim().to_string();
+    if token.len() < 16 || !token.bytes().all(|b| b.is_ascii_graphic()) {
+        return Err(UsageError(format!(
+            "the token in {} must be 16 or more printable characters without spaces (e.g. `openssl rand -hex 32 > {}`)",
+            path.display(),
+            path.display()
+        ))
+        .into());
+    }
+    Ok(token)
+}
+
+/// `opengraph serve`: opens the map, checks every setting, then serves until Ctrl-C.
+pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    if !(a.timeout_secs.is_finite() && (0.1..=3600.0).contains(&a.timeout_secs)) {
+        return Err(UsageError(format!(
+            "--timeout-secs must be between 0.1 and 3600 (got {})",
+            a.timeout_secs
+        ))
+        .into());
+    }
+    for (name, v, max) in [
+        ("--body-limit-bytes", a.body_limit_bytes, 1usize << 30),
+        ("--max-concurrent", a.max_concurrent, 100_000),
+        ("--workers", a.workers.unwrap_or(1), 256),
+    ] {
+        if v == 0 || v > max {
+            return Err(UsageError(format!("{name} must be between 1 and {max} (got {v})")).into());
+        }
+    }
+    let token = a.token_file.as_deref().map(read_token).transpose()?;
+    api::http::check_bind(&a.bind, token.as_deref()).map_err(UsageError)?;
+    let writes = token.is_some() && !a.read_only;
+    let workers = a.workers.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(2)
+            .min(8)
+    });
+    let first = open_toolbox(&a.db, writes)?;
+    let mut boxes = Vec::with_capacity(workers);
+    for _ in 1..workers {
+        let finder = {
+            let r = first.store().read()?;
+            finder_for(&r, None, false, &LlmArgs::default())?
+        };
+        boxes.push(first.fork(finder));
+    }
+    boxes.push(first);
+    let service =
+        api::service::Service::new(boxes, std::time::Duration::from_secs_f64(a.timeout_secs))
+            .context("no workers")?;
+    let opts = api::http::ServeOptions {
+        bind: a.bind,
+        token,
+        body_limit_bytes: a.body_limit_bytes,
+        max_concurrent: a.max_concurrent,
+        cors_origins: a.cors_origin,
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(opts.bind)
+            .await
+            .map_err(|e| UsageError(format!("cannot listen on {}: {e}", opts.bind)))?;
+        let addr = listener.local_addr()?;
+        let app = api::http::router(service, &opts);
+        // a writing server holds the file's lock: leave a note where to reach it
+        let marker = writes.then(|| serving_marker(&a.db));
+        if let Some(m) = &marker {
+            let note = serde_json::json!({"url": format!("http://{addr}/"), "pid": std::process::id()});
+            if let Err(e) = std::fs::write(m, note.to_string()) {
+                errln!("note: could not write {}: {e}", m.display());
+            }
+        }
+        outln!("serving {} on http://{addr}/ (MCP: http://{addr}/mcp; API: http://{addr}/openapi.json)", a.db.display());
+        errln!(
+            "{workers} workers, {}; Ctrl-C stops",
+            if writes {
+                "writes need the token"
+            } else {
+                "read-only"
+            }
+        );
+        api::http::serve(listener, app, async {
+            shutdown_signal().await;
+        })
+        .await?;
+        if let Some(m) = &marker {
+            let _ = std::fs::remove_file(m);
+        }
+        errln!("stopped");
+        anyhow::Ok(())
+    })
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+pub(crate) async fn shutdown_signal() {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut term =
+            match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                Ok(t) => t,
+                Err(_) => {
+                    let _ = ctrl_c.await;
+                    return;
+                }
+            };
+        tokio::select! {
+            _ = ctrl_c => {},
+            _ = term.recv() => {},
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = ctrl_c.await;
+    }
+}
+
+/// `opengraph serve`.
+pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
+    let Command::Serve {
+        db,
+        bind,
+        token_file,
+        read_only,
+        workers,
+        timeout_secs,
+        body_limit_bytes,
+        max_concurrent,
+        cors_origin,
+    } = cmd
+    else {
+        unreachable!("run dispatches only Command::Serve here")
+    };
+    serve(ServeArgs {
+        db,
+        bind,
+        token_file,
+        read_only,
+        workers,
+        timeout_secs,
+        body_limit_bytes,
+        max_concurrent,
+        cors_origin,
+    })
+}
