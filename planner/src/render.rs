@@ -10,7 +10,8 @@ use crate::graph::RoadGraph;
 use crate::motion::{MotionPath, Obstacle};
 use crate::route::Route;
 
-/// An instance's ground footprint to draw, with its class.
+/// An instance to draw: its ground footprint, its points on the ground (drawn when present, as
+/// the web viewer and the paper render maps; else the box is filled), its class.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Footprint {
     /// Min corner.
@@ -19,7 +20,14 @@ pub struct Footprint {
     pub max: [f64; 2],
     /// Class name (colours follow SemanticKITTI's colour map).
     pub class: String,
+    /// Ground positions of (a subsample of) its points, metres.
+    pub points: Vec<[f64; 2]>,
+    /// Whether it is a ground surface (road, sidewalk, ...), drawn faintly.
+    pub surface: bool,
 }
+
+/// Points drawn per instance (surface tiles get twice as many).
+pub const POINTS_PER_INSTANCE: usize = 64;
 
 /// SemanticKITTI's colour (RGB) for a class name; grey for others.
 pub fn class_colour(class: &str) -> (u8, u8, u8) {
@@ -58,17 +66,33 @@ pub fn instance_footprints(
             Some(graphstore::Value::String(c)) => c,
             _ => String::new(),
         };
-        if crate::motion::GROUND_CLASSES.contains(&class.as_str()) {
-            continue;
-        }
+        let surface = crate::motion::GROUND_CLASSES.contains(&class.as_str());
         let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
             continue;
         };
         let (a, b) = (ground.of(lo), ground.of(hi));
+        let max_points = if surface {
+            2 * POINTS_PER_INSTANCE
+        } else {
+            POINTS_PER_INSTANCE
+        };
+        let points = match r.point_cloud(id, "points")? {
+            Some(pc) if !pc.xyz.is_empty() => {
+                let step = pc.xyz.len().div_ceil(max_points);
+                pc.xyz
+                    .iter()
+                    .step_by(step)
+                    .map(|p| ground.of([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]))
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
         out.push(Footprint {
             min: [a[0].min(b[0]), a[1].min(b[1])],
             max: [a[0].max(b[0]), a[1].max(b[1])],
             class,
+            points,
+            surface,
         });
     }
     Ok(out)
@@ -88,7 +112,7 @@ pub fn write_png(
 /// A round marker: ground position and RGB colour.
 pub type Marker = ([f64; 2], (u8, u8, u8));
 
-/// [`write_png`] with the map's instances drawn underneath, filled in their class colour, and
+/// [`write_png`] with the map's instances drawn underneath, their points in their class colour, and
 /// round markers (ground position, RGB) on top: `plan` and `navigate` mark the start green and
 /// the goal red.
 pub fn write_map_png(
@@ -105,7 +129,13 @@ pub fn write_map_png(
         .iter()
         .flat_map(|e| e.polyline.iter().copied())
         .chain(route.polyline.iter().copied())
-        .chain(instances.iter().flat_map(|f| [f.min, f.max]))
+        // surface tiles far off the road (terrain seen at range) would shrink the map
+        .chain(
+            instances
+                .iter()
+                .filter(|f| !f.surface)
+                .flat_map(|f| [f.min, f.max]),
+        )
         .collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for p in &pts {
@@ -129,14 +159,28 @@ pub fn write_map_png(
             (f64::from(h) - 30.0 - (p[1] - lo[1]) * scale) as f32,
         )
     };
-    for f in instances {
-        let (x0, y0) = px([f.min[0], f.max[1]]);
-        let (x1, y1) = px([f.max[0], f.min[1]]);
-        if let Some(rect) = tiny_skia::Rect::from_ltrb(x0, y0, x1.max(x0 + 1.0), y1.max(y0 + 1.0)) {
+    // surfaces first and faint, then objects: points where there are, else the filled box
+    for pass in [true, false] {
+        for f in instances.iter().filter(|f| f.surface == pass) {
             let (r, gr, b) = class_colour(&f.class);
             let mut paint = Paint::default();
-            paint.set_color(Color::from_rgba8(r, gr, b, 170));
-            pm.fill_rect(rect, &paint, Transform::identity(), None);
+            paint.set_color(Color::from_rgba8(r, gr, b, if pass { 70 } else { 220 }));
+            if f.points.is_empty() {
+                let (x0, y0) = px([f.min[0], f.max[1]]);
+                let (x1, y1) = px([f.max[0], f.min[1]]);
+                if let Some(rect) =
+                    tiny_skia::Rect::from_ltrb(x0, y0, x1.max(x0 + 1.0), y1.max(y0 + 1.0))
+                {
+                    pm.fill_rect(rect, &paint, Transform::identity(), None);
+                }
+                continue;
+            }
+            for p in &f.points {
+                let (x, y) = px(*p);
+                if let Some(rect) = tiny_skia::Rect::from_xywh(x - 1.0, y - 1.0, 2.0, 2.0) {
+                    pm.fill_rect(rect, &paint, Transform::identity(), None);
+                }
+            }
         }
     }
     let mut line = |pts: &[[f64; 2]], width: f32, rgba: (u8, u8, u8, u8)| {
