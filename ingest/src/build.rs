@@ -58,10 +58,14 @@ impl BuildConfig {
                 detail: e.message().to_string(),
             }
         })?;
-        cfg.mapping.validate().map_err(|e| Error::File {
-            path: path.to_path_buf(),
-            detail: e.to_string(),
-        })?;
+        cfg.mapping
+            .validate()
+            .and_then(|()| cfg.hierarchy.validate())
+            .and_then(|()| cfg.oracle.validate())
+            .map_err(|e| Error::File {
+                path: path.to_path_buf(),
+                detail: e.to_string(),
+            })?;
         Ok(cfg)
     }
 }
@@ -1133,6 +1137,74 @@ pub fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every numeric key of the hierarchy and oracle tables is checked when the file is read
+    /// (before any mapping): NaN, infinities, negative, zero where it must be positive, huge.
+    #[test]
+    fn bad_config_numbers_are_refused_when_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let keys = [
+            ("hierarchy.lanes", "radius_m"),
+            ("hierarchy.lanes", "disfluency_rad"),
+            ("hierarchy.lanes", "dbscan_eps_m"),
+            ("hierarchy.lanes", "association_m"),
+            ("hierarchy.lanes", "resample_m"),
+            ("hierarchy.lanes", "edge_merge_m"),
+            ("hierarchy.lanes", "l_turn_min_deg"),
+            ("hierarchy.lanes", "l_turn_max_deg"),
+            ("hierarchy.lanes", "way_merge_deg"),
+            ("hierarchy.segments", "junction_radius_m"),
+            ("hierarchy.segments", "road_half_width_m"),
+            ("hierarchy.relations", "candidate_m"),
+            ("hierarchy.relations", "near_m"),
+            ("hierarchy.relations", "next_to_m"),
+            ("hierarchy.relations", "on_tolerance_m"),
+            ("hierarchy.relations", "inside_fraction"),
+            ("oracle", "component_eps_m"),
+            ("mapping", "voxel_m"),
+            ("mapping", "dbscan_eps_m"),
+            ("mapping", "w_geo"),
+        ];
+        for (table, key) in keys {
+            for v in ["nan", "inf", "-inf", "-1.0", "1e300"] {
+                let path = dir.path().join("bad.toml");
+                std::fs::write(&path, format!("[{table}]\n{key} = {v}\n")).unwrap();
+                let e = match BuildConfig::from_toml_file(&path) {
+                    Ok(_) => panic!("[{table}] {key} = {v} was accepted"),
+                    Err(e) => e.to_string(),
+                };
+                assert!(e.contains(key), "[{table}] {key} = {v}: {e}");
+                assert!(e.contains("bad.toml"), "{e}");
+            }
+        }
+        // relations between keys
+        let path = dir.path().join("rel.toml");
+        std::fs::write(
+            &path,
+            "[hierarchy.relations]\nnext_to_m = 5.0\nnear_m = 3.0\n",
+        )
+        .unwrap();
+        assert!(
+            BuildConfig::from_toml_file(&path)
+                .unwrap_err()
+                .to_string()
+                .contains("next_to_m")
+        );
+        std::fs::write(
+            &path,
+            "[hierarchy.lanes]\nl_turn_min_deg = 90.0\nl_turn_max_deg = 60.0\n",
+        )
+        .unwrap();
+        assert!(
+            BuildConfig::from_toml_file(&path)
+                .unwrap_err()
+                .to_string()
+                .contains("l_turn_min_deg")
+        );
+        // the defaults pass
+        std::fs::write(&path, "").unwrap();
+        assert!(BuildConfig::from_toml_file(&path).is_ok());
+    }
 
     /// docs/build.md shows the default configuration; it must parse to exactly the defaults.
     #[test]

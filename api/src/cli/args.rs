@@ -208,17 +208,17 @@ pub(crate) enum Command {
         /// Default: 300 small, 600 medium, 1000 city.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
         frames: Option<u32>,
-        /// Probability that a visible object is not detected.
-        #[arg(long, default_value_t = 0.05)]
+        /// Probability that a visible object is not detected (0..1).
+        #[arg(long, default_value_t = 0.05, value_parser = in_range(0.0, 1.0), allow_hyphen_values = true)]
         miss_rate: f64,
-        /// Mean false-positive detections per frame.
-        #[arg(long, default_value_t = 0.2)]
+        /// Mean false-positive detections per frame (0..50).
+        #[arg(long, default_value_t = 0.2, value_parser = in_range(0.0, 50.0), allow_hyphen_values = true)]
         false_positives: f64,
-        /// Probability of a caption phrased differently from the ground truth.
-        #[arg(long, default_value_t = 0.5)]
+        /// Probability of a caption phrased differently from the ground truth (0..1).
+        #[arg(long, default_value_t = 0.5, value_parser = in_range(0.0, 1.0), allow_hyphen_values = true)]
         paraphrase_rate: f64,
-        /// Probability of a caption with a wrong colour.
-        #[arg(long, default_value_t = 0.05)]
+        /// Probability of a caption with a wrong colour (0..1).
+        #[arg(long, default_value_t = 0.05, value_parser = in_range(0.0, 1.0), allow_hyphen_values = true)]
         wrong_attribute_rate: f64,
         /// Masks are eroded or dilated by up to this many pixels.
         #[arg(long, default_value_t = 1)]
@@ -406,8 +406,8 @@ pub(crate) enum Command {
         /// default: the number of cores.
         #[arg(long)]
         workers: Option<usize>,
-        /// Seconds a request may wait and run.
-        #[arg(long, default_value_t = 30.0)]
+        /// Seconds a request may wait and run (0.1..3600).
+        #[arg(long, default_value_t = 30.0, value_parser = in_range(0.1, 3600.0), allow_hyphen_values = true)]
         timeout_secs: f64,
         /// The largest request body in bytes.
         #[arg(long, default_value_t = 1 << 20)]
@@ -452,8 +452,8 @@ pub(crate) enum Command {
         /// Refuse statements that write.
         #[arg(long)]
         read_only: bool,
-        /// Stop the statement after this many seconds (a write is rolled back).
-        #[arg(long, default_value_t = 30.0)]
+        /// Stop the statement after this many seconds (a write is rolled back; 0.001..86400).
+        #[arg(long, default_value_t = 30.0, value_parser = in_range(0.001, 86400.0), allow_hyphen_values = true)]
         timeout_secs: f64,
         /// Fail when the result has more rows than this (add LIMIT).
         #[arg(long, default_value_t = 100_000)]
@@ -595,9 +595,10 @@ pub(crate) enum EvalCommand {
         /// poses.txt from another path.
         #[arg(long)]
         poses: Option<PathBuf>,
-        /// A labelled point takes the class of the nearest map point within this radius.
-        #[arg(long, default_value_t = 0.3)]
-        max_dist_m: f32,
+        /// A labelled point takes the class of the nearest map point within this radius
+        /// (0.01..10 m).
+        #[arg(long, default_value_t = 0.3, value_parser = in_range(0.01, 10.0), allow_hyphen_values = true)]
+        max_dist_m: f64,
         /// Print `{"miou", "f1", "per_class", "source", ...}`.
         #[arg(long)]
         json: bool,
@@ -773,4 +774,80 @@ pub(crate) fn parse_param(s: &str) -> Result<(String, graphstore::cypher::Val), 
     }
     let v = graphstore::cypher::param_from_text(v).map_err(|e| format!("--param {k}: {e}"))?;
     Ok((k.to_string(), v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+    use clap::error::ErrorKind;
+
+    /// Every leaf command with its path of subcommand names.
+    fn leaves(cmd: &clap::Command, path: Vec<String>, out: &mut Vec<(Vec<String>, clap::Command)>) {
+        let subs: Vec<&clap::Command> = cmd.get_subcommands().collect();
+        if subs.is_empty() {
+            out.push((path.clone(), cmd.clone()));
+        }
+        for s in subs {
+            let mut p = path.clone();
+            p.push(s.get_name().to_string());
+            leaves(s, p, out);
+        }
+    }
+
+    /// Whether parsing `opengraph PATH --flag VALUE` fails because of this flag's value (before
+    /// any other check: clap reports value errors before missing required arguments).
+    fn refused(path: &[String], flag: &str, value: &str) -> Option<String> {
+        let mut argv = vec!["opengraph".to_string()];
+        argv.extend(path.iter().cloned());
+        argv.push(flag.to_string());
+        argv.push(value.to_string());
+        match Cli::try_parse_from(&argv) {
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::ValueValidation
+                        | ErrorKind::InvalidValue
+                        | ErrorKind::UnknownArgument
+                ) =>
+            {
+                Some(e.to_string())
+            }
+            _ => None,
+        }
+    }
+
+    /// Every numeric flag of every command refuses NaN, infinities, negative numbers and absurd
+    /// magnitudes at parse time, before any work (issue 17 §3), and names the flag or the value.
+    #[test]
+    fn every_numeric_flag_refuses_nan_inf_negative_and_huge() {
+        let mut all = Vec::new();
+        leaves(&Cli::command(), Vec::new(), &mut all);
+        let mut numeric = 0;
+        let mut bad = Vec::new();
+        for (path, cmd) in &all {
+            for arg in cmd.get_arguments() {
+                let Some(long) = arg.get_long() else { continue };
+                if !arg.get_action().takes_values() {
+                    continue;
+                }
+                let flag = format!("--{long}");
+                // numeric: letters are refused, and some plain number is taken
+                let takes_a_number = ["1", "5", "10", "100"]
+                    .iter()
+                    .any(|v| refused(path, &flag, v).is_none());
+                if refused(path, &flag, "abc").is_none() || !takes_a_number {
+                    continue;
+                }
+                numeric += 1;
+                for v in ["nan", "NaN", "inf", "-inf", "-1", "-0.5", "1e308", "1e999"] {
+                    if refused(path, &flag, v).is_none() {
+                        bad.push(format!("opengraph {} {flag} {v}", path.join(" ")));
+                    }
+                }
+            }
+        }
+        assert!(numeric >= 25, "found only {numeric} numeric flags");
+        assert!(bad.is_empty(), "accepted:\n{}", bad.join("\n"));
+    }
 }

@@ -25,7 +25,7 @@ pub(crate) fn semseg(cmd: Command) -> anyhow::Result<()> {
         &kitti,
         poses.as_deref(),
         frames,
-        max_dist_m,
+        max_dist_m as f32,
         ingest::mapping::MappingConfig::default().image_size,
     )?;
     if json {

@@ -24,6 +24,84 @@ pub struct HierarchyConfig {
     pub relations: RelationConfig,
 }
 
+impl HierarchyConfig {
+    /// Checks every number (finite, in range) so that a bad `[hierarchy.*]` value is reported
+    /// when the configuration is read, before any mapping; the message names the key.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] naming the first bad key.
+    pub fn validate(&self) -> Result<()> {
+        let l = &self.lanes;
+        let s = &self.segments;
+        let r = &self.relations;
+        let positive = [
+            ("lanes.radius_m", l.radius_m),
+            ("lanes.disfluency_rad", l.disfluency_rad),
+            ("lanes.dbscan_eps_m", l.dbscan_eps_m),
+            ("lanes.association_m", l.association_m),
+            ("lanes.resample_m", l.resample_m),
+            ("lanes.edge_merge_m", l.edge_merge_m),
+            ("segments.junction_radius_m", s.junction_radius_m),
+            ("segments.road_half_width_m", s.road_half_width_m),
+            ("relations.candidate_m", r.candidate_m),
+            ("relations.near_m", r.near_m),
+            ("relations.inside_fraction", r.inside_fraction),
+        ];
+        for (k, v) in positive {
+            if !(v.is_finite() && v > 0.0 && v < 1e6) {
+                return Err(Error::Invalid(format!(
+                    "[hierarchy] {k} must be a positive number below 1e6, got {v}"
+                )));
+            }
+        }
+        for (k, v) in [
+            ("relations.next_to_m", r.next_to_m),
+            ("relations.on_tolerance_m", r.on_tolerance_m),
+        ] {
+            if !(v.is_finite() && (0.0..1e6).contains(&v)) {
+                return Err(Error::Invalid(format!(
+                    "[hierarchy] {k} must be a non-negative number below 1e6, got {v}"
+                )));
+            }
+        }
+        for (k, v) in [
+            ("lanes.l_turn_min_deg", l.l_turn_min_deg),
+            ("lanes.l_turn_max_deg", l.l_turn_max_deg),
+            ("lanes.way_merge_deg", l.way_merge_deg),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v <= 180.0) {
+                return Err(Error::Invalid(format!(
+                    "[hierarchy] {k} must be an angle in (0, 180] degrees, got {v}"
+                )));
+            }
+        }
+        if l.l_turn_min_deg >= l.l_turn_max_deg {
+            return Err(Error::Invalid(format!(
+                "[hierarchy] lanes.l_turn_min_deg ({}) must be below lanes.l_turn_max_deg ({})",
+                l.l_turn_min_deg, l.l_turn_max_deg
+            )));
+        }
+        if l.dbscan_min_samples == 0 {
+            return Err(Error::Invalid(
+                "[hierarchy] lanes.dbscan_min_samples must be at least 1".into(),
+            ));
+        }
+        if r.inside_fraction > 1.0 {
+            return Err(Error::Invalid(format!(
+                "[hierarchy] relations.inside_fraction must be at most 1, got {}",
+                r.inside_fraction
+            )));
+        }
+        if r.next_to_m > r.near_m {
+            return Err(Error::Invalid(format!(
+                "[hierarchy] relations.next_to_m ({}) must not exceed relations.near_m ({})",
+                r.next_to_m, r.near_m
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// What was written.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct HierarchyReport {

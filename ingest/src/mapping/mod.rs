@@ -86,18 +86,19 @@ impl MappingConfig {
     /// Checks ranges; the message names the field.
     pub fn validate(&self) -> crate::Result<()> {
         let bad = |m: &str| Err(crate::Error::Invalid(format!("mapping config: {m}")));
-        let pos = |x: f64| x.is_finite() && x > 0.0;
+        // lengths in metres and weights: finite, and below a sane magnitude
+        let pos = |x: f64| x.is_finite() && x > 0.0 && x < 1e6;
         if !pos(f64::from(self.voxel_m)) {
-            return bad("voxel_m must be positive");
+            return bad("voxel_m must be a positive number below 1e6");
         }
         if !pos(f64::from(self.dbscan_eps_m)) {
-            return bad("dbscan_eps_m must be positive");
+            return bad("dbscan_eps_m must be a positive number below 1e6");
         }
         if !pos(f64::from(self.join_eps_m)) {
-            return bad("join_eps_m must be positive");
+            return bad("join_eps_m must be a positive number below 1e6");
         }
         if !pos(self.background_tile_m) {
-            return bad("background_tile_m must be positive");
+            return bad("background_tile_m must be a positive number below 1e6");
         }
         for (n, w) in [
             ("w_geo", self.w_geo),
@@ -107,8 +108,8 @@ impl MappingConfig {
             ("merge_overlap", self.merge_overlap),
             ("split_min_share", self.split_min_share),
         ] {
-            if !(w.is_finite() && w >= 0.0) {
-                return bad(&format!("{n} must be a non-negative number"));
+            if !(w.is_finite() && (0.0..1e6).contains(&w)) {
+                return bad(&format!("{n} must be a non-negative number below 1e6"));
             }
         }
         if !self.merge_feature_cos.is_finite() {

@@ -50,6 +50,28 @@ impl Default for OracleConfig {
     }
 }
 
+impl OracleConfig {
+    /// Checks the numbers (the message names the key).
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] for a non-finite or non-positive `component_eps_m`, or a splat over
+    /// 64 px.
+    pub fn validate(&self) -> Result<()> {
+        let e = self.component_eps_m;
+        if !(e.is_finite() && e > 0.0 && e < 1e3) {
+            return Err(Error::Invalid(format!(
+                "[oracle] component_eps_m must be a positive number below 1000, got {e}"
+            )));
+        }
+        if self.splat_half_width_px > 64 || self.splat_half_height_px > 64 {
+            return Err(Error::Invalid(
+                "[oracle] splat_half_width_px and splat_half_height_px must be at most 64".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Classes without SemanticKITTI instance ids that are still objects: split into connected
 /// components (buildings, fences, vegetation, trunks, poles, traffic signs).
 fn is_component_class(class: u8) -> bool {
