@@ -425,3 +425,88 @@ fn init_makes_an_empty_store_to_try_cypher_on() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Output paths are checked before any work: a missing folder, a folder where a file is
+/// wanted, a file where a folder is wanted; each exits 2 naming the path.
+#[test]
+fn bad_output_paths_exit_2_naming_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("afile");
+    std::fs::write(&file, "x").unwrap();
+    let missing = dir.path().join("no/such/folder/out.json");
+    let d = s(dir.path());
+    let cases: Vec<Vec<&str>> = vec![
+        vec![
+            "export",
+            "--db",
+            "x.og",
+            "--format",
+            "graphml",
+            "--out",
+            s(&missing),
+        ],
+        vec!["export", "--db", "x.og", "--format", "graphml", "--out", d],
+        vec!["lanes", "--poses", "p.txt", "--out", s(&missing)],
+        vec![
+            "lanes",
+            "--poses",
+            "p.txt",
+            "--out",
+            "l.geojson",
+            "--png",
+            d,
+        ],
+        vec![
+            "plan",
+            "--db",
+            "x.og",
+            "--from",
+            "0,0",
+            "--to",
+            "1,1",
+            "--png",
+            s(&missing),
+        ],
+        vec![
+            "navigate",
+            "--db",
+            "x.og",
+            "from a to b",
+            "--png",
+            s(&missing),
+        ],
+        vec!["sim", "--out", s(&file)],
+        vec!["sim", "--out", s(&missing)],
+        vec!["oracle", "--kitti", "k", "--out", s(&file)],
+    ];
+    for args in cases {
+        let out = og(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        let named = [s(&missing), d, s(&file)]
+            .iter()
+            .any(|p| err.contains(p) || err.contains(&p[..p.rfind('/').unwrap_or(0)]));
+        assert!(named, "{args:?}: {err}");
+    }
+}
+
+/// `export --out -` writes to stdout.
+#[test]
+fn export_to_stdout() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("d.og");
+    ok(&og(&["demo", "--db", s(&db)]));
+    let out = og(&[
+        "export",
+        "--db",
+        s(&db),
+        "--format",
+        "node-link",
+        "--out",
+        "-",
+    ]);
+    ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(!v["nodes"].as_array().unwrap().is_empty());
+    assert!(!std::path::Path::new("-").exists());
+}

@@ -33,8 +33,8 @@ pub(crate) enum Command {
         /// node-link (networkx JSON) or graphml.
         #[arg(long, value_parser = ["node-link", "graphml"])]
         format: String,
-        /// Output file.
-        #[arg(long)]
+        /// Output file (its folder must exist; `-` or /dev/stdout write to stdout).
+        #[arg(long, value_parser = output_file)]
         out: PathBuf,
         /// node-link only: key of the edge list; `links` for networkx older than 3.6.
         #[arg(long, default_value = "edges", value_parser = ["edges", "links"])]
@@ -52,10 +52,10 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
         stride: u32,
         /// GeoJSON output (ground-plane metres: KITTI x and z).
-        #[arg(long)]
+        #[arg(long, value_parser = output_file)]
         out: PathBuf,
         /// Bird's-eye PNG: trajectory, lane edges, nodes coloured by kind, segment areas.
-        #[arg(long)]
+        #[arg(long, value_parser = output_file)]
         png: Option<PathBuf>,
         /// Print `{"nodes": [{"id", "kind", "xy"}], "edges": [{"from", "to", "length_m"}]}`.
         #[arg(long)]
@@ -185,7 +185,7 @@ pub(crate) enum Command {
         #[arg(long)]
         kitti: PathBuf,
         /// Output directory for NNNNNN.json.
-        #[arg(long)]
+        #[arg(long, value_parser = output_dir)]
         out: PathBuf,
         /// Frames A..B (half-open); default: every labelled frame.
         #[arg(long, value_parser = parse_range)]
@@ -196,7 +196,7 @@ pub(crate) enum Command {
     /// truth (objects, roads, what produced each detection). Byte-identical for a seed.
     Sim {
         /// Output directory (must not already hold a sequence).
-        #[arg(long)]
+        #[arg(long, value_parser = output_dir)]
         out: PathBuf,
         /// Seed.
         #[arg(long, default_value_t = 0)]
@@ -650,7 +650,7 @@ pub(crate) struct PlanArgs {
     pub(crate) snap_m: f64,
     /// Draw the map (instances in SemanticKITTI class colours), the lane graph, the route
     /// (blue), the path, the boxes that block it, the start (green) and the goal (red).
-    #[arg(long)]
+    #[arg(long, value_parser = output_file)]
     pub(crate) png: Option<PathBuf>,
 }
 
@@ -664,6 +664,48 @@ impl PlanArgs {
             png: self.png.clone(),
         }
     }
+}
+
+/// A clap parser for a file to write: its folder must exist and it must not be a folder
+/// (checked before any work, so a long run never fails at its last step).
+pub(crate) fn output_file(s: &str) -> Result<PathBuf, String> {
+    let p = PathBuf::from(s);
+    if s.is_empty() {
+        return Err("the path is empty".into());
+    }
+    if s == "-" || p.starts_with("/dev") {
+        return Ok(p);
+    }
+    if p.is_dir() {
+        return Err(format!("{s} is a folder; give a file name"));
+    }
+    let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
+    if let Some(d) = parent
+        && !d.is_dir()
+    {
+        return Err(format!("the folder {} does not exist", d.display()));
+    }
+    Ok(p)
+}
+
+/// A clap parser for a folder to write into: it may exist (as a folder) or be made in an
+/// existing folder.
+pub(crate) fn output_dir(s: &str) -> Result<PathBuf, String> {
+    let p = PathBuf::from(s);
+    if s.is_empty() {
+        return Err("the path is empty".into());
+    }
+    if p.exists() && !p.is_dir() {
+        return Err(format!("{s} exists and is not a folder"));
+    }
+    let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
+    if !p.exists()
+        && let Some(d) = parent
+        && !d.is_dir()
+    {
+        return Err(format!("the folder {} does not exist", d.display()));
+    }
+    Ok(p)
 }
 
 /// A clap parser for a finite number in `[lo, hi]`.

@@ -261,6 +261,19 @@ pub(crate) fn is_closed_pipe(e: &anyhow::Error) -> bool {
 /// Errors caused by what the user gave us (exit code 2), as opposed to internal failures (1).
 pub(crate) fn is_input_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
+        // the user's paths: missing, not allowed, already there, a folder for a file
+        if let Some(io) = c.downcast_ref::<std::io::Error>() {
+            use std::io::ErrorKind as K;
+            return matches!(
+                io.kind(),
+                K::NotFound
+                    | K::PermissionDenied
+                    | K::AlreadyExists
+                    | K::IsADirectory
+                    | K::NotADirectory
+                    | K::ReadOnlyFilesystem
+            );
+        }
         if let Some(g) = c.downcast_ref::<graphstore::Error>() {
             return !matches!(
                 g,

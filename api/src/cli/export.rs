@@ -18,9 +18,15 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     };
     let store = open_read(&db)?;
     let fmt: graphstore::export::ExportFormat = format.parse()?;
-    let file =
-        std::fs::File::create(&out).with_context(|| format!("creating {}", out.display()))?;
-    let mut w = std::io::BufWriter::new(file);
+    // `-` is stdout
+    let sink: Box<dyn std::io::Write> = if out.as_os_str() == "-" {
+        Box::new(std::io::stdout().lock())
+    } else {
+        Box::new(
+            std::fs::File::create(&out).with_context(|| format!("creating {}", out.display()))?,
+        )
+    };
+    let mut w = std::io::BufWriter::new(sink);
     let r = store.read()?;
     let (n, m) = match fmt {
         graphstore::export::ExportFormat::NodeLink => {
