@@ -39,6 +39,11 @@ use crate::mcp::McpServer;
 use crate::service::{Service, WriteGate, error_body};
 use crate::tools::ToolError;
 
+/// The viewer page (HTML, no external resources).
+pub const PAGE_HTML: &str = include_str!("../web/index.html");
+/// The viewer's script.
+pub const VIEWER_JS: &str = include_str!("../web/viewer.js");
+
 /// Server settings; [`ServeOptions::default`] is what `opengraph serve` uses without flags.
 #[derive(Debug, Clone)]
 pub struct ServeOptions {
@@ -338,14 +343,14 @@ async fn handle(
         Op::Page => {
             return (
                 [(header::CONTENT_TYPE, "text/html; charset=utf-8")],
-                crate::view::PAGE_HTML,
+                PAGE_HTML,
             )
                 .into_response();
         }
         Op::Script => {
             return (
                 [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
-                crate::view::VIEWER_JS,
+                VIEWER_JS,
             )
                 .into_response();
         }

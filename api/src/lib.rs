@@ -1,13 +1,7 @@
 #![doc = include_str!("../README.md")]
 
-pub mod ask;
-pub mod demo;
-pub mod find;
 pub mod http;
-pub mod info;
 pub mod mcp;
-pub mod plan;
-pub mod service;
-pub mod tools;
-pub mod update;
-pub mod view;
+
+// the service layer, under the names the adapters and the CLI use
+pub use opengraph_service::{ask, demo, find, info, plan, service, tools, update, view};

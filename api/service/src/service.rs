@@ -1,6 +1,6 @@
 //! The service every network front end calls: a pool of [`Toolbox`]es over one store, so
 //! that requests run side by side (each on its own read snapshot), bounded in number and in
-//! time. The HTTP server ([`crate::http`]) and the MCP server ([`crate::mcp`]) are adapters over
+//! time. The HTTP server (`api::http`) and the MCP server (`api::mcp`) are adapters over
 //! it; neither holds logic of its own.
 //!
 //! Writes: the store has one writer at a time (redb); write tools run only for callers that

@@ -5,14 +5,17 @@ use std::fmt::Write;
 use graphstore::Store;
 
 /// `{"nodes": {LABEL: count}, "relationships": {TYPE: count}}`, keys sorted.
-pub fn json(store: &Store) -> anyhow::Result<String> {
+pub fn json(store: &Store) -> graphstore::Result<String> {
     let c = store.counts()?;
     let v = serde_json::json!({"nodes": c.nodes, "relationships": c.relationships});
-    Ok(format!("{}\n", serde_json::to_string_pretty(&v)?))
+    Ok(format!(
+        "{}\n",
+        serde_json::to_string_pretty(&v).unwrap_or_default()
+    ))
 }
 
 /// A human-readable summary: counts and declared indexes.
-pub fn table(store: &Store) -> anyhow::Result<String> {
+pub fn table(store: &Store) -> graphstore::Result<String> {
     let c = store.counts()?;
     let s = store.schema();
     let mut o = String::new();
@@ -21,14 +24,15 @@ pub fn table(store: &Store) -> anyhow::Result<String> {
         "store {} (format v{})",
         store.path().display(),
         graphstore::FORMAT_VERSION
-    )?;
-    writeln!(o, "nodes: {}", c.total_nodes)?;
+    )
+    .map_err(fmt_err)?;
+    writeln!(o, "nodes: {}", c.total_nodes).map_err(fmt_err)?;
     for (l, n) in &c.nodes {
-        writeln!(o, "  {l:<20} {n:>10}")?;
+        writeln!(o, "  {l:<20} {n:>10}").map_err(fmt_err)?;
     }
-    writeln!(o, "relationships: {}", c.total_relationships)?;
+    writeln!(o, "relationships: {}", c.total_relationships).map_err(fmt_err)?;
     for (t, n) in &c.relationships {
-        writeln!(o, "  {t:<20} {n:>10}")?;
+        writeln!(o, "  {t:<20} {n:>10}").map_err(fmt_err)?;
     }
     let mut idx: Vec<String> = s
         .effective_property_indexes()
@@ -66,9 +70,15 @@ pub fn table(store: &Store) -> anyhow::Result<String> {
         } else {
             idx.len().to_string()
         }
-    )?;
+    )
+    .map_err(fmt_err)?;
     for i in idx {
-        writeln!(o, "  {i}")?;
+        writeln!(o, "  {i}").map_err(fmt_err)?;
     }
     Ok(o)
+}
+
+/// `write!` to a `String` cannot fail; this keeps the signature honest without a panic.
+fn fmt_err(e: std::fmt::Error) -> graphstore::Error {
+    graphstore::Error::InvalidValue(e.to_string())
 }

@@ -150,8 +150,3 @@ pub fn view(store: &Store) -> Result<Json, String> {
         "colours": colours,
     }))
 }
-
-/// The viewer page (HTML, no external resources).
-pub const PAGE_HTML: &str = include_str!("web/index.html");
-/// The viewer's script.
-pub const VIEWER_JS: &str = include_str!("web/viewer.js");

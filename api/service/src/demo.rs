@@ -4,7 +4,7 @@
 use graphstore::{Store, Value};
 
 /// Writes one environment, four segments, a lane graph, a few instances and their relations.
-pub fn build(store: &Store) -> anyhow::Result<()> {
+pub fn build(store: &Store) -> graphstore::Result<()> {
     store.set_schema(graphstore::opengraph_schema())?;
     store.write(|tx| {
         let env = tx.create_node_named(

@@ -1,0 +1,11 @@
+#![doc = include_str!("../README.md")]
+
+pub mod ask;
+pub mod demo;
+pub mod find;
+pub mod info;
+pub mod plan;
+pub mod service;
+pub mod tools;
+pub mod update;
+pub mod view;
