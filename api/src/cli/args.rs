@@ -889,6 +889,7 @@ mod tests {
                 }
             }
         }
+        eprintln!("{numeric} numeric flags checked");
         assert!(numeric >= 25, "found only {numeric} numeric flags");
         assert!(bad.is_empty(), "accepted:\n{}", bad.join("\n"));
     }
