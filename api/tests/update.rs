@@ -303,3 +303,66 @@ fn an_ambiguous_description_changes_nothing() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("is gone"));
 }
+
+/// `--parser llm` with the smallest real model (SmolLM2-135M, fetched by scripts/setup.sh): the
+/// answer records the model and the prompt; a reading the report does not support is refused
+/// (exit 1, "not a whole change"), never applied; nothing is written without --apply.
+#[test]
+fn the_llm_parser_records_its_model_and_prompt() {
+    let smol = llm_tools::embed::default_models_dir().join(llm_tools::chat::SMALLEST_LOCAL_MODEL);
+    if !smol.exists() {
+        eprintln!(
+            "skipping: {} not found (run scripts/setup.sh)",
+            smol.display()
+        );
+        return;
+    }
+    let (_dir, db) = map();
+    let (id, caption) = unique_instance(&db);
+    let bytes = std::fs::read(&db).unwrap();
+    let out = og(&[
+        "update",
+        "--db",
+        s(&db),
+        &format!("{caption} is gone"),
+        "--parser",
+        "llm",
+        "--llm",
+        "local",
+        "--llm-model",
+        s(&smol),
+        "--json",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    match out.status.code() {
+        Some(0) => {
+            let p: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            let by = p["parsed_by"].as_str().unwrap();
+            assert!(
+                by.contains("SmolLM2") && by.ends_with("(parse_edit@v1)"),
+                "{by}"
+            );
+            assert_eq!(p["request"]["kind"], "remove", "{p}");
+            // what the model named must come from the report
+            let target = p["request"]["target"].as_str().unwrap().to_lowercase();
+            let said = caption.to_lowercase();
+            assert!(
+                target
+                    .split_whitespace()
+                    .map(|w| w.trim_matches(|c: char| !c.is_alphanumeric()))
+                    .all(|w| matches!(w, "a" | "an" | "the") || said.contains(w)),
+                "{target:?} is not in {said:?}"
+            );
+            assert!(!target.contains("gone"), "{target}");
+            assert!(p["applied"].is_null());
+            let _ = id;
+        }
+        Some(1) => assert!(err.contains("not a whole change"), "{err}"),
+        other => panic!("exit {other:?}: {err}"),
+    }
+    assert_eq!(
+        std::fs::read(&db).unwrap(),
+        bytes,
+        "a proposal wrote to the map"
+    );
+}

@@ -12,6 +12,7 @@ use std::sync::LazyLock;
 
 use regex::Regex;
 
+use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::{Error, Result};
 
 /// What kind of change.
@@ -198,6 +199,120 @@ pub fn parse_edit_rules(text: &str) -> Result<EditRequest> {
     )))
 }
 
+/// The JSON Schema of a parsed change for the language model (keys sorted by name: the
+/// grammar follows that order).
+pub fn edit_schema() -> serde_json::Value {
+    let phrase = serde_json::json!({"type": ["string", "null"], "maxLength": 200});
+    serde_json::json!({"type": "object", "properties": {
+        "kind": {"enum": ["remove", "move", "change", "add"]},
+        "new_description": phrase,
+        "place_phrase": phrase,
+        "place_relation": {"enum": ["near", "next_to", "on", "under", "in_front_of", "behind", "opposite", null]},
+        "replaced": {"type": "boolean"},
+        "target": phrase},
+        "required": ["kind", "new_description", "place_phrase", "place_relation", "replaced", "target"],
+        "additionalProperties": false})
+}
+
+/// Whether every word of `phrase` occurs in `text` (case and punctuation aside): what the
+/// model says must come from the report.
+fn grounded(phrase: &str, text: &str) -> bool {
+    let words = |s: &str| -> Vec<String> {
+        s.to_lowercase()
+            .split(|c: char| !c.is_alphanumeric() && c != '-')
+            .filter(|w| !w.is_empty())
+            .map(str::to_string)
+            .collect()
+    };
+    let have = words(text);
+    let want = words(phrase);
+    !want.is_empty()
+        && want
+            .iter()
+            .all(|w| matches!(w.as_str(), "a" | "an" | "the") || have.contains(w))
+}
+
+/// Parses a report of a change with a language model under [`edit_schema`] (prompt
+/// `parse_edit@v1`): phrases the report does not contain are dropped, what the model left
+/// empty the rule parser fills when it reads the same kind of change, and the result must be
+/// whole (an object for remove, move and change; a place for move and add; a new description
+/// for change and add).
+///
+/// # Errors
+/// Empty text; the model fails; its answer is not a whole change.
+pub fn parse_edit_llm(model: &mut dyn ChatModel, text: &str) -> Result<EditRequest> {
+    if text.trim().is_empty() {
+        return Err(Error::Invalid("the change description is empty".into()));
+    }
+    let req = ChatRequest::new(vec![
+        Message::system(crate::prompts::PARSE_EDIT.text),
+        Message::user(format!("Report: {}", text.trim())),
+    ])
+    .with_schema(edit_schema())
+    .with_max_tokens(200);
+    let v = model
+        .chat(&req)?
+        .json
+        .ok_or_else(|| Error::LlmAnswer("no structured answer".into()))?;
+    let kind: EditKind = serde_json::from_value(v["kind"].clone())
+        .map_err(|e| Error::LlmAnswer(format!("not a kind of change: {e}")))?;
+    let keep = |k: &str| {
+        v[k].as_str()
+            .map(str::trim)
+            .filter(|p| grounded(p, text))
+            .map(str::to_string)
+    };
+    // a target that still carries the change ("the sedan is gone") is cut to the object
+    let object_only = |t: String| match parse_edit_rules(&t) {
+        Ok(EditRequest {
+            target: Some(inner),
+            ..
+        }) => inner,
+        _ => t.trim_end_matches(['.', '!', ',']).to_string(),
+    };
+    let mut r = EditRequest {
+        kind,
+        target: keep("target")
+            .filter(|_| kind != EditKind::Add)
+            .map(object_only),
+        place: match (keep("place_phrase"), v["place_relation"].as_str()) {
+            (Some(p), Some(rel)) if matches!(kind, EditKind::Move | EditKind::Add) => {
+                Some((rel.to_string(), p))
+            }
+            _ => None,
+        },
+        new_description: keep("new_description")
+            .filter(|_| matches!(kind, EditKind::Change | EditKind::Add)),
+        replaced: kind == EditKind::Change && v["replaced"].as_bool().unwrap_or(false),
+    };
+    if let Ok(rules) = parse_edit_rules(text)
+        && rules.kind == r.kind
+    {
+        r.target = r.target.or(rules.target);
+        r.place = r.place.or(rules.place);
+        r.new_description = r.new_description.or(rules.new_description);
+        r.replaced |= rules.replaced;
+    }
+    let whole = match r.kind {
+        EditKind::Remove => r.target.is_some(),
+        EditKind::Move => r.target.is_some() && r.place.is_some(),
+        EditKind::Change => r.target.is_some() && r.new_description.is_some(),
+        EditKind::Add => r.place.is_some() && r.new_description.is_some(),
+    };
+    if !whole {
+        return Err(Error::LlmAnswer(format!(
+            "the model's reading of {text:?} is not a whole change: {v}"
+        )));
+    }
+    if r.kind == EditKind::Add
+        && let Some(d) = &r.new_description
+        && !d.starts_with(['a', 'A'])
+    {
+        r.new_description = Some(format!("a {d}"));
+    }
+    Ok(r)
+}
+
 /// A caption with a changed attribute: a colour replaces the caption's colours, any other
 /// attribute goes before the head noun ("a brown bench, long" + "red" → "a red bench, long").
 pub fn recaption(caption: &str, attribute: &str) -> String {
@@ -327,6 +442,68 @@ mod tests {
         assert!(parse_edit_rules("   ").is_err());
         let e = parse_edit_rules("hello there").unwrap_err().to_string();
         assert!(e.contains("is gone"), "{e}");
+    }
+
+    #[test]
+    fn the_llm_parser_keeps_what_the_report_says() {
+        use crate::chat::scripted::{Reply, Scripted};
+        // a good answer
+        let mut m = Scripted::new(
+            "s",
+            vec![Reply::Text(
+                serde_json::to_string(
+                    &serde_json::json!({"kind": "remove", "new_description": null,
+                "place_phrase": null, "place_relation": null, "replaced": false,
+                "target": "the hedge behind the bakery"}),
+                )
+                .unwrap(),
+            )],
+        );
+        let r = parse_edit_llm(&mut m, "Sadly the hedge behind the bakery was ripped out").unwrap();
+        assert_eq!(r.kind, EditKind::Remove);
+        assert_eq!(r.target.as_deref(), Some("the hedge behind the bakery"));
+        // an invented target is dropped, and the rules fill it from the text
+        let mut m = Scripted::new(
+            "s",
+            vec![Reply::Text(
+                serde_json::to_string(
+                    &serde_json::json!({"kind": "remove", "new_description": null,
+                "place_phrase": null, "place_relation": null, "replaced": false,
+                "target": "the red car"}),
+                )
+                .unwrap(),
+            )],
+        );
+        let r = parse_edit_llm(&mut m, "the bench near the bus stop is gone").unwrap();
+        assert_eq!(r.target.as_deref(), Some("the bench near the bus stop"));
+        // a target that carries the change is cut to the object
+        let mut m = Scripted::new(
+            "s",
+            vec![Reply::Text(
+                serde_json::to_string(
+                    &serde_json::json!({"kind": "remove", "new_description": null,
+                "place_phrase": null, "place_relation": null, "replaced": false,
+                "target": "the sedan is gone."}),
+                )
+                .unwrap(),
+            )],
+        );
+        let r = parse_edit_llm(&mut m, "the blue sedan is gone.").unwrap();
+        assert_eq!(r.target.as_deref(), Some("the sedan"));
+        // an add without a place is not whole
+        let mut m = Scripted::new(
+            "s",
+            vec![Reply::Text(
+                serde_json::to_string(
+                    &serde_json::json!({"kind": "add", "new_description": "a bin",
+                "place_phrase": null, "place_relation": null, "replaced": false, "target": null}),
+                )
+                .unwrap(),
+            )],
+        );
+        assert!(parse_edit_llm(&mut m, "a bin appeared somewhere").is_err());
+        // the schema is valid JSON Schema
+        assert!(jsonschema::validator_for(&edit_schema()).is_ok());
     }
 
     #[test]

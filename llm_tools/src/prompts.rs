@@ -51,6 +51,14 @@ pub const PARSE_REQUEST: Prompt = Prompt {
     text: include_str!("../prompts/parse_request.v2.txt"),
 };
 
+/// Parses a report of a change to the map ("the bush under the street sign is gone") into
+/// `edit::EditRequest`'s form, with five worked examples in the grammar's key order.
+pub const PARSE_EDIT: Prompt = Prompt {
+    task: "parse_edit",
+    version: 1,
+    text: include_str!("../prompts/parse_edit.v1.txt"),
+};
+
 /// Picks the best candidates for a request from their captions and evidence (OpenGraph-LLM
 /// re-ranking).
 pub const RERANK: Prompt = Prompt {

@@ -153,6 +153,14 @@ impl Finder {
         Ok(self.scene.as_ref().expect("loaded"))
     }
 
+    /// The language model (for parsers outside `find`, such as map updates).
+    ///
+    /// # Errors
+    /// The finder was made without one.
+    pub fn chat_model(&mut self) -> Result<&mut dyn ChatModel> {
+        Ok(self.llm()?.as_mut())
+    }
+
     /// Sentence embeddings of `texts` with the map's embedder.
     ///
     /// # Errors

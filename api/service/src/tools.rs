@@ -541,6 +541,7 @@ impl Toolbox {
                     &crate::update::UpdateRequest {
                         text: s("text"),
                         apply: args["apply"].as_bool().unwrap_or(false),
+                        parser: ParserKind::Rules,
                     },
                 )?;
                 if a.applied.is_some() {

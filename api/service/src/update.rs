@@ -16,7 +16,7 @@ use serde::Serialize;
 use crate::find::{FindRequest, Finder, ParserKind, Ranking};
 use crate::tools::{ToolError, ToolResult};
 
-/// Who parses change descriptions, recorded with every edit.
+/// Who parses change descriptions with rules, recorded with every edit.
 pub const PARSED_BY: &str = "rules (edit_rules@v1)";
 
 /// Two candidates whose scores differ by less than this are too close to choose between.
@@ -32,6 +32,8 @@ pub struct UpdateRequest {
     pub text: String,
     /// Commit the proposed edit (otherwise only show it).
     pub apply: bool,
+    /// Who parses the description: rules, or the finder's language model (`parse_edit@v1`).
+    pub parser: ParserKind,
 }
 
 /// An object the change refers to, resolved.
@@ -201,8 +203,27 @@ fn class_for(finder: &mut Finder, caption: &str) -> ToolResult<String> {
 /// [`ToolError::NotFound`] when nothing matches; [`ToolError::Forbidden`]-free: the caller
 /// gates writes. The store is unchanged on every error and when the description is ambiguous.
 pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolResult<UpdateAnswer> {
-    let request =
-        parse_edit_rules(&req.text).map_err(|e| ToolError::BadArguments(e.to_string()))?;
+    let (request, parsed_by) = match req.parser {
+        ParserKind::Rules => (
+            parse_edit_rules(&req.text).map_err(|e| ToolError::BadArguments(e.to_string()))?,
+            PARSED_BY.to_string(),
+        ),
+        ParserKind::Llm => {
+            let model = finder
+                .chat_model()
+                .map_err(|e| ToolError::BadArguments(e.to_string()))?;
+            let by = format!(
+                "{} ({})",
+                model.model_id(),
+                llm_tools::prompts::PARSE_EDIT.id()
+            );
+            let r = llm_tools::edit::parse_edit_llm(model, &req.text).map_err(|e| match e {
+                llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
+                other => ToolError::Failed(other.to_string()),
+            })?;
+            (r, by)
+        }
+    };
     let r = store.read().map_err(failed)?;
     let frame =
         ingest::map_edit::ground_frame(&r).map_err(|e| ToolError::BadArguments(e.to_string()))?;
@@ -392,7 +413,7 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
     };
     Ok(UpdateAnswer {
         request,
-        parsed_by: PARSED_BY.into(),
+        parsed_by,
         target,
         anchor,
         proposal,

@@ -381,6 +381,11 @@ pub(crate) enum Command {
         /// List the recorded edits.
         #[arg(long, conflicts_with_all = ["text", "apply"])]
         list: bool,
+        /// Who reads the description: rules, or the language model (prompt parse_edit@v1).
+        #[arg(long, value_parser = ["rules", "llm"], default_value = "rules")]
+        parser: String,
+        #[command(flatten)]
+        llm: LlmArgs,
         /// Print JSON.
         #[arg(long)]
         json: bool,

@@ -175,10 +175,19 @@ pub(crate) fn open_toolbox(
     db: &std::path::Path,
     writes: bool,
 ) -> anyhow::Result<api::tools::Toolbox> {
+    open_toolbox_with(db, writes, None)
+}
+
+/// [`open_toolbox`] whose finder also holds the language model `llm` names.
+pub(crate) fn open_toolbox_with(
+    db: &std::path::Path,
+    writes: bool,
+    llm: Option<&LlmArgs>,
+) -> anyhow::Result<api::tools::Toolbox> {
     let store = open_store(db, writes)?;
     let finder = {
         let r = store.read()?;
-        finder_for(&r, None, false, &LlmArgs::default())?
+        finder_for(&r, None, llm.is_some(), llm.unwrap_or(&LlmArgs::default()))?
     };
     Ok(api::tools::Toolbox::new(store, finder, writes))
 }

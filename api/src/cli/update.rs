@@ -11,6 +11,8 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         apply,
         undo,
         list,
+        parser,
+        llm,
         json,
     } = cmd
     else {
@@ -37,7 +39,9 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         return Ok(());
     }
     let writes = apply || undo.is_some();
-    let mut tb = open_toolbox(&db, writes)?;
+    let parser = parser_of(&parser);
+    let with_llm = (parser == api::find::ParserKind::Llm).then_some(&llm);
+    let mut tb = open_toolbox_with(&db, writes, with_llm)?;
     let user = |e: api::tools::ToolError| -> anyhow::Error {
         if e.exit_code() == 2 {
             UsageError(e.to_string()).into()
@@ -60,24 +64,20 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         return Ok(());
     }
     let text = text.unwrap_or_default();
-    let a = if writes {
-        tb.call(
-            "update_map",
-            &serde_json::json!({"text": text, "apply": true}),
+    // a proposal needs no write access: the store is read-only then
+    let (finder, store) = tb.parts();
+    let a = serde_json::to_value(
+        api::update::update(
+            finder,
+            store,
+            &api::update::UpdateRequest {
+                text,
+                apply,
+                parser,
+            },
         )
-        .map_err(user)?
-    } else {
-        // a proposal needs no write access: run the operation on the read-only store
-        let (finder, store) = tb.parts();
-        serde_json::to_value(
-            api::update::update(
-                finder,
-                store,
-                &api::update::UpdateRequest { text, apply: false },
-            )
-            .map_err(user)?,
-        )?
-    };
+        .map_err(user)?,
+    )?;
     if json {
         outln!("{}", serde_json::to_string_pretty(&a)?);
     } else {
