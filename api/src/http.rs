@@ -111,6 +111,8 @@ enum Op {
     Script,
     /// What the viewer draws.
     View,
+    /// The whole map exported (`{format}`: node-link or graphml).
+    Export,
 }
 
 /// One route: method, path, operation, summary.
@@ -242,6 +244,12 @@ fn routes() -> Vec<Route> {
         ),
         r(
             Get,
+            "/api/export/{format}",
+            Op::Export,
+            "The whole map: node-link (networkx JSON) or graphml.",
+        ),
+        r(
+            Get,
             "/api/instances/{id}/points",
             Op::Points,
             "One instance's points: little-endian float32 x y z per point (world frame, metres).",
@@ -355,6 +363,13 @@ async fn handle(
                 .into_response();
         }
         Op::View => svc.view().await,
+        Op::Export => {
+            let format = params.get("format").cloned().unwrap_or_default();
+            return match svc.export(&format).await {
+                Ok((ct, bytes)) => ([(header::CONTENT_TYPE, ct)], bytes).into_response(),
+                Err(e) => error_response(&e),
+            };
+        }
         Op::Info => svc.info().await,
         Op::Tools => {
             serde_json::to_value(svc.tools()).map_err(|e| ToolError::Failed(e.to_string()))
@@ -484,6 +499,19 @@ pub fn openapi(service: &Service) -> JsonValue {
                     )),
             );
         }
+        if route.path.contains("{format}") {
+            op = op.parameter(
+                ParameterBuilder::new()
+                    .name("format")
+                    .parameter_in(ParameterIn::Path)
+                    .required(Required::True)
+                    .schema(Some(
+                        ObjectBuilder::new()
+                            .schema_type(Type::String)
+                            .enum_values(Some(["node-link", "graphml"])),
+                    )),
+            );
+        }
         if route.path.contains("{name}") {
             op = op.parameter(
                 ParameterBuilder::new()
@@ -505,6 +533,11 @@ pub fn openapi(service: &Service) -> JsonValue {
             (Op::Script, _) => ResponseBuilder::new()
                 .description("The viewer's JavaScript.")
                 .content("text/javascript", ContentBuilder::new().build())
+                .build(),
+            (Op::Export, _) => ResponseBuilder::new()
+                .description("The map in the asked format.")
+                .content("application/json", ContentBuilder::new().build())
+                .content("application/graphml+xml", ContentBuilder::new().build())
                 .build(),
             (Op::Points, _) => ResponseBuilder::new()
                 .description("Little-endian float32 x y z per point (12 bytes, world frame, metres); X-Point-Count gives the count.")

@@ -202,7 +202,8 @@ fn every_route_answers_as_its_openapi_document_says() {
         let p = path
             .replace("/segments/{id}", &format!("/segments/{seg}"))
             .replace("{id}", &inst.to_string())
-            .replace("{name}", "get_schema");
+            .replace("{name}", "get_schema")
+            .replace("{format}", "graphml");
         let body = match (method, path) {
             ("post", "/api/tools/{name}") => Some(json!({})),
             ("post", "/api/cypher") => {
@@ -251,6 +252,19 @@ fn every_route_answers_as_its_openapi_document_says() {
                 assert!(ct.starts_with("application/json"), "{what}: {ct}");
                 let v: Value = serde_json::from_slice(&bytes).unwrap();
                 assert_valid(&doc, schema, &v, &what);
+            } else if path == "/api/export/{format}" {
+                assert_eq!(ct, "application/graphml+xml", "{what}");
+                let text = String::from_utf8(bytes).unwrap();
+                assert!(
+                    text.starts_with("<?xml") && text.contains("<graphml"),
+                    "{what}"
+                );
+                // the other format, and a bad one
+                let (st, v) = get(&format!("{}/api/export/node-link", srv.url));
+                assert_eq!(st, 200);
+                assert!(!v["nodes"].as_array().unwrap().is_empty());
+                let (st, v) = get(&format!("{}/api/export/csv", srv.url));
+                assert_eq!(st, 400, "{v}");
             } else if let Some(kind) = ["text/html", "text/javascript"]
                 .into_iter()
                 .find(|k| ok.get(*k).is_some())
@@ -282,7 +296,7 @@ fn every_route_answers_as_its_openapi_document_says() {
             seen += 1;
         }
     }
-    assert_eq!(seen, 20, "every route is documented and was exercised");
+    assert_eq!(seen, 21, "every route is documented and was exercised");
 
     // the points are the instance's: inside its bounding box (1 cm for the store's rounding)
     let (_, _, bytes) = request(

@@ -118,6 +118,39 @@ impl Service {
         .await
     }
 
+    /// The whole map exported (`node-link` JSON or `graphml`), as bytes, with its content type.
+    ///
+    /// # Errors
+    /// [`ToolError::BadArguments`] for another format; the store fails.
+    pub async fn export(self: &Arc<Self>, format: &str) -> ToolResult<(&'static str, Vec<u8>)> {
+        let (fmt, ct) = match format {
+            "node-link" => (
+                graphstore::export::ExportFormat::NodeLink,
+                "application/json",
+            ),
+            "graphml" => (
+                graphstore::export::ExportFormat::GraphMl,
+                "application/graphml+xml",
+            ),
+            other => {
+                return Err(ToolError::BadArguments(format!(
+                    "no export format {other:?}; the formats are node-link and graphml"
+                )));
+            }
+        };
+        self.run(move |tb| {
+            let r = tb
+                .store()
+                .read()
+                .map_err(|e| ToolError::Failed(e.to_string()))?;
+            let mut out = Vec::new();
+            graphstore::export::export(&r, fmt, &mut out)
+                .map_err(|e| ToolError::Failed(e.to_string()))?;
+            Ok((ct, out))
+        })
+        .await
+    }
+
     /// What the web viewer draws ([`crate::view::view`]).
     ///
     /// # Errors
