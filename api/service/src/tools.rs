@@ -782,7 +782,7 @@ mod tests {
 
     /// The whole tool surface (names, descriptions, schemas) is pinned by a snapshot: a change
     /// to it is a change to every agent's interface and shows in review. Refresh with
-    /// `UPDATE_SNAPSHOTS=1 cargo test -p api --lib`.
+    /// `UPDATE_SNAPSHOTS=1 cargo test -p opengraph-service --lib`.
     #[test]
     fn the_tool_surface_is_pinned() {
         let path =
@@ -795,7 +795,7 @@ mod tests {
         let pinned = std::fs::read_to_string(&path).unwrap_or_default();
         assert_eq!(
             pinned, now,
-            "the tool surface changed; review it and run UPDATE_SNAPSHOTS=1 cargo test -p api --lib"
+            "the tool surface changed; review it and run UPDATE_SNAPSHOTS=1 cargo test -p opengraph-service --lib"
         );
     }
 

@@ -461,8 +461,8 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 30.0, value_parser = in_range(0.001, 86400.0), allow_hyphen_values = true)]
         timeout_secs: f64,
         /// Fail when the result has more rows than this (add LIMIT).
-        #[arg(long, default_value_t = 100_000)]
-        max_rows: usize,
+        #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..))]
+        max_rows: u64,
         /// The statement; `EXPLAIN <statement>` prints its plan.
         cypher: String,
     },

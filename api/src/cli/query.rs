@@ -27,7 +27,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let opts = graphstore::cypher::QueryOptions {
         params: params.into_iter().collect(),
         timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
-        row_limit: Some(max_rows),
+        row_limit: Some(usize::try_from(max_rows).unwrap_or(usize::MAX)),
         read_only,
         ..graphstore::cypher::QueryOptions::default()
     };
