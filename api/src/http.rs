@@ -291,15 +291,21 @@ impl IntoResponse for HttpError {
 }
 
 /// The JSON object in a request body; an empty body is `{}`.
-fn parse_args(body: Result<Bytes, BytesRejection>) -> Result<JsonValue, HttpError> {
+fn parse_args(
+    body: Result<Bytes, BytesRejection>,
+    limit_bytes: usize,
+) -> Result<JsonValue, HttpError> {
     let bytes = body.map_err(|rej| {
         let status = rej.status();
-        let code = if status == StatusCode::PAYLOAD_TOO_LARGE {
-            "payload_too_large"
+        if status == StatusCode::PAYLOAD_TOO_LARGE {
+            HttpError(
+                status,
+                "payload_too_large",
+                format!("the body is over this server's limit of {limit_bytes} bytes (--body-limit-bytes)"),
+            )
         } else {
-            "bad_request"
-        };
-        HttpError(status, code, rej.body_text())
+            HttpError(status, "bad_request", rej.body_text())
+        }
     })?;
     if bytes.iter().all(u8::is_ascii_whitespace) {
         return Ok(json!({}));
@@ -375,7 +381,7 @@ async fn handle(
             serde_json::to_value(svc.tools()).map_err(|e| ToolError::Failed(e.to_string()))
         }
         Op::CallTool => {
-            let args = match parse_args(body) {
+            let args = match parse_args(body, state.body_limit_bytes) {
                 Ok(a) => a,
                 Err(r) => return r.into_response(),
             };
@@ -383,7 +389,7 @@ async fn handle(
             svc.call(&name, args, may_write).await
         }
         Op::Tool(name) => {
-            let args = match parse_args(body) {
+            let args = match parse_args(body, state.body_limit_bytes) {
                 Ok(a) => a,
                 Err(r) => return r.into_response(),
             };

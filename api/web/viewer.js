@@ -346,7 +346,8 @@ async function main() {
   const params = new URLSearchParams(location.search);
   if (params.get("q")) {
     qEl.value = params.get("q");
-    if (params.get("mode")) modeEl.value = params.get("mode");
+    const mode = params.get("mode");
+    if (mode && ["find", "locate", "route"].includes(mode)) modeEl.value = mode;
     await run();
   }
 }

@@ -294,8 +294,12 @@ pub struct GraphFound {
     pub class: String,
     /// The combined score (see the module docs).
     pub score: f64,
-    /// The target gate (times the attribute factor).
+    /// The target gate (times the attribute factor): relative to the best candidate, so the
+    /// best has about 1 even when nothing matches well; see `cosine` for that.
     pub similarity: f64,
+    /// The raw cosine of the target phrase with this instance's feature (colour-checked): low
+    /// for every result when the map holds nothing like the request.
+    pub cosine: f64,
     /// Centroid, world frame.
     pub centroid: [f64; 3],
     /// Its segment: node id and kind.
@@ -574,6 +578,7 @@ pub fn find_graph(
             // the raw cosine orders results the gate and support leave tied
             score: s_t * (1.0 + mean_support) * seg + opts.cosine_weight * cos_t / t_best.max(1e-9),
             similarity: s_t,
+            cosine: (cos_t * 1000.0).round() / 1000.0,
             centroid: t.centroid,
             segment: t.segment.clone(),
             segment_match,

@@ -153,6 +153,18 @@ impl Finder {
         Ok(self.scene.as_ref().expect("loaded"))
     }
 
+    /// The cosine below which a best match is no match (the map holds nothing like the
+    /// request): measured on the default small city, MiniLM gives 0.21–0.34 for nonsense
+    /// ("xyzzy qwerty", "a purple elephant", "a dead end") and 0.50–0.81 for things the map
+    /// holds; the hash embedder's bag-of-words cosines are lower for paraphrases.
+    pub fn weak_match_cosine(&self) -> f64 {
+        if self.embedder.name() == "hash" {
+            0.2
+        } else {
+            0.4
+        }
+    }
+
     /// The language model (for parsers outside `find`, such as map updates).
     ///
     /// # Errors
@@ -180,6 +192,14 @@ impl Finder {
     /// The store fails or has no ground frame.
     pub fn segments(&mut self, r: &impl GraphRead) -> Result<&[SegmentInfo]> {
         Ok(&self.scene(r)?.segments)
+    }
+
+    /// The map's instances as the finder sees them (loading the scene if needed).
+    ///
+    /// # Errors
+    /// The store fails or has no ground frame.
+    pub fn objects(&mut self, r: &impl GraphRead) -> Result<&[llm_tools::graph_find::SceneObject]> {
+        Ok(&self.scene(r)?.objects)
     }
 
     /// Ranks the map's segments for a description of the surroundings.
@@ -243,6 +263,14 @@ impl Finder {
     /// (graph-aware ranking), or a language model that fails.
     pub fn find(&mut self, r: &impl GraphRead, req: &FindRequest) -> Result<FindAnswer> {
         check_text(&req.text, "query")?;
+        if let Some(c) = &req.class
+            && !ingest::classes::CLASSES.contains(&c.as_str())
+        {
+            return Err(llm_tools::Error::Invalid(format!(
+                "class {c:?} is not one of the 19 SemanticKITTI classes a map's instances carry: {}",
+                ingest::classes::CLASSES.join(", ")
+            )));
+        }
         self.check_embedder(r)?;
         let (parser, rerank) = match req.ranking {
             Ranking::Plain => {
@@ -260,6 +288,7 @@ impl Finder {
                         class: h.class,
                         score: h.score,
                         similarity: h.score,
+                        cosine: h.score,
                         centroid: h.centroid,
                         segment: None,
                         segment_match: None,

@@ -194,6 +194,13 @@ pub fn resolve_end(
         a.results.into_iter().next().ok_or_else(|| {
             llm_tools::Error::Invalid(format!("nothing in the map matches {text:?}"))
         })?;
+    let weak = finder.weak_match_cosine();
+    if best.cosine < weak {
+        return Err(llm_tools::Error::Invalid(format!(
+            "nothing in the map matches {text:?} well: the closest is instance {} (\"{}\", cosine {:.2} < {weak})",
+            best.id, best.caption, best.cosine
+        )));
+    }
     Ok((
         Spec::Instance(best.id),
         Resolved::Find {

@@ -212,7 +212,8 @@ pub fn tools(writes: bool) -> Vec<Tool> {
             description: "Plan a route between two ends, each in words ('the bus stop by the crossroads', 'the T-junction') or as a spec (lane:ID, segment:ID, instance:ID, node:ID, or 'x,z' ground coordinates). Returns both ends with how they were resolved, the lane-graph route and its length.",
             input_schema: json!({"type": "object", "properties": {
                 "from": text("where to start"),
-                "to": text("where to go")},
+                "to": text("where to go"),
+                "poses": {"type": "boolean", "default": false, "description": "include the planned path's poses [x, z, heading] (for a robot; long)"}},
                 "required": ["from", "to"], "additionalProperties": false}),
             writes: false,
             output_schema: Json::Null,
@@ -277,10 +278,12 @@ fn output_schema(name: &str) -> Json {
     let xyz = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
     let xy = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
     let found = obj(
-        json!({"id": id, "caption": s, "class": s, "score": num, "similarity": num,
+        json!({"id": id, "caption": s, "class": s, "score": num, "similarity": num, "cosine": num,
                "centroid": xyz, "segment": {"type": ["array", "null"]},
                "evidence": arr(json!({"type": "object"}))}),
-        &["id", "caption", "class", "score", "centroid", "evidence"],
+        &[
+            "id", "caption", "class", "score", "cosine", "centroid", "evidence",
+        ],
     );
     let located = obj(
         json!({"segment": id, "kind": s, "score": num, "position": xy,
@@ -339,11 +342,18 @@ fn output_schema(name: &str) -> Json {
             )
         }
         "update_map" => obj(
-            json!({"request": {"type": "object"}, "parsed_by": s, "proposal": s, "ambiguous": {"type": "boolean"},
+            json!({"request": {"type": "object"}, "parsed_by": s, "proposal": s, "ambiguous": {"type": "boolean"}, "no_match": {"type": "boolean"},
                    "target": {"type": ["object", "null"]}, "anchor": {"type": ["object", "null"]},
                    "position": {"type": ["array", "null"]}, "caption": s_or_null,
                    "applied": {"anyOf": [{"type": "null"}, obj(json!({"edit_id": id, "kind": s}), &["edit_id", "kind"])]}}),
-            &["request", "parsed_by", "proposal", "ambiguous", "applied"],
+            &[
+                "request",
+                "parsed_by",
+                "proposal",
+                "ambiguous",
+                "no_match",
+                "applied",
+            ],
         ),
         "undo_map_edit" => obj(
             json!({"edit_id": id, "text": s, "kind": s, "undone": {"const": true}, "summary": {"type": "object"}}),
@@ -379,6 +389,15 @@ fn failed(e: impl std::fmt::Display) -> ToolError {
     ToolError::Failed(e.to_string())
 }
 
+/// A find or locate error: the caller's input (empty text, an unknown class, a map built with
+/// another embedder) or a failure of ours.
+fn find_error(e: llm_tools::Error) -> ToolError {
+    match e {
+        llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
+        other => ToolError::Failed(other.to_string()),
+    }
+}
+
 /// Validates tool arguments against a schema with `jsonschema`; the message names each
 /// offending place (`/k: 0 is less than the minimum of 1`).
 fn check_args(args: &Json, schema: &Json) -> ToolResult<()> {
@@ -388,7 +407,17 @@ fn check_args(args: &Json, schema: &Json) -> ToolResult<()> {
         .iter_errors(args)
         .map(|e| {
             let at = e.instance_path().to_string();
-            format!("{}: {e}", if at.is_empty() { "arguments" } else { &at })
+            // the message quotes the value: a huge value must not come back whole
+            let mut msg = e.to_string();
+            if msg.len() > 300 {
+                let mut cut = 300;
+                while !msg.is_char_boundary(cut) {
+                    cut -= 1;
+                }
+                msg.truncate(cut);
+                msg.push('…');
+            }
+            format!("{}: {msg}", if at.is_empty() { "arguments" } else { &at })
         })
         .collect();
     if errors.is_empty() {
@@ -494,7 +523,7 @@ impl Toolbox {
                             rerank_n: 10,
                         },
                     )
-                    .map_err(failed)?;
+                    .map_err(find_error)?;
                 Ok(json!({"request": a.request, "results": a.results}))
             }
             "locate" => {
@@ -509,7 +538,7 @@ impl Toolbox {
                             parser: ParserKind::Rules,
                         },
                     )
-                    .map_err(failed)?;
+                    .map_err(find_error)?;
                 serde_json::to_value(a).map_err(failed)
             }
             "plan_route" => {
@@ -531,7 +560,9 @@ impl Toolbox {
                 };
                 let mut plan = crate::plan::plan(&r, &a, &b, &opts).map_err(|e| bad(&e))?;
                 // the poses are for a robot; an agent needs the route
-                plan.path.poses.clear();
+                if args["poses"] != json!(true) {
+                    plan.path.poses.clear();
+                }
                 serde_json::to_value(NavigateAnswer { start, goal, plan }).map_err(failed)
             }
             "update_map" => {
@@ -572,11 +603,13 @@ impl Toolbox {
             .iter()
             .map(|p| format!("property {}.{}", p.label, p.key))
             .collect();
-        indexes.extend(
-            s.spatial_indexes
-                .iter()
-                .map(|x| format!("spatial {} ({}.{})", x.name, x.label, x.position_key)),
-        );
+        indexes.extend(s.spatial_indexes.iter().map(|x| match &x.box_key {
+            Some(b) => format!(
+                "spatial {} ({}.{b}, else {})",
+                x.name, x.label, x.position_key
+            ),
+            None => format!("spatial {} ({}.{})", x.name, x.label, x.position_key),
+        }));
         indexes.extend(
             s.vector_indexes
                 .iter()

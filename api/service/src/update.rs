@@ -45,6 +45,8 @@ pub struct Resolved {
     pub candidates: Vec<GraphFound>,
     /// Whether the best two are too close to choose.
     pub ambiguous: bool,
+    /// Whether even the best is a weak match (the map holds nothing like the phrase).
+    pub weak: bool,
 }
 
 /// The answer: what was understood, the proposed edit, and what was applied.
@@ -62,6 +64,9 @@ pub struct UpdateAnswer {
     pub proposal: String,
     /// Whether the description is ambiguous (nothing is changed then).
     pub ambiguous: bool,
+    /// Whether the map holds nothing that matches the description well (nothing is changed
+    /// then either).
+    pub no_match: bool,
     /// The new ground position (move, add), metres in the map's ground frame.
     pub position: Option<[f64; 2]>,
     /// The new caption (change, add).
@@ -94,10 +99,12 @@ fn resolve(finder: &mut Finder, r: &impl GraphRead, phrase: &str) -> ToolResult<
     }
     let ambiguous =
         a.results.len() > 1 && a.results[0].score - a.results[1].score < AMBIGUITY_MARGIN;
+    let weak = a.results[0].cosine < finder.weak_match_cosine();
     Ok(Resolved {
         phrase: phrase.to_string(),
         candidates: a.results.into_iter().take(3).collect(),
         ambiguous,
+        weak,
     })
 }
 
@@ -177,6 +184,35 @@ fn place(anchor: ([f64; 2], [f64; 2]), relation: &str, half_m: f64, dir: [f64; 2
     [c[0] + dir[0] * d, c[1] + dir[1] * d]
 }
 
+/// Moves `pos` further along `dir` in 0.3 m steps (6 m at most) until a square of half-side
+/// `half_m` around it overlaps no object's footprint (ground surfaces and `exclude` aside), so an
+/// edit never puts one box inside another.
+fn clear_spot(
+    mut pos: [f64; 2],
+    half_m: f64,
+    dir: [f64; 2],
+    objects: &[llm_tools::graph_find::SceneObject],
+    exclude: Option<u64>,
+) -> [f64; 2] {
+    let overlaps = |p: [f64; 2]| {
+        objects.iter().any(|o| {
+            !o.surface
+                && Some(o.id) != exclude
+                && p[0] - half_m < o.ground_max[0]
+                && p[0] + half_m > o.ground_min[0]
+                && p[1] - half_m < o.ground_max[1]
+                && p[1] + half_m > o.ground_min[1]
+        })
+    };
+    for _ in 0..20 {
+        if !overlaps(pos) {
+            break;
+        }
+        pos = [pos[0] + dir[0] * 0.3, pos[1] + dir[1] * 0.3];
+    }
+    pos
+}
+
 /// The SemanticKITTI class whose prompts are nearest to `caption` (as the build assigns).
 fn class_for(finder: &mut Finder, caption: &str) -> ToolResult<String> {
     let prompts = ingest::classes::prompts();
@@ -235,8 +271,11 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
         Some((_, a)) => Some(resolve(finder, &r, a)?),
         None => None,
     };
-    let ambiguous = target.as_ref().is_some_and(|t| t.ambiguous)
-        || anchor.as_ref().is_some_and(|a| a.ambiguous);
+    let no_match =
+        target.as_ref().is_some_and(|t| t.weak) || anchor.as_ref().is_some_and(|a| a.weak);
+    let ambiguous = !no_match
+        && (target.as_ref().is_some_and(|t| t.ambiguous)
+            || anchor.as_ref().is_some_and(|a| a.ambiguous));
     let best = |x: &Option<Resolved>| x.as_ref().map(|x| x.candidates[0].clone());
     let (t, a) = (best(&target), best(&anchor));
     let segments = finder.segments(&r).map_err(failed)?.to_vec();
@@ -275,6 +314,12 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
             ];
             let dir = toward_road(ac, &segments);
             let to = place((amin_max.0, amin_max.1), &relation, half, dir);
+            let objects = finder.objects(&r).map_err(failed)?;
+            let to = if matches!(relation.as_str(), "on" | "under") {
+                to
+            } else {
+                clear_spot(to, half, dir, objects, Some(t.id))
+            };
             position = Some(to);
             (
                 Change::Move {
@@ -340,6 +385,12 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
             let ac = [(amin[0] + amax[0]) / 2.0, (amin[1] + amax[1]) / 2.0];
             let dir = toward_road(ac, &segments);
             let to = place((amin, amax), &relation, ADDED_SIZE_M[0] / 2.0, dir);
+            let objects = finder.objects(&r).map_err(failed)?;
+            let to = if matches!(relation.as_str(), "on" | "under") {
+                to
+            } else {
+                clear_spot(to, ADDED_SIZE_M[0] / 2.0, dir, objects, None)
+            };
             let base = if relation == "on" { atop } else { abase };
             let feature = finder
                 .embed(&[new_caption.as_str()])
@@ -375,7 +426,24 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
         }
     };
     drop(r);
-    let proposal = if ambiguous {
+    let proposal = if no_match {
+        let which = [&target, &anchor]
+            .into_iter()
+            .flatten()
+            .filter(|x| x.weak)
+            .map(|x| {
+                let c = &x.candidates[0];
+                format!(
+                    "for {:?} the best candidate is {} \"{}\" (cosine {:.2})",
+                    x.phrase, c.id, c.caption, c.cosine
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ");
+        format!(
+            "no good match, nothing changed: {which}; the map may not hold it, or say it differently"
+        )
+    } else if ambiguous {
         let which = |x: &Option<Resolved>| {
             x.as_ref().filter(|x| x.ambiguous).map(|x| {
                 format!(
@@ -400,7 +468,7 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
     } else {
         proposal
     };
-    let applied = if req.apply && !ambiguous {
+    let applied = if req.apply && !ambiguous && !no_match {
         let a =
             ingest::map_edit::apply(store, &change, &req.text, PARSED_BY).map_err(|e| match e {
                 ingest::Error::Invalid(m) => ToolError::BadArguments(m),
@@ -418,6 +486,7 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
         anchor,
         proposal,
         ambiguous,
+        no_match,
         position,
         caption,
         applied,
@@ -434,6 +503,12 @@ pub fn undo(
     store: &Store,
     edit_id: u64,
 ) -> ToolResult<ingest::map_edit::EditInfo> {
+    {
+        let r = store.read().map_err(failed)?;
+        if r.node(edit_id).map_err(failed)?.is_none() {
+            return Err(ToolError::NotFound(format!("no map edit {edit_id}")));
+        }
+    }
     let info = ingest::map_edit::undo(store, edit_id).map_err(|e| match e {
         ingest::Error::Invalid(m) => ToolError::BadArguments(m),
         other => ToolError::Failed(other.to_string()),

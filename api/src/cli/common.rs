@@ -134,16 +134,39 @@ pub(crate) fn open_store(
     };
     match opened {
         Err(e @ graphstore::Error::InUse { .. }) => {
-            let served = std::fs::read_to_string(serving_marker(db))
+            // a marker left by a killed server (its process is gone) says nothing
+            let note = std::fs::read_to_string(serving_marker(db))
                 .ok()
                 .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+                .filter(|v| {
+                    v["pid"].as_u64().is_none_or(|pid| {
+                        !cfg!(target_os = "linux")
+                            || std::path::Path::new(&format!("/proc/{pid}")).exists()
+                    })
+                });
+            let served = note
+                .as_ref()
                 .and_then(|v| v["url"].as_str().map(str::to_string));
+            let server_writes = note.as_ref().is_some_and(|v| v["writes"] == true);
             match served {
-                Some(url) => Err(anyhow::Error::new(e).context(format!(
-                    "opening {}: `opengraph serve` holds it; reach the map through the server at {url} \
-                     (POST {url}api/cypher with {{\"query\": ...}}, the routes are in {url}openapi.json, MCP at {url}mcp)",
-                    db.display()
-                ))),
+                Some(url) if !server_writes => {
+                    drop(e);
+                    Err(UsageError(format!(
+                        "cannot open {} for writing: a read-only `opengraph serve` holds it ({url}); \
+                         stop it, or serve with --token-file and write through it (POST {url}api/update, {url}api/cypher/write)",
+                        db.display()
+                    ))
+                    .into())
+                }
+                Some(url) => {
+                    drop(e);
+                    Err(UsageError(format!(
+                        "cannot open {}: `opengraph serve` holds it for writing; reach the map through the server at {url} \
+                         (POST {url}api/cypher with {{\"query\": ...}}, the routes are in {url}openapi.json, MCP at {url}mcp)",
+                        db.display()
+                    ))
+                    .into())
+                }
                 None => Err(anyhow::Error::new(e).context(format!("opening {}", db.display()))),
             }
         }
@@ -151,8 +174,8 @@ pub(crate) fn open_store(
     }
 }
 
-/// The file a writing server leaves beside the map (`MAP.serving.json`: url, pid) while it
-/// holds it, so that other commands can say where to reach it.
+/// The file a server leaves beside the map (`MAP.serving.json`: url, pid, whether it writes)
+/// while it holds it, so that other commands can say where to reach it.
 pub(crate) fn serving_marker(db: &std::path::Path) -> PathBuf {
     let mut name = db.file_name().unwrap_or_default().to_os_string();
     name.push(".serving.json");

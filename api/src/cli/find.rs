@@ -24,15 +24,6 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let ranking = rank.ranking();
     let rerank_n = rank.rerank_n;
     let mut finder = finder_for(&r, embedder, needs_llm(ranking), &llm)?;
-    if let Some(c) = &class
-        && !ingest::classes::CLASSES.contains(&c.as_str())
-    {
-        return Err(UsageError(format!(
-            "--class {c:?} is not one of the 19 SemanticKITTI classes a map's instances carry: {}",
-            ingest::classes::CLASSES.join(", ")
-        ))
-        .into());
-    }
     let req = api::find::FindRequest {
         text,
         k: k as usize,

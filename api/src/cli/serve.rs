@@ -93,10 +93,11 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .map_err(|e| UsageError(format!("cannot listen on {}: {e}", opts.bind)))?;
         let addr = listener.local_addr()?;
         let app = api::http::router(service, &opts);
-        // a writing server holds the file's lock: leave a note where to reach it
-        let marker = writes.then(|| serving_marker(&a.db));
+        // leave a note where to reach the server: a writer's lock keeps every other process
+        // out, a read-only server's keeps writers out
+        let marker = Some(serving_marker(&a.db));
         if let Some(m) = &marker {
-            let note = serde_json::json!({"url": format!("http://{addr}/"), "pid": std::process::id()});
+            let note = serde_json::json!({"url": format!("http://{addr}/"), "pid": std::process::id(), "writes": writes});
             if let Err(e) = std::fs::write(m, note.to_string()) {
                 errln!("note: could not write {}: {e}", m.display());
             }

@@ -105,6 +105,12 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
             None => outln!("not applied (add --apply to commit it)"),
         }
     }
+    if apply && a["no_match"] == true {
+        return Err(UsageError(
+            "nothing in the map matches the description well; nothing was changed".into(),
+        )
+        .into());
+    }
     if apply && a["ambiguous"] == true {
         return Err(
             UsageError("the description fits several objects; nothing was changed".into()).into(),

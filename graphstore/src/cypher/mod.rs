@@ -128,7 +128,10 @@ impl QueryError {
 
 impl std::fmt::Display for QueryError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} ({})", self.kind.name(), self.code)?;
+        write!(f, "{}", self.kind.name())?;
+        if self.code != self.kind.name() {
+            write!(f, " ({})", self.code)?;
+        }
         if let Some(p) = self.pos {
             write!(f, " at line {}, column {}", p.line, p.col)?;
         }
