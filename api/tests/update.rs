@@ -192,6 +192,40 @@ fn change_add_and_move_then_undo_in_reverse() {
             .any(|l| l["t"] == "RELATED" && l["m"].as_u64() == Some(id)),
         "{links}"
     );
+    // its box overlaps no other object's footprint (ground x, z)
+    let boxes = read_query(
+        &db,
+        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+         RETURN id(i) AS id, i.bbox AS b",
+    );
+    let ground = |b: &serde_json::Value| {
+        let (lo, hi) = (&b[0], &b[1]);
+        [
+            lo["x"].as_f64().unwrap(),
+            lo["z"].as_f64().unwrap(),
+            hi["x"].as_f64().unwrap(),
+            hi["z"].as_f64().unwrap(),
+        ]
+    };
+    let mine = boxes
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["id"].as_u64() == Some(new))
+        .map(|r| ground(&r["b"]))
+        .unwrap();
+    for r in boxes.as_array().unwrap() {
+        if r["id"].as_u64() == Some(new) {
+            continue;
+        }
+        let o = ground(&r["b"]);
+        let overlap = mine[0] < o[2] && mine[2] > o[0] && mine[1] < o[3] && mine[3] > o[1];
+        assert!(
+            !overlap,
+            "the new box {mine:?} overlaps instance {} {o:?}",
+            r["id"]
+        );
+    }
     let f = json(&og(&[
         "find",
         "--db",
@@ -364,5 +398,57 @@ fn the_llm_parser_records_its_model_and_prompt() {
         std::fs::read(&db).unwrap(),
         bytes,
         "a proposal wrote to the map"
+    );
+}
+
+/// With MiniLM (the default embedder; fetched by scripts/setup.sh), words the map holds nothing
+/// like are no match: `update` changes nothing and `navigate` refuses to route to them.
+#[test]
+fn weak_matches_change_nothing() {
+    let minilm = llm_tools::embed::default_models_dir().join("all-MiniLM-L6-v2.int8.onnx");
+    if !minilm.exists() {
+        eprintln!(
+            "skipping: {} not found (run scripts/setup.sh)",
+            minilm.display()
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (_, db) = sim_map(dir.path(), &["--seed", "3", "--frames", "24"], &[]);
+    let before = snapshot(&db);
+    // words the map holds nothing like: no match, nothing changed; a route to them is refused
+    let out = og(&[
+        "update",
+        "--db",
+        s(&db),
+        "the purple elephant is gone",
+        "--apply",
+        "--json",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let p: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(p["no_match"], true, "{p}");
+    assert!(p["applied"].is_null());
+    assert!(
+        p["proposal"].as_str().unwrap().starts_with("no good match"),
+        "{p}"
+    );
+    assert_eq!(snapshot(&db), before);
+    let out = og(&[
+        "navigate",
+        "--db",
+        s(&db),
+        "from the T-junction to the purple elephant",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("well"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
 }

@@ -156,10 +156,11 @@ impl Finder {
     /// The cosine below which a best match is no match (the map holds nothing like the
     /// request): measured on the default small city, MiniLM gives 0.21–0.34 for nonsense
     /// ("xyzzy qwerty", "a purple elephant", "a dead end") and 0.50–0.81 for things the map
-    /// holds; the hash embedder's bag-of-words cosines are lower for paraphrases.
+    /// holds. The hash embedder (for tests) has no such level: nonsense sharing "the" scores
+    /// 0.26 and a real request 0.21, so it gets 0 (no guard).
     pub fn weak_match_cosine(&self) -> f64 {
         if self.embedder.name() == "hash" {
-            0.2
+            0.0
         } else {
             0.4
         }
