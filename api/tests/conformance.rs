@@ -23,8 +23,13 @@ impl Drop for Server {
 }
 
 fn serve(db: &Path) -> Server {
+    serve_with(db, &[])
+}
+
+fn serve_with(db: &Path, extra: &[&str]) -> Server {
     let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
         .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0"])
+        .args(extra)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -208,4 +213,164 @@ fn cli_http_and_mcp_give_the_same_answers() {
         }
     }
     assert_eq!(refusals, 4);
+}
+
+/// Runs the Python MCP client over HTTP with these calls; one answer per call.
+fn mcp_calls(py: &Path, url: &str, calls: &[(&str, Value)], token: Option<&str>) -> Vec<Value> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/mcp_calls.py");
+    let list: Vec<Value> = calls.iter().map(|(n, a)| json!([n, a])).collect();
+    let mut cmd = Command::new(py);
+    cmd.arg(&script)
+        .arg(url)
+        .arg(Value::Array(list).to_string());
+    if let Some(t) = token {
+        cmd.args(["--token", t]);
+    }
+    let child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    let out = rx
+        .recv_timeout(Duration::from_secs(300))
+        .expect("the MCP client finished within 300 s")
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .last()
+            .unwrap_or_default(),
+    )
+    .unwrap()
+}
+
+/// Drops the wall-clock fields of write answers.
+fn no_clock(mut v: Value) -> Value {
+    if let Some(o) = v.as_object_mut() {
+        o.remove("time_unix_s");
+        o.remove("undone_unix_s");
+    }
+    v
+}
+
+/// The write tools through the three adapters, each on its own copy of one map: the same
+/// writes give the same answers (the same new ids, the same edit, the same undo).
+#[test]
+fn cli_http_and_mcp_write_alike() {
+    let Some(py) = python_with_mcp() else {
+        eprintln!("skipping: no Python with the mcp package (run scripts/setup.sh)");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (_, db) = sim_map(
+        dir.path(),
+        &["--seed", "3", "--frames", "24"],
+        &["--embedder", "hash"],
+    );
+    let v = read_query(
+        &db,
+        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+         WITH i.caption AS c, collect(id(i)) AS ids WHERE size(ids) = 1 RETURN c ORDER BY c LIMIT 1",
+    );
+    let caption = v[0]["c"].as_str().unwrap().to_string();
+    let copies: Vec<std::path::PathBuf> = ["cli", "http", "mcp"]
+        .iter()
+        .map(|n| {
+            let p = dir.path().join(format!("{n}.og"));
+            std::fs::copy(&db, &p).unwrap();
+            p
+        })
+        .collect();
+    let token = "conformance-token-0123456789";
+    let token_file = dir.path().join("token");
+    std::fs::write(&token_file, token).unwrap();
+    // the edit id is the next node id: the same on every copy
+    let create = json!({"query": "CREATE (n:Note {text: 'hello'}) RETURN id(n) AS id"});
+    let update = json!({"text": format!("{caption} is gone"), "apply": true});
+    // CLI
+    let cli_tool = |name: &str, args: &Value| {
+        json(&og(&[
+            "tool",
+            "--db",
+            s(&copies[0]),
+            "--writes",
+            name,
+            &args.to_string(),
+        ]))
+    };
+    let c1 = cli_tool("write_cypher", &create);
+    let c2 = cli_tool("update_map", &update);
+    let edit = c2["applied"]["edit_id"]
+        .as_u64()
+        .expect("the CLI applied the edit");
+    let c3 = cli_tool("undo_map_edit", &json!({"edit_id": edit}));
+    // HTTP
+    let srv = serve_with(&copies[1], &["--token-file", s(&token_file)]);
+    let agent: ureq::Agent = ureq::Agent::config_builder()
+        .timeout_global(Some(Duration::from_secs(60)))
+        .http_status_as_error(false)
+        .build()
+        .into();
+    let http = |name: &str, args: &Value| -> Value {
+        let mut resp = agent
+            .post(format!("{}/api/tools/{name}", srv.1))
+            .header("Authorization", format!("Bearer {token}"))
+            .send(args.to_string().as_bytes())
+            .unwrap();
+        assert_eq!(resp.status().as_u16(), 200, "{name}");
+        serde_json::from_slice(&resp.body_mut().read_to_vec().unwrap()).unwrap()
+    };
+    let h1 = http("write_cypher", &create);
+    let h2 = http("update_map", &update);
+    let h3 = http("undo_map_edit", &json!({"edit_id": edit}));
+    drop(srv);
+    // MCP
+    let srv = serve_with(&copies[2], &["--token-file", s(&token_file)]);
+    let m = mcp_calls(
+        &py,
+        &format!("{}/mcp", srv.1),
+        &[
+            ("write_cypher", create.clone()),
+            ("update_map", update.clone()),
+            ("undo_map_edit", json!({"edit_id": edit})),
+        ],
+        Some(token),
+    );
+    drop(srv);
+    for (what, cli, http, mcp) in [
+        ("write_cypher", &c1, &h1, &m[0]),
+        ("update_map", &c2, &h2, &m[1]),
+        ("undo_map_edit", &c3, &h3, &m[2]),
+    ] {
+        assert_eq!(mcp["is_error"], false, "{what}: {}", mcp["text"]);
+        assert_eq!(
+            no_clock(http.clone()),
+            no_clock(cli.clone()),
+            "{what}: HTTP and CLI differ"
+        );
+        assert_eq!(
+            no_clock(mcp["value"].clone()),
+            no_clock(cli.clone()),
+            "{what}: MCP and CLI differ"
+        );
+    }
+    // and the three maps end alike
+    let dump = |p: &Path| {
+        read_query(
+            p,
+            "MATCH (n) WHERE NOT n:MapEdit RETURN id(n) AS id, labels(n) AS l, properties(n) AS p ORDER BY id",
+        )
+    };
+    let first = dump(&copies[0]);
+    assert_eq!(dump(&copies[1]), first);
+    assert_eq!(dump(&copies[2]), first);
 }

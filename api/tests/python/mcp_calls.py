@@ -1,7 +1,7 @@
 """Calls MCP tools over streamable HTTP with the official Python client (PyPI `mcp`) and prints
 one JSON list with each answer, for api/tests/conformance.rs to compare with the other adapters.
 
-usage: mcp_calls.py http://HOST:PORT/mcp CALLS_JSON
+usage: mcp_calls.py http://HOST:PORT/mcp CALLS_JSON [--token TOKEN]
   CALLS_JSON: [[name, arguments], ...]
   prints: [{"is_error": bool, "value": structured content or null, "text": str}, ...]
 """
@@ -18,9 +18,10 @@ def attr(obj, snake, camel):
     return getattr(obj, snake, getattr(obj, camel, None))
 
 
-async def main(url, calls):
+async def main(url, calls, token):
     out = []
-    async with create_mcp_http_client() as http:
+    headers = {"Authorization": "Bearer " + token} if token else {}
+    async with create_mcp_http_client(headers=headers) as http:
         async with streamable_http_client(url, http_client=http) as (read, write):
             async with ClientSession(read, write) as session:
                 await asyncio.wait_for(session.initialize(), 30)
@@ -36,4 +37,5 @@ async def main(url, calls):
 
 
 if __name__ == "__main__":
-    asyncio.run(main(sys.argv[1], json.loads(sys.argv[2])))
+    token = sys.argv[sys.argv.index("--token") + 1] if "--token" in sys.argv else None
+    asyncio.run(main(sys.argv[1], json.loads(sys.argv[2]), token))
