@@ -113,6 +113,8 @@ enum Op {
     View,
     /// The whole map exported (`{format}`: node-link or graphml).
     Export,
+    /// A question answered by the server's language model calling the tools.
+    Ask,
 }
 
 /// One route: method, path, operation, summary.
@@ -243,6 +245,12 @@ fn routes() -> Vec<Route> {
             "One instance: caption, class, box, segment, relations.",
         ),
         r(
+            Post,
+            "/api/ask",
+            Op::Ask,
+            "Ask in words: the server's language model answers by calling the tools (needs serve --llm); the write tools only with the token.",
+        ),
+        r(
             Get,
             "/api/export/{format}",
             Op::Export,
@@ -369,6 +377,22 @@ async fn handle(
                 .into_response();
         }
         Op::View => svc.view().await,
+        Op::Ask => {
+            let args = match parse_args(body, state.body_limit_bytes) {
+                Ok(a) => a,
+                Err(r) => return r.into_response(),
+            };
+            let question = args["question"].as_str().unwrap_or_default().to_string();
+            let steps = args["max_steps"].as_u64().unwrap_or(4);
+            if question.trim().is_empty() || question.len() > 2000 || !(1..=20).contains(&steps) {
+                return plain_error(
+                    StatusCode::BAD_REQUEST,
+                    "bad_request",
+                    "the body is {\"question\": text (1 to 2000 characters), \"max_steps\": 1 to 20 (default 4)}".into(),
+                );
+            }
+            svc.ask(question, steps as usize, may_write).await
+        }
         Op::Export => {
             let format = params.get("format").cloned().unwrap_or_default();
             return match svc.export(&format).await {
@@ -563,6 +587,7 @@ pub fn openapi(service: &Service) -> JsonValue {
                     Op::Tools => "ToolList",
                     Op::OpenApi => "OpenApiDocument",
                     Op::View => "View",
+                    Op::Ask => "ask_output",
                     _ => "AnyAnswer",
                 };
                 ResponseBuilder::new()
@@ -580,6 +605,14 @@ pub fn openapi(service: &Service) -> JsonValue {
                         "application/json",
                         json_content(format!("{}_input", t.name)),
                     )
+                    .build(),
+            ));
+        }
+        if route.op == Op::Ask {
+            op = op.request_body(Some(
+                RequestBodyBuilder::new()
+                    .required(Some(Required::True))
+                    .content("application/json", json_content("ask_input".into()))
                     .build(),
             ));
         }
@@ -639,6 +672,18 @@ pub fn openapi(service: &Service) -> JsonValue {
         json!({"type": "object", "required": ["openapi", "paths"]}),
     );
     schemas.insert("ToolArguments".into(), json!({"type": "object"}));
+    schemas.insert(
+        "ask_input".into(),
+        json!({"type": "object", "required": ["question"], "additionalProperties": false,
+               "properties": {"question": {"type": "string", "minLength": 1, "maxLength": 2000},
+                              "max_steps": {"type": "integer", "minimum": 1, "maximum": 20, "default": 4}}}),
+    );
+    schemas.insert(
+        "ask_output".into(),
+        json!({"type": "object", "required": ["question", "model", "steps", "answer"],
+               "properties": {"model": {"type": "string"}, "steps": {"type": "array"},
+                              "answer": {"type": ["string", "null"]}}}),
+    );
     schemas.insert(
         "View".into(),
         json!({"type": "object", "required": ["ground", "bounds", "instances", "lanes", "segments", "colours"],

@@ -212,6 +212,7 @@ fn every_route_answers_as_its_openapi_document_says() {
             ("post", "/api/cypher/write") => Some(json!({"query": "RETURN 1 AS one"})),
             ("post", "/api/update") => Some(json!({"text": "the bench is gone"})),
             ("post", "/api/update/undo") => Some(json!({"edit_id": 1})),
+            ("post", "/api/ask") => Some(json!({"question": "How many road segments are there?"})),
             ("post", "/api/find") => Some(json!({"text": "the bench near the bus stop", "k": 3})),
             ("post", "/api/locate") => {
                 Some(json!({"text": "I'm at a T-junction next to a traffic light"}))
@@ -229,6 +230,18 @@ fn every_route_answers_as_its_openapi_document_says() {
             let url = format!("{}{p}", srv.url);
             let what = format!("{} {path}", method.to_uppercase());
             let ok = &op["responses"]["200"]["content"];
+            if path == "/api/ask" {
+                // a server without --llm: the caller is told how to get one
+                let (st, v) = post(&url, body.as_ref().unwrap(), None);
+                assert_eq!(st, 400, "{what}: {v}");
+                assert_valid(&doc, "#/components/schemas/Error", &v, &what);
+                assert!(
+                    v["error"]["message"].as_str().unwrap().contains("--llm"),
+                    "{v}"
+                );
+                seen += 1;
+                continue;
+            }
             if ["/api/cypher/write", "/api/update", "/api/update/undo"].contains(&path.as_str()) {
                 // a read-only server has no write tools: a JSON 404 that says how to enable them
                 let (st, v) = post(&url, body.as_ref().unwrap(), None);
@@ -296,7 +309,7 @@ fn every_route_answers_as_its_openapi_document_says() {
             seen += 1;
         }
     }
-    assert_eq!(seen, 21, "every route is documented and was exercised");
+    assert_eq!(seen, 22, "every route is documented and was exercised");
 
     // the points are the instance's: inside its bounding box (1 cm for the store's rounding)
     let (_, _, bytes) = request(
@@ -792,4 +805,42 @@ fn a_read_only_server_leaves_the_map_to_other_readers() {
     let (st, v) = get(&format!("{}/api/info", srv.url));
     assert_eq!(st, 200);
     assert_eq!(json(&out)["nodes"], v["nodes"]);
+}
+
+/// `POST /api/ask` with the smallest real model (SmolLM2-135M, fetched by scripts/setup.sh):
+/// the answer records the model and the prompt, and validates against the document.
+#[test]
+fn ask_over_http_with_a_local_model() {
+    let smol = llm_tools::embed::default_models_dir().join(llm_tools::chat::SMALLEST_LOCAL_MODEL);
+    if !smol.exists() {
+        eprintln!(
+            "skipping: {} not found (run scripts/setup.sh)",
+            smol.display()
+        );
+        return;
+    }
+    let srv = serve(map(), &["--llm", "local", "--llm-model", s(&smol)]);
+    let (_, doc) = get(&format!("{}/openapi.json", srv.url));
+    let (st, v) = post(
+        &format!("{}/api/ask", srv.url),
+        &json!({"question": "How many road segments are there?", "max_steps": 2}),
+        None,
+    );
+    assert_eq!(st, 200, "{v}");
+    assert_valid(&doc, "#/components/schemas/ask_output", &v, "POST /api/ask");
+    let model = v["model"].as_str().unwrap();
+    assert!(
+        model.contains("SmolLM2") && model.ends_with("(ask@v1)"),
+        "{model}"
+    );
+    // no write tool is offered to a caller without the token
+    for step in v["steps"].as_array().unwrap() {
+        assert_ne!(step["tool"], "write_cypher", "{v}");
+    }
+    let (st, v) = post(
+        &format!("{}/api/ask", srv.url),
+        &json!({"question": ""}),
+        None,
+    );
+    assert_eq!(st, 400, "{v}");
 }

@@ -300,6 +300,22 @@ async function run() {
       focusOn(state.markers);
       setStatus(`${a.results.length} places`);
       finish(state.segments.length);
+    } else if (mode === "ask") {
+      const a = await api("POST", "/api/ask", { question: text, max_steps: 4 });
+      const ids = [];
+      for (const st of a.steps) {
+        for (const r of (st.result && st.result.results) || []) {
+          if (typeof r.id === "number" && !ids.includes(r.id)) ids.push(r.id);
+        }
+      }
+      state.highlighted = ids.slice(0, 10);
+      showResults(a.answer ? "answer" : "no answer", [
+        `<div class="result">${esc(a.answer || a.stopped || "")}<div class="meta">${esc(a.model)}</div></div>`,
+        ...a.steps.map((st) => `<div class="result"><div class="meta">${esc(st.tool)} ${esc(JSON.stringify(st.arguments))}${st.is_error ? " (error)" : ""}</div></div>`),
+      ]);
+      focusOn(state.highlighted.map((id) => state.centres.get(id)).filter(Boolean));
+      setStatus(`${a.steps.length} tool calls`);
+      finish(state.highlighted.length);
     } else {
       const m = text.replace(/^from\s+/i, "").split(/\s+to\s+/i);
       if (m.length < 2) throw new Error('say "from A to B"');
@@ -347,7 +363,7 @@ async function main() {
   if (params.get("q")) {
     qEl.value = params.get("q");
     const mode = params.get("mode");
-    if (mode && ["find", "locate", "route"].includes(mode)) modeEl.value = mode;
+    if (mode && ["find", "locate", "route", "ask"].includes(mode)) modeEl.value = mode;
     await run();
   }
 }

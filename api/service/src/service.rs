@@ -16,8 +16,15 @@ use tokio::sync::Semaphore;
 
 use crate::tools::{Tool, ToolError, ToolResult, Toolbox};
 
+/// A language model shared by the requests that need one (`ask`), one at a time.
+type SharedModel = Arc<Mutex<Box<dyn llm_tools::ChatModel>>>;
+
+/// How long one `ask` may take: a local model needs seconds per step.
+pub const ASK_TIMEOUT: Duration = Duration::from_secs(300);
+
 /// A pool of toolboxes over one store.
 pub struct Service {
+    llm: Option<SharedModel>,
     store: Store,
     idle: Mutex<Vec<Toolbox>>,
     permits: Arc<Semaphore>,
@@ -29,6 +36,7 @@ pub struct Service {
 impl std::fmt::Debug for Service {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Service")
+            .field("llm", &self.llm.is_some())
             .field("store", &self.store.path())
             .field("workers", &self.workers)
             .field("writes", &self.writes)
@@ -50,6 +58,7 @@ impl Service {
         let writes = first.writes();
         let workers = toolboxes.len();
         Some(Arc::new(Service {
+            llm: None,
             store,
             idle: Mutex::new(toolboxes),
             permits: Arc::new(Semaphore::new(workers)),
@@ -57,6 +66,59 @@ impl Service {
             timeout,
             workers,
         }))
+    }
+
+    /// [`Service::new`] with a language model for `ask`.
+    pub fn with_llm(
+        toolboxes: Vec<Toolbox>,
+        timeout: Duration,
+        llm: Box<dyn llm_tools::ChatModel>,
+    ) -> Option<Arc<Service>> {
+        let s = Service::new(toolboxes, timeout)?;
+        let mut s = Arc::into_inner(s)?;
+        s.llm = Some(Arc::new(Mutex::new(llm)));
+        Some(Arc::new(s))
+    }
+
+    /// The language model's id, when the service has one.
+    pub fn llm_id(&self) -> Option<String> {
+        self.llm
+            .as_ref()
+            .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).model_id())
+    }
+
+    /// `ask`: the agent loop ([`crate::ask::ask`]) over the service's model and a worker's
+    /// tools, for at most `max_steps` tool calls. The write tools are offered to the model only
+    /// when the caller may write.
+    ///
+    /// # Errors
+    /// [`ToolError::BadArguments`] for an empty question or a service without a model; the
+    /// model's failures; [`ToolError::TimedOut`] past [`ASK_TIMEOUT`].
+    pub async fn ask(
+        self: &Arc<Self>,
+        question: String,
+        max_steps: usize,
+        may_write: bool,
+    ) -> ToolResult<Json> {
+        let Some(llm) = self.llm.clone() else {
+            return Err(ToolError::BadArguments(
+                "this server has no language model: start it with --llm local (or openai with --llm-url)"
+                    .into(),
+            ));
+        };
+        self.run_for(ASK_TIMEOUT.max(self.timeout), move |tb| {
+            let mut model = llm.lock().unwrap_or_else(|e| e.into_inner());
+            let writes = tb.writes();
+            tb.set_writes(writes && may_write);
+            let out = crate::ask::ask(model.as_mut(), tb, &question, max_steps);
+            tb.set_writes(writes);
+            let a = out.map_err(|e| match e {
+                llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
+                other => ToolError::Failed(other.to_string()),
+            })?;
+            serde_json::to_value(a).map_err(|e| ToolError::Failed(e.to_string()))
+        })
+        .await
     }
 
     /// The store (for operations that need no toolbox, like reading points).
@@ -202,6 +264,15 @@ impl Service {
         self: &Arc<Self>,
         f: impl FnOnce(&mut Toolbox) -> ToolResult<T> + Send + 'static,
     ) -> ToolResult<T> {
+        self.run_for(self.timeout, f).await
+    }
+
+    /// [`Service::run`] with its own time limit for the work.
+    async fn run_for<T: Send + 'static>(
+        self: &Arc<Self>,
+        limit: Duration,
+        f: impl FnOnce(&mut Toolbox) -> ToolResult<T> + Send + 'static,
+    ) -> ToolResult<T> {
         let secs = self.timeout.as_secs_f64();
         let permit = tokio::time::timeout(self.timeout, self.permits.clone().acquire_owned())
             .await
@@ -225,11 +296,12 @@ impl Service {
             drop(permit);
             out.unwrap_or_else(|_| Err(ToolError::Failed("the operation panicked".into())))
         });
-        match tokio::time::timeout(self.timeout, job).await {
+        match tokio::time::timeout(limit, job).await {
             Ok(Ok(answer)) => answer,
             Ok(Err(e)) => Err(ToolError::Failed(e.to_string())),
             Err(_) => Err(ToolError::TimedOut(format!(
-                "the request took longer than {secs:.0} s"
+                "the request took longer than {:.0} s",
+                limit.as_secs_f64()
             ))),
         }
     }
@@ -282,6 +354,81 @@ impl WriteGate {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use llm_tools::chat::scripted::{Reply, Scripted};
+
+    /// `ask` offers the write tools to the model only for a caller that may write: for an
+    /// unauthenticated caller `write_cypher` is not among the offered tools and nothing is
+    /// written; with the token the same call writes.
+    #[test]
+    fn ask_withholds_the_write_tools_from_callers_without_the_token() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
+        crate::demo::build(&store).unwrap();
+        let finder = crate::find::Finder::new(
+            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+            None,
+        );
+        let tb = Toolbox::new(store.clone(), finder, true);
+        let script = || {
+            Box::new(Scripted::new(
+                "script",
+                vec![
+                    Reply::Tools(vec![(
+                        "write_cypher".into(),
+                        serde_json::json!({"query": "CREATE (:Hack)"}),
+                    )]),
+                    Reply::Text("done".into()),
+                ],
+            )) as Box<dyn llm_tools::ChatModel>
+        };
+        let count = |s: &Store| {
+            s.query(
+                "MATCH (n:Hack) RETURN count(n) AS n",
+                &graphstore::cypher::QueryOptions::default(),
+            )
+            .unwrap()
+            .rows_json()[0]["n"]
+                .as_u64()
+                .unwrap()
+        };
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()
+            .unwrap();
+        let svc = Service::with_llm(vec![tb], Duration::from_secs(30), script()).unwrap();
+        // the request the model gets does not offer write_cypher (the scripted model checks
+        // its calls against the offered tools, as a grammar-constrained local model must)
+        let e = rt
+            .block_on(svc.ask("make a node".into(), 3, false))
+            .unwrap_err();
+        assert!(e.to_string().contains("does not offer"), "{e}");
+        assert_eq!(count(&store), 0);
+        // the toolbox offers writes again afterwards, to a caller with the token
+        drop(svc);
+        let finder = crate::find::Finder::new(
+            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+            None,
+        );
+        let tb = Toolbox::new(store.clone(), finder, true);
+        let svc = Service::with_llm(vec![tb], Duration::from_secs(30), script()).unwrap();
+        let a = rt.block_on(svc.ask("make a node".into(), 3, true)).unwrap();
+        assert_eq!(a["steps"][0]["is_error"], false, "{a}");
+        assert_eq!(count(&store), 1);
+        // without a model, ask is the caller's error
+        let finder = crate::find::Finder::new(
+            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+            None,
+        );
+        let svc = Service::new(
+            vec![Toolbox::new(store, finder, false)],
+            Duration::from_secs(5),
+        )
+        .unwrap();
+        let e = rt.block_on(svc.ask("hi".into(), 2, false)).unwrap_err();
+        assert_eq!(e.http_status(), 400);
+        assert!(e.to_string().contains("--llm"), "{e}");
+    }
 
     #[test]
     fn the_token_must_match_exactly() {

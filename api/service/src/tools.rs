@@ -466,6 +466,12 @@ impl Toolbox {
         self.writes
     }
 
+    /// Offers or withholds the write tools (withholding is always safe; offering them needs a
+    /// store open for writing).
+    pub fn set_writes(&mut self, writes: bool) {
+        self.writes = writes && !self.store.is_read_only();
+    }
+
     /// The tools this toolbox offers.
     pub fn tools(&self) -> Vec<Tool> {
         tools(self.writes)

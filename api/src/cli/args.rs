@@ -423,6 +423,9 @@ pub(crate) enum Command {
         /// A browser origin allowed to call the API (CORS); repeat for more. Default: CORS off.
         #[arg(long)]
         cors_origin: Vec<String>,
+        /// A language model for POST /api/ask (default: none).
+        #[command(flatten)]
+        llm: LlmArgs,
     },
     /// Ask a question about the map in words; a language model answers by calling the agent
     /// tools (find_objects, locate, plan_route, read_cypher, ...). Prints each tool call and the

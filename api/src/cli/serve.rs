@@ -18,6 +18,7 @@ pub(crate) struct ServeArgs {
     pub(crate) body_limit_bytes: usize,
     pub(crate) max_concurrent: usize,
     pub(crate) cors_origin: Vec<String>,
+    pub(crate) llm: LlmArgs,
 }
 
 /// Reads a write token from a file: trimmed, 16 characters or more, printable ASCII.
@@ -73,9 +74,15 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         boxes.push(first.fork(finder));
     }
     boxes.push(first);
-    let service =
-        api::service::Service::new(boxes, std::time::Duration::from_secs_f64(a.timeout_secs))
-            .context("no workers")?;
+    let timeout = std::time::Duration::from_secs_f64(a.timeout_secs);
+    let cfg = a.llm.config(llm_tools::LlmConfig::default(), "none");
+    let service = if cfg.backend == "none" {
+        api::service::Service::new(boxes, timeout)
+    } else {
+        let model = open_llm(&cfg, "serve --llm")?;
+        api::service::Service::with_llm(boxes, timeout, model)
+    }
+    .context("no workers")?;
     let opts = api::http::ServeOptions {
         bind: a.bind,
         token,
@@ -159,6 +166,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         body_limit_bytes,
         max_concurrent,
         cors_origin,
+        llm,
     } = cmd
     else {
         unreachable!("run dispatches only Command::Serve here")
@@ -173,5 +181,6 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         body_limit_bytes,
         max_concurrent,
         cors_origin,
+        llm,
     })
 }
