@@ -369,11 +369,12 @@ fn bad_input_is_a_clear_error_naming_the_file() {
         build(&d, "p.og", &["--oracle-labels"]),
         &["poses.txt", "fewer poses than scans"],
     );
-    // bad --frames and a config with an unknown key
+    // a --frames range with none of the scans (a range beyond the last scan takes the ones
+    // it holds), and a config with an unknown key
     let d = mk("ok");
     run(
-        build(&d, "f.og", &["--oracle-labels", "--frames", "0..9"]),
-        &["000003.bin", "missing"],
+        build(&d, "f.og", &["--oracle-labels", "--frames", "5..9"]),
+        &["--frames 5..9", "holds none"],
     );
     let cfg = dir.path().join("bad.toml");
     std::fs::write(&cfg, "[mapping]\nvoxel_m = 0.1\nsim_treshold = 0.5\n").unwrap();

@@ -434,6 +434,7 @@ fn bad_output_paths_exit_2_naming_the_path() {
     let file = dir.path().join("afile");
     std::fs::write(&file, "x").unwrap();
     let missing = dir.path().join("no/such/folder/out.json");
+    let under_file = file.join("sim");
     let d = s(dir.path());
     let cases: Vec<Vec<&str>> = vec![
         vec![
@@ -476,14 +477,14 @@ fn bad_output_paths_exit_2_naming_the_path() {
             s(&missing),
         ],
         vec!["sim", "--out", s(&file)],
-        vec!["sim", "--out", s(&missing)],
+        vec!["sim", "--out", s(&under_file)],
         vec!["oracle", "--kitti", "k", "--out", s(&file)],
     ];
     for args in cases {
         let out = og(&args);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-        let named = [s(&missing), d, s(&file)]
+        let named = [s(&missing), d, s(&file), s(&under_file)]
             .iter()
             .any(|p| err.contains(p) || err.contains(&p[..p.rfind('/').unwrap_or(0)]));
         assert!(named, "{args:?}: {err}");

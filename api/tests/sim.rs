@@ -154,3 +154,74 @@ fn bad_sim_arguments_are_clear_errors() {
         "{err}"
     );
 }
+
+/// `build --frames A..B` on a simulated drive (its scans are numbered sparsely) takes the scans
+/// that fall in the range; a range that holds none is refused naming the sequence's span.
+#[test]
+fn build_frames_take_the_scans_in_the_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    json(&og(&[
+        "sim",
+        "--out",
+        s(&sim),
+        "--seed",
+        "3",
+        "--frames",
+        "6",
+        "--json",
+    ]));
+    let mut scans: Vec<u32> = std::fs::read_dir(sim.join("velodyne"))
+        .unwrap()
+        .map(|e| {
+            e.unwrap()
+                .path()
+                .file_stem()
+                .unwrap()
+                .to_str()
+                .unwrap()
+                .parse()
+                .unwrap()
+        })
+        .collect();
+    scans.sort_unstable();
+    assert!(scans[1] > 1, "the simulator's scans are sparse: {scans:?}");
+    // a range up to the third scan holds the first two
+    let end = (scans[2]).to_string();
+    let range = format!("0..{end}");
+    let b = json(&og(&[
+        "build",
+        "--kitti",
+        s(&sim),
+        "--detections",
+        s(&sim.join("detections")),
+        "--db",
+        s(&dir.path().join("a.og")),
+        "--embedder",
+        "hash",
+        "--frames",
+        &range,
+        "--json",
+    ]));
+    assert_eq!(b["frames_total"], 2, "{b}");
+    let range = format!("{}..{}", scans[0] + 1, scans[1]);
+    let out = og(&[
+        "build",
+        "--kitti",
+        s(&sim),
+        "--detections",
+        s(&sim.join("detections")),
+        "--db",
+        s(&dir.path().join("b.og")),
+        "--embedder",
+        "hash",
+        "--frames",
+        &range,
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("holds none"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -332,19 +332,37 @@ pub fn key_frames(
                     r.start, r.end
                 )));
             }
-            let mut v = Vec::new();
-            for i in r.clone().step_by(stride as usize) {
-                for p in [seq.scan_path(i), needs(i)] {
-                    if !p.exists() {
-                        return Err(Error::File {
-                            path: p,
-                            detail: format!("frame {i} is in --frames but this file is missing"),
-                        });
-                    }
-                }
-                v.push(i);
+            // the scans the sequence has in the range (a simulated drive numbers its scans
+            // sparsely), every stride-th of them; each needs its labels or detections
+            let in_range: Vec<u32> = seq
+                .scans
+                .iter()
+                .copied()
+                .filter(|i| r.contains(i))
+                .step_by(stride as usize)
+                .collect();
+            if in_range.is_empty() {
+                return Err(Error::Invalid(format!(
+                    "--frames {}..{} holds none of the sequence's {} scans (they run from {} to {})",
+                    r.start,
+                    r.end,
+                    seq.scans.len(),
+                    seq.scans.first().copied().unwrap_or(0),
+                    seq.scans.last().copied().unwrap_or(0)
+                )));
             }
-            v
+            for &i in &in_range {
+                let p = needs(i);
+                if !p.exists() {
+                    return Err(Error::File {
+                        path: p,
+                        detail: format!(
+                            "frame {i} has a scan in --frames but this file is missing"
+                        ),
+                    });
+                }
+            }
+            in_range
         }
         None => {
             let avail: Vec<u32> = seq

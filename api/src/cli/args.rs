@@ -696,22 +696,26 @@ pub(crate) fn output_file(s: &str) -> Result<PathBuf, String> {
     Ok(p)
 }
 
-/// A clap parser for a folder to write into: it may exist (as a folder) or be made in an
-/// existing folder.
+/// A clap parser for a folder to write into: it may exist (as a folder) or be made, with its
+/// missing parents, as long as no part of the path is a file.
 pub(crate) fn output_dir(s: &str) -> Result<PathBuf, String> {
     let p = PathBuf::from(s);
     if s.is_empty() {
         return Err("the path is empty".into());
     }
-    if p.exists() && !p.is_dir() {
-        return Err(format!("{s} exists and is not a folder"));
-    }
-    let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
-    if !p.exists()
-        && let Some(d) = parent
-        && !d.is_dir()
-    {
-        return Err(format!("the folder {} does not exist", d.display()));
+    // the nearest part of the path that exists must be a folder
+    let mut probe = Some(p.as_path());
+    while let Some(q) = probe {
+        if q.as_os_str().is_empty() {
+            break;
+        }
+        if q.exists() {
+            if !q.is_dir() {
+                return Err(format!("{} exists and is not a folder", q.display()));
+            }
+            break;
+        }
+        probe = q.parent();
     }
     Ok(p)
 }
