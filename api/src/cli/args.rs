@@ -143,7 +143,8 @@ pub(crate) enum Command {
         /// Use the SemanticKITTI label oracle instead of detections.
         #[arg(long)]
         oracle_labels: bool,
-        /// Key frames A..B (half-open); default: every frame with a scan and detections/labels.
+        /// Key frames A..B (half-open): the scans the sequence has in the range; default: every
+        /// frame with a scan and detections/labels.
         #[arg(long, value_parser = parse_range)]
         frames: Option<std::ops::Range<u32>>,
         /// Use every N-th frame.
