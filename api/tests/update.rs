@@ -399,6 +399,34 @@ fn the_llm_parser_records_its_model_and_prompt() {
         bytes,
         "a proposal wrote to the map"
     );
+    // applied, the edit records the model and the prompt that read the report
+    let out = og(&[
+        "update",
+        "--db",
+        s(&db),
+        &format!("{caption} is gone"),
+        "--parser",
+        "llm",
+        "--llm",
+        "local",
+        "--llm-model",
+        s(&smol),
+        "--apply",
+        "--json",
+    ]);
+    if out.status.code() == Some(0) {
+        let p: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let edit = p["applied"]["edit_id"].as_u64().expect("an applied edit");
+        let rec = read_query(
+            &db,
+            &format!("MATCH (e:MapEdit) WHERE id(e) = {edit} RETURN e.parsed_by AS p"),
+        );
+        let by = rec[0]["p"].as_str().unwrap();
+        assert!(
+            by.contains("SmolLM2") && by.ends_with("(parse_edit@v1)"),
+            "{by}"
+        );
+    }
 }
 
 /// With MiniLM (the default embedder; fetched by scripts/setup.sh), words the map holds nothing

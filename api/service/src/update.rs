@@ -469,11 +469,12 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
         proposal
     };
     let applied = if req.apply && !ambiguous && !no_match {
-        let a =
-            ingest::map_edit::apply(store, &change, &req.text, PARSED_BY).map_err(|e| match e {
+        let a = ingest::map_edit::apply(store, &change, &req.text, &parsed_by).map_err(
+            |e| match e {
                 ingest::Error::Invalid(m) => ToolError::BadArguments(m),
                 other => ToolError::Failed(other.to_string()),
-            })?;
+            },
+        )?;
         finder.forget_scene();
         Some(a)
     } else {
@@ -515,4 +516,104 @@ pub fn undo(
     })?;
     finder.forget_scene();
     Ok(info)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use graphstore::Value;
+    use llm_tools::Embedder;
+    use llm_tools::chat::scripted::{Reply, Scripted};
+
+    /// A straight road along z (KITTI camera frame) with a bench and a bin beside it, their
+    /// features the hash embedder's of their captions.
+    fn small_map(dir: &std::path::Path) -> Store {
+        let store = Store::create(dir.join("m.og")).unwrap();
+        store.set_schema(graphstore::opengraph_schema()).unwrap();
+        let mut hash = llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM);
+        store
+            .write(|tx| {
+                let env = tx.create_node_named(
+                    &["Environment"],
+                    &[("name", "t".into()), ("ground_frame", "kitti_cam".into())],
+                )?;
+                let seg = tx.create_node_named(
+                    &["Segment"],
+                    &[
+                        ("segment_id", Value::Int(0)),
+                        ("kind", "straight_roadway".into()),
+                        ("centroid", Value::Point3D([0.0, 0.0, 50.0])),
+                        (
+                            "centerline",
+                            Value::List(vec![
+                                Value::Point3D([0.0, 0.0, 0.0]),
+                                Value::Point3D([0.0, 0.0, 100.0]),
+                            ]),
+                        ),
+                        ("half_width_m", Value::Float(6.0)),
+                        ("bbox", Value::box3d([-6.0, -3.0, 0.0], [6.0, 3.0, 100.0])),
+                    ],
+                )?;
+                tx.create_rel_named(env, "CONTAINS", seg, &[])?;
+                for (i, caption, c) in [
+                    (0, "a brown wooden bench", [4.0, 0.5, 20.0]),
+                    (1, "a green litter bin", [4.0, 0.5, 60.0]),
+                ] {
+                    let feature = hash.embed(&[caption]).unwrap().remove(0);
+                    let id = tx.create_node_named(
+                        &["Instance"],
+                        &[
+                            ("instance_id", Value::Int(i)),
+                            ("caption", caption.into()),
+                            ("class", "fence".into()),
+                            ("centroid", Value::Point3D(c)),
+                            (
+                                "bbox",
+                                Value::box3d(
+                                    [c[0] - 0.5, c[1] - 0.5, c[2] - 0.5],
+                                    [c[0] + 0.5, c[1] + 0.5, c[2] + 0.5],
+                                ),
+                            ),
+                            ("feature", Value::Vector(feature)),
+                        ],
+                    )?;
+                    tx.create_rel_named(id, "IN_SEGMENT", seg, &[])?;
+                }
+                Ok(())
+            })
+            .unwrap();
+        store
+    }
+
+    /// An edit read by the language model records that model and its prompt, in the answer
+    /// and in the `MapEdit` node.
+    #[test]
+    fn an_llm_read_edit_records_the_model_and_prompt() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = small_map(dir.path());
+        let reading = serde_json::json!({"kind": "remove", "new_description": null,
+            "place_phrase": null, "place_relation": null, "replaced": false,
+            "target": "the brown wooden bench"});
+        let model = Scripted::new("script", vec![Reply::Text(reading.to_string())]);
+        let mut finder = Finder::new(
+            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+            Some(Box::new(model)),
+        );
+        let a = update(
+            &mut finder,
+            &store,
+            &UpdateRequest {
+                text: "sadly the brown wooden bench got ripped out".into(),
+                apply: true,
+                parser: ParserKind::Llm,
+            },
+        )
+        .unwrap();
+        assert!(a.parsed_by.ends_with("(parse_edit@v1)"), "{}", a.parsed_by);
+        let edit = a.applied.expect("applied").edit_id;
+        let r = store.read().unwrap();
+        let by = r.node_prop(edit, "parsed_by").unwrap();
+        assert_eq!(by, Some(Value::String(a.parsed_by.clone())));
+        assert_ne!(a.parsed_by, PARSED_BY);
+    }
 }
