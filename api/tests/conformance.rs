@@ -4,68 +4,13 @@
 //! a 4xx, `isError`) with the same message for bad requests.
 
 mod common;
-use common::{json, og, read_query, s, sim_map};
+use common::{json, json_of_run, og, python_with_mcp, read_query, s, serve, sim_map};
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::Duration;
 
 use serde_json::{Value, json};
-
-struct Server(Child, String);
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn serve(db: &Path) -> Server {
-    serve_with(db, &[])
-}
-
-fn serve_with(db: &Path, extra: &[&str]) -> Server {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
-        .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0"])
-        .args(extra)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        let _ = BufReader::new(stdout).read_line(&mut line);
-        let _ = tx.send(line);
-    });
-    let line = rx
-        .recv_timeout(Duration::from_secs(60))
-        .expect("the server's address");
-    let url = line[line.find("http://").unwrap()..]
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .trim_end_matches('/')
-        .to_string();
-    Server(child, url)
-}
-
-fn python_with_mcp() -> Option<std::path::PathBuf> {
-    let venv = std::env::var_os("OPENGRAPH_VENV")
-        .map(std::path::PathBuf::from)
-        .or_else(|| {
-            std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/opengraph/venv"))
-        })?;
-    let py = venv.join("bin/python");
-    let ok = Command::new(&py)
-        .args(["-c", "import mcp"])
-        .status()
-        .is_ok_and(|s| s.success());
-    ok.then_some(py)
-}
 
 /// Drops what legitimately differs between two runs of the same request (timings).
 fn stable(mut v: Value) -> Value {
@@ -134,38 +79,9 @@ fn cli_http_and_mcp_give_the_same_answers() {
         ("read_cypher", json!({"query": "CREATE (n:Hack) RETURN n"})),
         ("describe_area", json!({"segment_id": inst})),
     ];
-    let srv = serve(&db);
+    let srv = serve(&db, &[]);
     // MCP, all calls in one session
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/mcp_calls.py");
-    let list: Vec<Value> = calls.iter().map(|(n, a)| json!([n, a])).collect();
-    let child = Command::new(&py)
-        .arg(&script)
-        .arg(format!("{}/mcp", srv.1))
-        .arg(Value::Array(list).to_string())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    let out = rx
-        .recv_timeout(Duration::from_secs(300))
-        .expect("the MCP client finished within 300 s")
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let mcp: Vec<Value> = serde_json::from_str(
-        String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .last()
-            .unwrap_or_default(),
-    )
-    .unwrap();
+    let mcp: Vec<Value> = mcp_calls(&py, &format!("{}/mcp", srv.url), &calls, None);
     assert_eq!(mcp.len(), calls.len());
     let agent: ureq::Agent = ureq::Agent::config_builder()
         .timeout_global(Some(Duration::from_secs(60)))
@@ -177,7 +93,7 @@ fn cli_http_and_mcp_give_the_same_answers() {
         let what = format!("{name} {args}");
         // HTTP
         let mut resp = agent
-            .post(format!("{}/api/tools/{name}", srv.1))
+            .post(format!("{}/api/tools/{name}", srv.url))
             .header("Content-Type", "application/json")
             .send(args.to_string().as_bytes())
             .unwrap();
@@ -226,31 +142,7 @@ fn mcp_calls(py: &Path, url: &str, calls: &[(&str, Value)], token: Option<&str>)
     if let Some(t) = token {
         cmd.args(["--token", t]);
     }
-    let child = cmd
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    let out = rx
-        .recv_timeout(Duration::from_secs(300))
-        .expect("the MCP client finished within 300 s")
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_str(
-        String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .last()
-            .unwrap_or_default(),
-    )
-    .unwrap()
+    serde_json::from_value(json_of_run(cmd, 300)).unwrap()
 }
 
 /// Drops the wall-clock fields of write answers.
@@ -314,7 +206,7 @@ fn cli_http_and_mcp_write_alike() {
         .expect("the CLI applied the edit");
     let c3 = cli_tool("undo_map_edit", &json!({"edit_id": edit}));
     // HTTP
-    let srv = serve_with(&copies[1], &["--token-file", s(&token_file)]);
+    let srv = serve(&copies[1], &["--token-file", s(&token_file)]);
     let agent: ureq::Agent = ureq::Agent::config_builder()
         .timeout_global(Some(Duration::from_secs(60)))
         .http_status_as_error(false)
@@ -322,7 +214,7 @@ fn cli_http_and_mcp_write_alike() {
         .into();
     let http = |name: &str, args: &Value| -> Value {
         let mut resp = agent
-            .post(format!("{}/api/tools/{name}", srv.1))
+            .post(format!("{}/api/tools/{name}", srv.url))
             .header("Authorization", format!("Bearer {token}"))
             .send(args.to_string().as_bytes())
             .unwrap();
@@ -334,10 +226,10 @@ fn cli_http_and_mcp_write_alike() {
     let h3 = http("undo_map_edit", &json!({"edit_id": edit}));
     drop(srv);
     // MCP
-    let srv = serve_with(&copies[2], &["--token-file", s(&token_file)]);
+    let srv = serve(&copies[2], &["--token-file", s(&token_file)]);
     let m = mcp_calls(
         &py,
-        &format!("{}/mcp", srv.1),
+        &format!("{}/mcp", srv.url),
         &[
             ("write_cypher", create.clone()),
             ("update_map", update.clone()),

@@ -5,21 +5,7 @@
 //! --allow-writes. Skips with a message when the client is not installed.
 
 mod common;
-use common::{json, og, read_query, s, sim_map};
-
-fn python_with_mcp() -> Option<std::path::PathBuf> {
-    let venv = std::env::var_os("OPENGRAPH_VENV")
-        .map(std::path::PathBuf::from)
-        .or_else(|| {
-            std::env::var_os("HOME").map(|h| std::path::Path::new(&h).join(".cache/opengraph/venv"))
-        })?;
-    let py = venv.join("bin/python");
-    let ok = std::process::Command::new(&py)
-        .args(["-c", "import mcp"])
-        .status()
-        .is_ok_and(|s| s.success());
-    ok.then_some(py)
-}
+use common::{json, json_of_run, og, python_with_mcp, read_query, s, sim_map};
 
 fn client(py: &std::path::Path, db: &std::path::Path, extra: &[&str]) -> serde_json::Value {
     let script =
@@ -30,26 +16,7 @@ fn client(py: &std::path::Path, db: &std::path::Path, extra: &[&str]) -> serde_j
         .arg(db)
         .args(extra);
     // the client's own timeouts bound every call; this bounds the whole run
-    let child = cmd
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    let out = rx
-        .recv_timeout(std::time::Duration::from_secs(600))
-        .expect("the MCP client finished within 600 s")
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "client failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
-    serde_json::from_str(text.lines().last().unwrap_or_default()).unwrap()
+    json_of_run(cmd, 600)
 }
 
 #[test]

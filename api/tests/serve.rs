@@ -6,57 +6,14 @@
 //! official Python client.
 
 mod common;
-use common::{json, og, s, sim_map};
+use common::{json, json_of_run, og, python_with_mcp, s, serve, sim_map};
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::sync::OnceLock;
 use std::time::Duration;
 
 use serde_json::{Value, json};
-
-/// A running server; killed on drop.
-struct Server {
-    child: Child,
-    url: String,
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Starts `opengraph serve` on 127.0.0.1 port 0 and waits (60 s at most) for its address.
-fn serve(db: &Path, extra: &[&str]) -> Server {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
-        .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0"])
-        .args(extra)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        let _ = BufReader::new(stdout).read_line(&mut line);
-        let _ = tx.send(line);
-    });
-    let line = rx
-        .recv_timeout(Duration::from_secs(60))
-        .expect("the server printed its address within 60 s");
-    let start = line.find("http://").expect("an address in the first line");
-    let url = line[start..]
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .trim_end_matches('/')
-        .to_string();
-    Server { child, url }
-}
 
 fn agent() -> ureq::Agent {
     ureq::Agent::config_builder()
@@ -707,20 +664,6 @@ fn bad_settings_are_refused_before_serving() {
     }
 }
 
-fn python_with_mcp() -> Option<std::path::PathBuf> {
-    let venv = std::env::var_os("OPENGRAPH_VENV")
-        .map(std::path::PathBuf::from)
-        .or_else(|| {
-            std::env::var_os("HOME").map(|h| std::path::Path::new(&h).join(".cache/opengraph/venv"))
-        })?;
-    let py = venv.join("bin/python");
-    let ok = Command::new(&py)
-        .args(["-c", "import mcp"])
-        .status()
-        .is_ok_and(|s| s.success());
-    ok.then_some(py)
-}
-
 fn mcp_client(py: &Path, url: &str, token: Option<&str>) -> Value {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/mcp_client.py");
     let mut cmd = Command::new(py);
@@ -728,26 +671,7 @@ fn mcp_client(py: &Path, url: &str, token: Option<&str>) -> Value {
     if let Some(t) = token {
         cmd.args(["--token", t]);
     }
-    let child = cmd
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    let out = rx
-        .recv_timeout(Duration::from_secs(300))
-        .expect("the MCP client finished within 300 s")
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "client failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
-    serde_json::from_str(text.lines().last().unwrap_or_default()).unwrap()
+    json_of_run(cmd, 300)
 }
 
 #[test]

@@ -5,47 +5,11 @@
 //! message when Chromium is not installed.
 
 mod common;
-use common::{s, sim_map};
+use common::{serve, sim_map};
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Duration;
-
-struct Server(Child, String);
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn serve(db: &Path) -> Server {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
-        .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        let _ = BufReader::new(stdout).read_line(&mut line);
-        let _ = tx.send(line);
-    });
-    let line = rx
-        .recv_timeout(Duration::from_secs(60))
-        .expect("the server's address");
-    let url = line[line.find("http://").unwrap()..]
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .trim_end_matches('/')
-        .to_string();
-    Server(child, url)
-}
 
 fn chromium() -> Option<&'static str> {
     ["chromium", "chromium-browser"].into_iter().find(|c| {
@@ -117,7 +81,7 @@ fn the_viewer_searches_and_highlights_in_headless_chromium() {
         &["--seed", "3", "--frames", "24"],
         &["--embedder", "hash"],
     );
-    let srv = serve(&db);
+    let srv = serve(&db, &[]);
     let profile = dir.path().join("chromium-profile");
     for (mode, q) in [
         ("find", "the bench near the bus stop"),
@@ -126,7 +90,7 @@ fn the_viewer_searches_and_highlights_in_headless_chromium() {
     ] {
         let url = format!(
             "{}/?mode={mode}&q={}",
-            srv.1,
+            srv.url,
             q.replace(' ', "%20").replace('\'', "%27")
         );
         let (dom, log) = browse(bin, &["--dump-dom"], &url, &profile);
@@ -161,7 +125,7 @@ fn the_viewer_searches_and_highlights_in_headless_chromium() {
     let shot = dir.path().join("find.png");
     let url = format!(
         "{}/?mode=find&q=the%20bench%20near%20the%20bus%20stop",
-        srv.1
+        srv.url
     );
     browse(
         bin,

@@ -5,12 +5,16 @@ use std::fmt::Write;
 use graphstore::Store;
 
 /// `{"nodes": {LABEL: count}, "relationships": {TYPE: count}}`, keys sorted.
-pub fn json(store: &Store) -> graphstore::Result<String> {
+pub fn value(store: &Store) -> graphstore::Result<serde_json::Value> {
     let c = store.counts()?;
-    let v = serde_json::json!({"nodes": c.nodes, "relationships": c.relationships});
+    Ok(serde_json::json!({"nodes": c.nodes, "relationships": c.relationships}))
+}
+
+/// [`value`] as pretty JSON text with a final newline.
+pub fn json(store: &Store) -> graphstore::Result<String> {
     Ok(format!(
         "{}\n",
-        serde_json::to_string_pretty(&v).unwrap_or_default()
+        serde_json::to_string_pretty(&value(store)?).unwrap_or_default()
     ))
 }
 

@@ -112,10 +112,7 @@ impl Service {
             tb.set_writes(writes && may_write);
             let out = crate::ask::ask(model.as_mut(), tb, &question, max_steps);
             tb.set_writes(writes);
-            let a = out.map_err(|e| match e {
-                llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
-                other => ToolError::Failed(other.to_string()),
-            })?;
+            let a = out?;
             serde_json::to_value(a).map_err(|e| ToolError::Failed(e.to_string()))
         })
         .await
@@ -167,17 +164,13 @@ impl Service {
         self.run(move |tb| tb.call(&name, &args)).await
     }
 
-    /// The map's summary (`opengraph info --json`): counts, environment, build metadata.
+    /// The map's summary (`opengraph info --json`): node and relationship counts.
     ///
     /// # Errors
     /// The store fails.
     pub async fn info(self: &Arc<Self>) -> ToolResult<Json> {
-        self.run(|tb| {
-            let text =
-                crate::info::json(tb.store()).map_err(|e| ToolError::Failed(e.to_string()))?;
-            serde_json::from_str(&text).map_err(|e| ToolError::Failed(e.to_string()))
-        })
-        .await
+        self.run(|tb| crate::info::value(tb.store()).map_err(|e| ToolError::Failed(e.to_string())))
+            .await
     }
 
     /// The whole map exported (`node-link` JSON or `graphml`), as bytes, with its content type.

@@ -389,12 +389,25 @@ fn failed(e: impl std::fmt::Display) -> ToolError {
     ToolError::Failed(e.to_string())
 }
 
-/// A find or locate error: the caller's input (empty text, an unknown class, a map built with
-/// another embedder) or a failure of ours.
-fn find_error(e: llm_tools::Error) -> ToolError {
-    match e {
-        llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
-        other => ToolError::Failed(other.to_string()),
+/// An error of the language layer: the caller's input (empty text, an unknown class, a map
+/// built with another embedder) or a failure of ours (a model, the store).
+impl From<llm_tools::Error> for ToolError {
+    fn from(e: llm_tools::Error) -> ToolError {
+        match e {
+            llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
+            other => ToolError::Failed(other.to_string()),
+        }
+    }
+}
+
+/// An error of a map edit: the caller's input (not an instance, an edit already undone or
+/// depended on) or a failure of ours.
+impl From<ingest::Error> for ToolError {
+    fn from(e: ingest::Error) -> ToolError {
+        match e {
+            ingest::Error::Invalid(m) => ToolError::BadArguments(m),
+            other => ToolError::Failed(other.to_string()),
+        }
     }
 }
 
@@ -513,38 +526,32 @@ impl Toolbox {
             }
             "find_objects" => {
                 let r = self.store.read().map_err(failed)?;
-                let a = self
-                    .finder
-                    .find(
-                        &r,
-                        &FindRequest {
-                            text: s("text"),
-                            k: n("k", 5),
-                            class: args["class"].as_str().map(str::to_string),
-                            near: None,
-                            ranking: Ranking::Graph {
-                                parser: ParserKind::Rules,
-                                rerank: false,
-                            },
-                            rerank_n: 10,
+                let a = self.finder.find(
+                    &r,
+                    &FindRequest {
+                        text: s("text"),
+                        k: n("k", 5),
+                        class: args["class"].as_str().map(str::to_string),
+                        near: None,
+                        ranking: Ranking::Graph {
+                            parser: ParserKind::Rules,
+                            rerank: false,
                         },
-                    )
-                    .map_err(find_error)?;
+                        rerank_n: 10,
+                    },
+                )?;
                 Ok(json!({"request": a.request, "results": a.results}))
             }
             "locate" => {
                 let r = self.store.read().map_err(failed)?;
-                let a = self
-                    .finder
-                    .locate(
-                        &r,
-                        &LocateRequest {
-                            text: s("text"),
-                            k: n("k", 3),
-                            parser: ParserKind::Rules,
-                        },
-                    )
-                    .map_err(find_error)?;
+                let a = self.finder.locate(
+                    &r,
+                    &LocateRequest {
+                        text: s("text"),
+                        k: n("k", 3),
+                        parser: ParserKind::Rules,
+                    },
+                )?;
                 serde_json::to_value(a).map_err(failed)
             }
             "plan_route" => {

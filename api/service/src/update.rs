@@ -253,10 +253,7 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
                 model.model_id(),
                 llm_tools::prompts::PARSE_EDIT.id()
             );
-            let r = llm_tools::edit::parse_edit_llm(model, &req.text).map_err(|e| match e {
-                llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
-                other => ToolError::Failed(other.to_string()),
-            })?;
+            let r = llm_tools::edit::parse_edit_llm(model, &req.text)?;
             (r, by)
         }
     };
@@ -469,12 +466,7 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
         proposal
     };
     let applied = if req.apply && !ambiguous && !no_match {
-        let a = ingest::map_edit::apply(store, &change, &req.text, &parsed_by).map_err(
-            |e| match e {
-                ingest::Error::Invalid(m) => ToolError::BadArguments(m),
-                other => ToolError::Failed(other.to_string()),
-            },
-        )?;
+        let a = ingest::map_edit::apply(store, &change, &req.text, &parsed_by)?;
         finder.forget_scene();
         Some(a)
     } else {
@@ -510,10 +502,7 @@ pub fn undo(
             return Err(ToolError::NotFound(format!("no map edit {edit_id}")));
         }
     }
-    let info = ingest::map_edit::undo(store, edit_id).map_err(|e| match e {
-        ingest::Error::Invalid(m) => ToolError::BadArguments(m),
-        other => ToolError::Failed(other.to_string()),
-    })?;
+    let info = ingest::map_edit::undo(store, edit_id)?;
     finder.forget_scene();
     Ok(info)
 }

@@ -112,3 +112,89 @@ pub fn sim_map(
     json(&og(&b));
     (sim, db)
 }
+
+/// A running `opengraph serve`; killed on drop.
+pub struct Server {
+    child: std::process::Child,
+    /// `http://127.0.0.1:PORT`, without a trailing slash.
+    pub url: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `opengraph serve --db DB` on 127.0.0.1 port 0 with `extra` flags and waits (60 s at
+/// most) for the address it prints.
+pub fn serve(db: &Path, extra: &[&str]) -> Server {
+    use std::io::BufRead;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0"])
+        .args(extra)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::BufReader::new(stdout).read_line(&mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx
+        .recv_timeout(std::time::Duration::from_secs(60))
+        .expect("the server printed its address within 60 s");
+    let start = line.find("http://").expect("an address in the first line");
+    let url = line[start..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .trim_end_matches('/')
+        .to_string();
+    Server { child, url }
+}
+
+/// The Python of `$OPENGRAPH_VENV` (default `~/.cache/opengraph/venv`) when it has the official
+/// MCP client (`scripts/setup.sh` installs it).
+pub fn python_with_mcp() -> Option<std::path::PathBuf> {
+    let venv = std::env::var_os("OPENGRAPH_VENV")
+        .map(std::path::PathBuf::from)
+        .or_else(|| {
+            std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/opengraph/venv"))
+        })?;
+    let py = venv.join("bin/python");
+    let ok = Command::new(&py)
+        .args(["-c", "import mcp"])
+        .status()
+        .is_ok_and(|s| s.success());
+    ok.then_some(py)
+}
+
+/// Runs `cmd` with its output captured, waiting `secs` at most; asserts it succeeded and
+/// returns the last line of its stdout as JSON (the Python clients print one JSON line).
+pub fn json_of_run(mut cmd: Command, secs: u64) -> serde_json::Value {
+    let child = cmd
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    let out = rx
+        .recv_timeout(std::time::Duration::from_secs(secs))
+        .unwrap_or_else(|_| panic!("{cmd:?} did not finish within {secs} s"))
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{cmd:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(text.lines().last().unwrap_or_default()).unwrap()
+}
