@@ -411,11 +411,26 @@ impl From<ingest::Error> for ToolError {
     }
 }
 
+/// Every tool (write tools included) with its argument validator, built once per process:
+/// a call looks its tool up here instead of rebuilding the schemas and validators.
+fn registry() -> &'static [(Tool, jsonschema::Validator)] {
+    static REGISTRY: std::sync::OnceLock<Vec<(Tool, jsonschema::Validator)>> =
+        std::sync::OnceLock::new();
+    REGISTRY.get_or_init(|| {
+        tools(true)
+            .into_iter()
+            .map(|t| {
+                let v = jsonschema::validator_for(&t.input_schema)
+                    .expect("the registry's schemas are valid (tested)");
+                (t, v)
+            })
+            .collect()
+    })
+}
+
 /// Validates tool arguments against a schema with `jsonschema`; the message names each
 /// offending place (`/k: 0 is less than the minimum of 1`).
-fn check_args(args: &Json, schema: &Json) -> ToolResult<()> {
-    let v = jsonschema::validator_for(schema)
-        .map_err(|e| ToolError::Failed(format!("the tool's schema is invalid: {e}")))?;
+fn check_args(args: &Json, v: &jsonschema::Validator) -> ToolResult<()> {
     let errors: Vec<String> = v
         .iter_errors(args)
         .map(|e| {
@@ -496,17 +511,17 @@ impl Toolbox {
     /// [`ToolError::Unknown`] for a name not offered, [`ToolError::BadArguments`] for
     /// arguments that break the schema, [`ToolError::Failed`] when the operation fails.
     pub fn call(&mut self, name: &str, args: &Json) -> ToolResult<Json> {
-        let tool = self
-            .tools()
-            .into_iter()
-            .find(|t| t.name == name)
+        let (tool, validator) = registry()
+            .iter()
+            .find(|(t, _)| t.name == name && (self.writes || !t.writes))
             .ok_or_else(|| ToolError::Unknown(name.to_string()))?;
         let args = if args.is_null() {
             json!({})
         } else {
             args.clone()
         };
-        check_args(&args, &tool.input_schema)?;
+        check_args(&args, validator)?;
+        let name = tool.name;
         let now = self.generation.load(Ordering::SeqCst);
         if now != self.seen {
             self.finder.forget_scene();
