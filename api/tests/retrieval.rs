@@ -132,7 +132,9 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
         "--json",
     ]));
     assert!(e["all"]["cases"].as_u64().unwrap() >= 40, "{e}");
-    assert!(e["all"]["top3"].as_f64().unwrap() >= 0.6, "{e}");
+    // measured 0.647 / 0.838 at seed 0; the scoring before standing spots gave 0.544 top-1
+    assert!(e["all"]["top1"].as_f64().unwrap() >= 0.58, "{e}");
+    assert!(e["all"]["top3"].as_f64().unwrap() >= 0.75, "{e}");
 
     // navigate: both ends from words; the route ends at the instance `find` resolved
     let png = dir.path().join("nav.png");

@@ -4,14 +4,17 @@
 //! whether its kind fits and whether each landmark has a matching instance at it, and the
 //! position is estimated from the matched landmarks.
 //!
-//! Each landmark `L` has candidates `b` with a similarity gate `g_L(b)` (1 within 0.1 of the best
-//! cosine, 0 at 0.3 below it; [`crate::graph_find::similarity_gates`]). For a segment `s`, the
-//! speaker may stand at any well-matched candidate (`g ≥ 0.3`) within 10 m of its area; at such
-//! a spot `p`, each landmark scores `max_b g_L(b) · together(|b − p|) · near(b, s)` (1 within
-//! 15 m of `p` and within 10 m of the area, fading as `exp(-(d − limit) / 5)`), weighted by
-//! how rare the landmark is (`1.1 −` the share of segments with a good match). The segment's
-//! score is its best spot's weighted mean, plus 0.5 when its kind is the said one. The position
-//! is the mean of that spot's matched landmarks, weighted by their scores.
+//! Each landmark `L` has candidates `b` with a similarity gate `g_L(b)`: what the thing is
+//! is matched without its colour words (1 within 0.1 of the best cosine, 0 at 0.3 below it;
+//! [`crate::graph_find::similarity_gates`]), times the colour agreement of the caption
+//! ([`crate::vocab::colour_agreement`]: 1, 0.8 when the caption says no colour, 0.4 for
+//! another colour). The speaker stands somewhere on the segment: at the disc's centre or
+//! half-way out, or every 5 m along the road's centreline. At such a spot `p`, each landmark
+//! takes its own instance (two landmarks are two things; a greedy assignment) and scores
+//! `g_L(b) · together(|b − p|)` (1 at the spot, 0.9 at 15 m, fading as `exp(-(d − 15) / 5)`
+//! beyond), weighted by how rare the landmark is (`1.1 −` the share of segments with a good
+//! match within 15 m of a spot). The segment's score is its best spot's weighted mean, plus
+//! 0.5 when its kind is the said one; the position estimate is that spot.
 
 use graphstore::{GraphRead, Value};
 
@@ -20,13 +23,10 @@ use crate::embed::Embedder;
 use crate::error::{Error, Result};
 use crate::graph_find::{Scene, SceneObject, similarity_gates};
 use crate::request::{self, SegmentConstraint};
-use crate::vocab::names_surface;
+use crate::vocab::{colour_agreement, names_surface, without_colours};
 
 /// A landmark's match at a spot: (object index, value, similarity gate).
 type Pick = (usize, f64, f64);
-
-/// A landmark counts for a segment when it lies within this distance of the segment's area.
-const SEGMENT_SLACK_M: f64 = 10.0;
 
 /// Landmarks of one description stand within this distance of the speaker's spot.
 const TOGETHER_M: f64 = 15.0;
@@ -222,7 +222,7 @@ pub fn parse_description_rules(text: &str) -> Result<Description> {
             || bare.starts_with("of ")
             || matches!(
                 bare,
-                "me" | "i" | "it" | "here" | "left" | "right" | "corner"
+                "me" | "i" | "it" | "here" | "left" | "right" | "corner" | "a" | "an" | "the"
             )
             || names_surface(&[], &c)
         {
@@ -297,13 +297,15 @@ pub fn locate(
     desc: &Description,
     k: usize,
 ) -> Result<Vec<Located>> {
-    // per landmark: (object index, gate) of every candidate with a positive gate
+    // per landmark: (object index, gate) of every candidate with a positive gate; what the
+    // thing is is matched without its colour, and the colour is checked apart
     let mut cands: Vec<Vec<(usize, f64)>> = Vec::new();
     for l in &desc.landmarks {
+        let kind_phrase = without_colours(l);
         let gates = similarity_gates(
             scene,
             embedder,
-            &[l.as_str()],
+            &[kind_phrase.as_str()],
             |o: &SceneObject| !o.surface,
             0.1,
             0.2,
@@ -312,95 +314,78 @@ pub fn locate(
             gates
                 .into_iter()
                 .enumerate()
-                .filter_map(|(i, g)| g.filter(|g| *g > 0.0).map(|g| (i, g)))
+                .filter_map(|(i, g)| {
+                    g.map(|g| (i, g * colour_agreement(l, &scene.objects[i].caption)))
+                        .filter(|(_, g)| *g > 0.05)
+                })
                 .collect(),
         );
     }
-    let ground = |i: usize| scene.ground.of(scene.objects[i].centroid);
-    let near_area = |d: f64| {
-        if d <= SEGMENT_SLACK_M {
-            1.0
-        } else {
-            (-(d - SEGMENT_SLACK_M) / 5.0).exp()
-        }
+    let ground: Vec<[f64; 2]> = scene
+        .objects
+        .iter()
+        .map(|o| scene.ground.of(o.centroid))
+        .collect();
+    let spots: Vec<Vec<[f64; 2]>> = segments
+        .iter()
+        .map(|s| s.area.standing_spots(SPOT_STEP_M))
+        .collect();
+    let near_spots = |spots: &[[f64; 2]], q: [f64; 2]| {
+        spots
+            .iter()
+            .map(|p| (q[0] - p[0]).hypot(q[1] - p[1]))
+            .fold(f64::INFINITY, f64::min)
     };
-    let together = |d: f64| {
-        if d <= TOGETHER_M {
-            1.0
-        } else {
-            (-(d - TOGETHER_M) / 5.0).exp()
-        }
-    };
-    // how common each landmark is: the share of segments with a good match at them
+    // how common each landmark is: the share of segments with a good match in reach
     let weights: Vec<f64> = cands
         .iter()
         .map(|cs| {
-            let hit = segments
+            let hit = spots
                 .iter()
-                .filter(|s| {
+                .filter(|sp| {
                     cs.iter()
-                        .any(|&(i, g)| g * near_area(s.area.distance(ground(i))) > 0.5)
+                        .any(|&(i, g)| g > 0.5 && near_spots(sp, ground[i]) <= TOGETHER_M)
                 })
                 .count();
-            1.1 - hit as f64 / segments.len().max(1) as f64
+            // information content, as in IDF: a landmark found at few segments tells more
+            ((segments.len() as f64 + 1.0) / (hit as f64 + 0.5))
+                .ln()
+                .max(0.05)
         })
         .collect();
     let total_w: f64 = weights.iter().sum::<f64>().max(1e-9);
     let mut out = Vec::with_capacity(segments.len());
-    for s in segments {
+    for (s, spots) in segments.iter().zip(&spots) {
         let kind_match = desc.segment.map(|c| c.admits(&s.kind));
-        // where the speaker may stand: at a well-matched landmark near the segment
-        let mut spots: Vec<[f64; 2]> = Vec::new();
-        for cs in &cands {
-            for &(i, g) in cs {
-                let p = ground(i);
-                if g >= 0.3 && s.area.distance(p) <= SEGMENT_SLACK_M {
-                    spots.push(p);
-                }
-            }
-        }
-        // the best spot: every landmark matched close to it, weighted by rarity
-        let mut best: Option<(f64, Vec<Option<Pick>>)> = None;
-        for p in &spots {
-            let mut sum = 0.0;
-            let mut picks = Vec::with_capacity(cands.len());
-            for (cs, w) in cands.iter().zip(&weights) {
-                let mut pick: Option<Pick> = None;
-                for &(i, g) in cs {
-                    let q = ground(i);
-                    let v = g
-                        * together((q[0] - p[0]).hypot(q[1] - p[1]))
-                        * near_area(s.area.distance(q));
-                    if pick.is_none_or(|x| v > x.1) {
-                        pick = Some((i, v, g));
-                    }
-                }
-                sum += w * pick.map_or(0.0, |x| x.1);
-                picks.push(pick);
-            }
-            if best.as_ref().is_none_or(|b| sum > b.0) {
-                best = Some((sum, picks));
+        // the best place to stand on the segment, with its landmark picks
+        let mut best: Option<(f64, [f64; 2], Vec<Option<Pick>>)> = None;
+        for &p in spots {
+            let (sum, picks) = assign(&cands, &weights, |i| {
+                let q = ground[i];
+                together((q[0] - p[0]).hypot(q[1] - p[1]))
+            });
+            if best.as_ref().is_none_or(|b| sum > b.0 + 1e-12) {
+                best = Some((sum, p, picks));
             }
         }
         let mut evidence = Vec::new();
-        let (mut wx, mut wz, mut w) = (0.0, 0.0, 0.0);
         let mut support = 0.0;
-        if let Some((sum, picks)) = best {
+        let mut position = s.centroid;
+        if let Some((sum, p, picks)) = best
+            && sum > 0.0
+        {
             support = sum / total_w;
+            position = p;
             for (l, pick) in desc.landmarks.iter().zip(picks) {
                 if let Some((i, v, g)) = pick
                     && v > 0.05
                 {
                     let o = &scene.objects[i];
-                    let q = ground(i);
-                    wx += v * q[0];
-                    wz += v * q[1];
-                    w += v;
                     evidence.push(LandmarkEvidence {
                         landmark: l.clone(),
                         instance_id: o.id,
                         caption: o.caption.clone(),
-                        distance_m: (s.area.distance(q) * 100.0).round() / 100.0,
+                        distance_m: (s.area.distance(ground[i]) * 100.0).round() / 100.0,
                         similarity: g,
                     });
                 }
@@ -411,17 +396,70 @@ pub fn locate(
             kind: s.kind.clone(),
             score: if kind_match == Some(true) { 0.5 } else { 0.0 } + support,
             kind_match,
-            position: if w > 0.0 {
-                [wx / w, wz / w]
-            } else {
-                s.centroid
-            },
+            position,
             evidence,
         });
     }
     out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.segment.cmp(&b.segment)));
     out.truncate(k);
     Ok(out)
+}
+
+/// Spacing of the places along a road where the speaker may stand.
+const SPOT_STEP_M: f64 = 5.0;
+
+/// How much a landmark `d` metres from the speaker counts: from 1 at the spot to 0.9 at
+/// [`TOGETHER_M`] (nearer things are the likelier ones to be named), fading as
+/// `0.9 · exp(-(d − 15) / 5)` beyond.
+fn together(d: f64) -> f64 {
+    if d <= TOGETHER_M {
+        1.0 - 0.1 * d / TOGETHER_M
+    } else {
+        0.9 * (-(d - TOGETHER_M) / 5.0).exp()
+    }
+}
+
+/// Gives each landmark its own instance (two landmarks said are two things), greedily by
+/// weighted value `w_L · g_L(b) · place(b)`: the best pair first, then the best among what is
+/// left. Returns the weighted sum and each landmark's pick (object, value, gate).
+fn assign(
+    cands: &[Vec<(usize, f64)>],
+    weights: &[f64],
+    place: impl Fn(usize) -> f64,
+) -> (f64, Vec<Option<Pick>>) {
+    // a landmark's few best candidates are enough for a greedy assignment of a handful
+    const KEEP: usize = 4;
+    let ranked: Vec<Vec<Pick>> = cands
+        .iter()
+        .map(|cs| {
+            let mut v: Vec<Pick> = cs.iter().map(|&(i, g)| (i, g * place(i), g)).collect();
+            v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+            v.truncate(KEEP + cands.len());
+            v
+        })
+        .collect();
+    let mut picks: Vec<Option<Pick>> = vec![None; cands.len()];
+    let mut used: Vec<usize> = Vec::with_capacity(cands.len());
+    let mut sum = 0.0;
+    for _ in 0..cands.len() {
+        let mut best: Option<(usize, Pick, f64)> = None;
+        for (l, r) in ranked.iter().enumerate() {
+            if picks[l].is_some() {
+                continue;
+            }
+            if let Some(p) = r.iter().find(|p| !used.contains(&p.0)) {
+                let wv = weights[l] * p.1;
+                if best.as_ref().is_none_or(|b| wv > b.2) {
+                    best = Some((l, *p, wv));
+                }
+            }
+        }
+        let Some((l, p, wv)) = best else { break };
+        picks[l] = Some(p);
+        used.push(p.0);
+        sum += wv;
+    }
+    (sum, picks)
 }
 
 #[cfg(test)]
@@ -448,10 +486,105 @@ mod tests {
         .unwrap();
         assert_eq!(d.segment, Some(SegmentConstraint::StraightRoad));
         assert_eq!(d.landmarks, vec!["a grey park bench"]);
+        // the article of a segment phrase is no landmark
+        for t in [
+            "I'm at an L-shaped bend.",
+            "I'm at an intersection",
+            "at a T junction",
+        ] {
+            let d = parse_description_rules(t).unwrap();
+            assert!(d.segment.is_some(), "{t}");
+            assert!(d.landmarks.is_empty(), "{t}: {:?}", d.landmarks);
+        }
         let d = parse_description_rules("I'm at the crossroads").unwrap();
         assert_eq!(d.segment, Some(SegmentConstraint::Crossroads));
         assert!(d.landmarks.is_empty());
         assert!(parse_description_rules(" ").is_err());
+    }
+
+    /// A scene of captioned objects (hash-embedded) on the XY ground plane.
+    fn scene_of(objects: &[(u64, &str, [f64; 2])]) -> (Scene, crate::hash_embed::HashEmbedder) {
+        let mut emb = crate::hash_embed::HashEmbedder::new(256);
+        let captions: Vec<&str> = objects.iter().map(|o| o.1).collect();
+        let features = emb.embed(&captions).unwrap();
+        let objects = objects
+            .iter()
+            .zip(features)
+            .map(|(&(id, caption, p), feature)| SceneObject {
+                id,
+                class: "x".into(),
+                caption: caption.into(),
+                centroid: [p[0], p[1], 0.5],
+                ground_min: [p[0] - 0.3, p[1] - 0.3],
+                ground_max: [p[0] + 0.3, p[1] + 0.3],
+                heights: (0.0, 1.0),
+                feature,
+                surface: false,
+                segment: None,
+            })
+            .collect();
+        let scene = Scene {
+            ground: planner::Ground::XY,
+            objects,
+            segments: Vec::new(),
+        };
+        (scene, emb)
+    }
+
+    fn junction(id: u64, centre: [f64; 2]) -> SegmentInfo {
+        SegmentInfo {
+            id,
+            kind: "intersection".into(),
+            centroid: centre,
+            area: SegmentArea::Disc {
+                centre,
+                radius_m: 12.0,
+            },
+        }
+    }
+
+    fn ranked(scene: &Scene, emb: &mut dyn Embedder, segs: &[SegmentInfo], text: &str) -> Vec<u64> {
+        let d = parse_description_rules(text).unwrap();
+        locate(scene, segs, emb, &d, 3)
+            .unwrap()
+            .iter()
+            .map(|l| l.segment)
+            .collect()
+    }
+
+    #[test]
+    fn two_landmarks_are_two_things_and_colours_are_checked_apart() {
+        let segs = [junction(10, [0.0, 0.0]), junction(20, [200.0, 0.0])];
+        let (scene, mut emb) = scene_of(&[
+            // at 10: one grey traffic light, and a dark blue car
+            (1, "a grey traffic light at the junction", [5.0, 3.0]),
+            (2, "a dark blue car parked by the curb", [-4.0, 6.0]),
+            // at 20: a grey and a black traffic light, and a red bike
+            (3, "a grey traffic light at the junction", [205.0, 3.0]),
+            (4, "a black traffic light at the junction", [196.0, -4.0]),
+            (5, "a red bike parked on the sidewalk", [203.0, -6.0]),
+        ]);
+        // one grey light matches both places; two lights only the second
+        assert_eq!(
+            ranked(
+                &scene,
+                &mut emb,
+                &segs,
+                "I'm at a crossroads, there's a grey traffic light and a traffic light behind me"
+            )[0],
+            20
+        );
+        // a dark blue bike is a bike of another colour, not a dark blue car
+        assert_eq!(
+            ranked(&scene, &mut emb, &segs, "I can see a dark blue bike")[0],
+            20
+        );
+        // the position estimate is a place on the segment
+        let d = parse_description_rules("there's a black traffic light").unwrap();
+        let best = &locate(&scene, &segs, &mut emb, &d, 1).unwrap()[0];
+        assert_eq!(best.segment, 20);
+        assert!(segs[1].area.contains(best.position), "{:?}", best.position);
+        assert_eq!(best.evidence[0].instance_id, 4);
     }
 
     #[test]

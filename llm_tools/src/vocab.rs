@@ -144,6 +144,44 @@ fn colours_of(text: &str) -> Vec<&'static str> {
     out
 }
 
+/// A phrase without its colour words and their shade words ("a dark blue bike" → "a
+/// bike"), so that what a thing is can be matched apart from its colour; the phrase itself
+/// when nothing but colours would be left.
+pub fn without_colours(phrase: &str) -> String {
+    let words: Vec<&str> = phrase.split_whitespace().collect();
+    let is_colour = |w: &str| {
+        let w = w.to_lowercase();
+        let w = w.trim_matches(|c: char| !c.is_alphanumeric());
+        COLOURS.contains(&w)
+    };
+    let mut kept = Vec::with_capacity(words.len());
+    for (i, w) in words.iter().enumerate() {
+        let shade = matches!(
+            w.to_lowercase().as_str(),
+            "dark" | "light" | "bright" | "pale" | "deep"
+        ) && words.get(i + 1).is_some_and(|n| is_colour(n));
+        // "black and white": the joining word goes with the colours
+        let joins = matches!(w.to_lowercase().as_str(), "and" | "or")
+            && i > 0
+            && is_colour(words[i - 1])
+            && words.get(i + 1).is_some_and(|n| is_colour(n));
+        if !is_colour(w) && !shade && !joins {
+            kept.push(*w);
+        }
+    }
+    let content = kept.iter().any(|w| {
+        !matches!(
+            w.to_lowercase().as_str(),
+            "a" | "an" | "the" | "and" | "one"
+        )
+    });
+    if content {
+        kept.join(" ")
+    } else {
+        phrase.to_string()
+    }
+}
+
 /// How well a caption's colours agree with the colours a phrase asks for, in (0, 1]: 1 when
 /// the phrase names none or the caption shares one, 0.8 when the caption names none, 0.4 when
 /// it names only others ("a dark blue bike" against "a yellow bike").
@@ -235,6 +273,17 @@ mod tests {
         assert!(!t(&["bus stop shelter", "road"], "x"));
         // an empty tag is no tag
         assert!(t(&[""], "a concrete sidewalk"));
+    }
+
+    #[test]
+    fn colours_come_off_a_phrase() {
+        assert_eq!(without_colours("a dark blue bike"), "a bike");
+        assert_eq!(without_colours("a grey traffic light"), "a traffic light");
+        assert_eq!(without_colours("a black and white bus"), "a bus");
+        assert_eq!(without_colours("a dark alley"), "a dark alley");
+        assert_eq!(without_colours("a red one"), "a red one");
+        assert_eq!(without_colours("green"), "green");
+        assert_eq!(without_colours("a bench"), "a bench");
     }
 
     #[test]

@@ -84,6 +84,45 @@ impl SegmentArea {
         }
     }
 
+    /// Where someone standing on the segment may be: for a disc its centre and six points
+    /// at half its radius; for a corridor points along the centreline every `step_m` metres
+    /// (its ends included). Ground plane, metres. `step_m` is clamped to at least 0.5 m.
+    pub fn standing_spots(&self, step_m: f64) -> Vec<[f64; 2]> {
+        match self {
+            SegmentArea::Disc { centre, radius_m } => {
+                let mut out = vec![*centre];
+                for k in 0..6 {
+                    let a = std::f64::consts::TAU * f64::from(k) / 6.0;
+                    out.push([
+                        centre[0] + 0.5 * radius_m * a.cos(),
+                        centre[1] + 0.5 * radius_m * a.sin(),
+                    ]);
+                }
+                out
+            }
+            SegmentArea::Corridor { centreline, .. } => {
+                let step = if step_m.is_finite() {
+                    step_m.max(0.5)
+                } else {
+                    5.0
+                };
+                let mut out: Vec<[f64; 2]> = centreline.first().copied().into_iter().collect();
+                for w in centreline.windows(2) {
+                    let len = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+                    let n = (len / step).ceil().max(1.0) as usize;
+                    for k in 1..=n {
+                        let t = k as f64 / n as f64;
+                        out.push([
+                            w[0][0] + t * (w[1][0] - w[0][0]),
+                            w[0][1] + t * (w[1][1] - w[0][1]),
+                        ]);
+                    }
+                }
+                out
+            }
+        }
+    }
+
     /// The road direction at the point of the area nearest to `p` (unit vector), for
     /// corridors; None for discs.
     pub fn direction_near(&self, p: [f64; 2]) -> Option<[f64; 2]> {
@@ -100,5 +139,38 @@ impl SegmentArea {
         let d = [best[1][0] - best[0][0], best[1][1] - best[0][1]];
         let l = (d[0] * d[0] + d[1] * d[1]).sqrt();
         (l > 0.0).then(|| [d[0] / l, d[1] / l])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn standing_spots_lie_on_the_area() {
+        let disc = SegmentArea::Disc {
+            centre: [10.0, -4.0],
+            radius_m: 12.0,
+        };
+        let spots = disc.standing_spots(5.0);
+        assert_eq!(spots.len(), 7);
+        for p in &spots {
+            assert!(disc.contains(*p), "{p:?}");
+        }
+        let road = SegmentArea::Corridor {
+            centreline: vec![[0.0, 0.0], [100.0, 0.0], [100.0, 12.0]],
+            half_width_m: 8.0,
+        };
+        let spots = road.standing_spots(5.0);
+        // 20 steps along the first piece, 3 along the second, and the start
+        assert_eq!(spots.len(), 24);
+        for w in spots.windows(2) {
+            let step = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+            assert!(step <= 5.0 + 1e-9 && step > 0.0, "{step}");
+        }
+        assert!((spots[23][1] - 12.0).abs() < 1e-9);
+        // a NaN or tiny step is clamped, never an endless loop
+        assert_eq!(road.standing_spots(f64::NAN).len(), 24);
+        assert_eq!(road.standing_spots(0.0).len(), 225);
     }
 }
