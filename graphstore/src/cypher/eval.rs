@@ -718,10 +718,11 @@ impl Ctx<'_, '_> {
                         None,
                     ));
                 }
-                self.g()
-                    .node_prop(*id, key)?
-                    .map(Val::from)
-                    .unwrap_or(Val::Null)
+                let g = self.g();
+                match (g.prop_key(key), self.node_cached(*id)?) {
+                    (Some(k), Some(n)) => n.get(k).cloned().map(Val::from).unwrap_or(Val::Null),
+                    _ => Val::Null,
+                }
             }
             Val::Rel(id) => {
                 if self.deleted_rel(*id) {
@@ -764,7 +765,10 @@ impl Ctx<'_, '_> {
         let props = match b {
             Val::Null => return Ok(Val::Null),
             Val::Map(m) => return Ok(Val::Map(m.clone())),
-            Val::Node(id) => g.node(*id)?.map(|n| n.props).unwrap_or_default(),
+            Val::Node(id) => self
+                .node_cached(*id)?
+                .map(|n| n.props.clone())
+                .unwrap_or_default(),
             Val::Rel(id) => g.rel(*id)?.map(|r| r.props).unwrap_or_default(),
             o => return Err(type_err(format!("properties() of {}", o.type_name()))),
         };
@@ -785,8 +789,8 @@ impl Ctx<'_, '_> {
             ));
         }
         let g = self.g();
-        let mut out: Vec<String> = g
-            .node(id)?
+        let mut out: Vec<String> = self
+            .node_cached(id)?
             .map(|n| n.labels.iter().filter_map(|l| g.name_of(l.0)).collect())
             .unwrap_or_default();
         out.sort();

@@ -50,7 +50,14 @@ pub(crate) struct Ctx<'a, 'b> {
     pub max_rows: usize,
     /// Nodes per label, read once per statement when the planner compares label scans.
     label_counts: std::cell::OnceCell<BTreeMap<String, u64>>,
+    /// Decoded nodes of a read-only statement, most recently used kept: a pattern checks
+    /// the same node's labels and properties many times (every instance's segment, every
+    /// edge's end), and a record decodes whole.
+    node_cache: std::cell::RefCell<lru::LruCache<u64, std::rc::Rc<crate::Node>>>,
 }
+
+/// Decoded nodes one read-only statement keeps (a few MiB for typical records).
+const NODE_CACHE: std::num::NonZeroUsize = std::num::NonZeroUsize::new(4096).unwrap();
 
 fn sem(code: &'static str, msg: impl Into<String>) -> QueryError {
     QueryError::new(ErrorKind::Semantic, code, msg, None)
@@ -75,8 +82,25 @@ impl<'a, 'b> Ctx<'a, 'b> {
             clause_pos: None,
             max_rows: usize::MAX,
             label_counts: std::cell::OnceCell::new(),
+            node_cache: std::cell::RefCell::new(lru::LruCache::new(NODE_CACHE)),
             stats: Stats::default(),
         }
+    }
+
+    /// A node by id, decoded once per read-only statement (see `node_cache`); a writing
+    /// statement reads it afresh every time, since its own writes change it.
+    pub(crate) fn node_cached(&self, id: u64) -> R<Option<std::rc::Rc<crate::Node>>> {
+        if matches!(self.tx, Tx::Write(_)) {
+            return Ok(self.g().node(id)?.map(std::rc::Rc::new));
+        }
+        if let Some(n) = self.node_cache.borrow_mut().get(&id) {
+            return Ok(Some(n.clone()));
+        }
+        let n = self.g().node(id)?.map(std::rc::Rc::new);
+        if let Some(n) = &n {
+            self.node_cache.borrow_mut().put(id, n.clone());
+        }
+        Ok(n)
     }
 
     pub fn g(&self) -> &dyn GraphRead {
@@ -775,7 +799,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
         }
         if !np.labels.is_empty() || np.props.is_some() {
             let g = self.g();
-            let Some(node) = g.node(id)? else {
+            let Some(node) = self.node_cached(id)? else {
                 return Ok(false);
             };
             for l in &np.labels {
