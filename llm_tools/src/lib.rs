@@ -3,6 +3,7 @@
 pub mod chat;
 pub mod edit;
 pub mod embed;
+pub mod embed_cache;
 mod error;
 pub mod graph_find;
 pub mod hash_embed;
@@ -17,5 +18,6 @@ pub use chat::{
     ChatModel, ChatRequest, ChatResponse, LlmConfig, Message, Role, ToolCall, ToolSpec,
 };
 pub use embed::{Embedder, MiniLm};
+pub use embed_cache::{CachedEmbedder, EmbeddingCache};
 pub use error::{Error, Result};
 pub use hash_embed::HashEmbedder;

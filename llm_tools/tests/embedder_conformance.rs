@@ -1,7 +1,7 @@
 //! One conformance suite for every [`Embedder`]: the deterministic hash embedder always, and
 //! MiniLM when its files are installed (skips with a message otherwise).
 
-use llm_tools::{Embedder, HashEmbedder, MiniLm};
+use llm_tools::{CachedEmbedder, Embedder, EmbeddingCache, HashEmbedder, MiniLm};
 
 fn cos(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -39,6 +39,19 @@ fn conformance(e: &mut dyn Embedder) {
 #[test]
 fn hash_embedder_conforms() {
     conformance(&mut HashEmbedder::new(384));
+}
+
+#[test]
+fn cached_embedder_conforms() {
+    // twice over one cache: the second run reads every text back
+    let cache = EmbeddingCache::new(64);
+    for _ in 0..2 {
+        conformance(&mut CachedEmbedder::new(
+            Box::new(HashEmbedder::new(384)),
+            cache.clone(),
+        ));
+    }
+    assert!(cache.stats().0 > 0);
 }
 
 #[test]

@@ -174,6 +174,16 @@ impl Finder {
         Ok(self.llm()?.as_mut())
     }
 
+    /// Looks query embeddings up in `cache` first, sharing it with every other finder given
+    /// it; the answers stay the embedder's own.
+    pub fn share_embedding_cache(&mut self, cache: std::sync::Arc<llm_tools::EmbeddingCache>) {
+        let inner = std::mem::replace(
+            &mut self.embedder,
+            Box::new(llm_tools::HashEmbedder::new(1)),
+        );
+        self.embedder = Box::new(llm_tools::CachedEmbedder::new(inner, cache));
+    }
+
     /// Sentence embeddings of `texts` with the map's embedder.
     ///
     /// # Errors

@@ -479,6 +479,12 @@ impl Toolbox {
         }
     }
 
+    /// Shares `cache` for query embeddings with every other toolbox given it (a server's
+    /// workers): a request text is embedded once, then read back.
+    pub fn share_embedding_cache(&mut self, cache: std::sync::Arc<llm_tools::EmbeddingCache>) {
+        self.finder.share_embedding_cache(cache);
+    }
+
     /// The store.
     pub fn store(&self) -> &Store {
         &self.store

@@ -421,6 +421,10 @@ pub(crate) enum Command {
         /// Requests in progress at once; more get 503.
         #[arg(long, default_value_t = 64)]
         max_concurrent: usize,
+        /// Request texts whose sentence embeddings are kept for reuse, shared by the workers
+        /// (least recently used out; 4,096 MiniLM vectors take about 6 MiB; 0 turns it off).
+        #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(0..=1_000_000))]
+        embedding_cache: u32,
         /// A browser origin allowed to call the API (CORS); repeat for more. Default: CORS off.
         #[arg(long)]
         cors_origin: Vec<String>,

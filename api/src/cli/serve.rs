@@ -17,6 +17,7 @@ pub(crate) struct ServeArgs {
     pub(crate) timeout_secs: f64,
     pub(crate) body_limit_bytes: usize,
     pub(crate) max_concurrent: usize,
+    pub(crate) embedding_cache: u32,
     pub(crate) cors_origin: Vec<String>,
     pub(crate) llm: LlmArgs,
 }
@@ -74,6 +75,13 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         boxes.push(first.fork(finder));
     }
     boxes.push(first);
+    // one query-embedding cache for every worker
+    if a.embedding_cache > 0 {
+        let cache = llm_tools::EmbeddingCache::new(a.embedding_cache as usize);
+        for b in &mut boxes {
+            b.share_embedding_cache(cache.clone());
+        }
+    }
     let timeout = std::time::Duration::from_secs_f64(a.timeout_secs);
     let cfg = a.llm.config(llm_tools::LlmConfig::default(), "none");
     let service = if cfg.backend == "none" {
@@ -165,6 +173,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         timeout_secs,
         body_limit_bytes,
         max_concurrent,
+        embedding_cache,
         cors_origin,
         llm,
     } = cmd
@@ -180,6 +189,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         timeout_secs,
         body_limit_bytes,
         max_concurrent,
+        embedding_cache,
         cors_origin,
         llm,
     })
