@@ -7,6 +7,12 @@
 //! cargo bench -p api --bench load                       # the default small city, 32 clients, 60 s
 //! OPENGRAPH_LOAD_DB=out/city.og OPENGRAPH_LOAD_SECS=20 OPENGRAPH_LOAD_CLIENTS=8 cargo bench -p api --bench load
 //! ```
+//! `OPENGRAPH_LOAD_RATE=500` paces the readers to 500 requests/s in all (open loop: each
+//! client sends on a fixed schedule, and a request's latency counts from when it was due, so
+//! a server that falls behind is not flattered); without it every client sends its next
+//! request as soon as the last one is answered (closed loop), and latency is mostly queueing.
+//! `OPENGRAPH_LOAD_UNIQUE=1` makes every find and locate text unique (a request number is
+//! appended), so that none is answered from the server's query-embedding cache.
 //! The map is copied first (the writer changes it); without `OPENGRAPH_LOAD_DB` the default small
 //! city is simulated and built (MiniLM; about 15 s).
 
@@ -197,6 +203,10 @@ fn main() -> anyhow::Result<()> {
         "MATCH (i:Instance)-[:IN_SEGMENT]->(s:Segment {kind: 't_intersection'}) RETURN i.class AS c, count(*) AS n ORDER BY n DESC LIMIT 5",
         "MATCH (a:Instance)-[r:RELATED]->(b:Instance) WHERE r.relation = 'next_to' RETURN count(*) AS n",
     ];
+    let unique = env_or("OPENGRAPH_LOAD_UNIQUE", 0u8) == 1;
+    let rate: f64 = env_or("OPENGRAPH_LOAD_RATE", 0.0);
+    // each client's interval on the open-loop schedule
+    let period = (rate > 0.0).then(|| Duration::from_secs_f64(clients as f64 / rate));
     let samples = Arc::new(Mutex::new(Vec::<Sample>::new()));
     let deadline = Instant::now() + Duration::from_secs_f64(secs);
     let start = Instant::now();
@@ -208,18 +218,34 @@ fn main() -> anyhow::Result<()> {
             let a = agent();
             let mut i = c;
             let mut local = Vec::new();
+            // clients start spread over one interval
+            let mut due = period.map(|p| start + p.mul_f64(c as f64 / clients as f64));
             while Instant::now() < deadline {
+                if let Some(d) = due {
+                    let now = Instant::now();
+                    if d > now {
+                        std::thread::sleep(d - now);
+                    }
+                }
                 // half find, a quarter each locate and Cypher reads
+                // a request number makes the text new to the embedding cache
+                let text = |t: &str| {
+                    if unique {
+                        format!("{t} {c}x{i}")
+                    } else {
+                        t.to_string()
+                    }
+                };
                 let (route, path, body) = match i % 4 {
                     0 | 2 => (
                         "find",
                         "/api/find",
-                        json!({"text": finds[i % finds.len()], "k": 5}),
+                        json!({"text": text(finds[i % finds.len()]), "k": 5}),
                     ),
                     1 => (
                         "locate",
                         "/api/locate",
-                        json!({"text": locates[i % locates.len()], "k": 3}),
+                        json!({"text": text(locates[i % locates.len()]), "k": 3}),
                     ),
                     _ => (
                         "cypher",
@@ -227,7 +253,8 @@ fn main() -> anyhow::Result<()> {
                         json!({"query": reads[i % reads.len()]}),
                     ),
                 };
-                let t = Instant::now();
+                // open loop: from when it was due
+                let t = due.unwrap_or_else(Instant::now);
                 let (ok, _) = post(&a, &url, path, &body, None);
                 local.push(Sample {
                     route,
@@ -235,6 +262,9 @@ fn main() -> anyhow::Result<()> {
                     ok,
                 });
                 i += 1;
+                if let (Some(d), Some(p)) = (due.as_mut(), period) {
+                    *d += p;
+                }
             }
             samples.lock().unwrap().extend(local);
         }));
@@ -337,7 +367,7 @@ fn main() -> anyhow::Result<()> {
     );
     println!(
         "{}",
-        json!({"clients": clients, "secs": wall, "requests": total, "errors": errors,
+        json!({"clients": clients, "secs": wall, "requests": total, "errors": errors, "unique_texts": unique, "rate": rate,
                "consistent": problems.is_empty(), "routes": report})
     );
     Ok(())

@@ -357,10 +357,21 @@ pub fn locate(
     let mut out = Vec::with_capacity(segments.len());
     for (s, spots) in segments.iter().zip(&spots) {
         let kind_match = desc.segment.map(|c| c.admits(&s.kind));
+        // only candidates in reach of the segment can count (at 25 m beyond the 15 m a
+        // landmark keeps under 0.01 of its value)
+        let local: Vec<Vec<(usize, f64)>> = cands
+            .iter()
+            .map(|cs| {
+                cs.iter()
+                    .copied()
+                    .filter(|&(i, _)| s.area.distance(ground[i]) <= TOGETHER_M + 25.0)
+                    .collect()
+            })
+            .collect();
         // the best place to stand on the segment, with its landmark picks
         let mut best: Option<(f64, [f64; 2], Vec<Option<Pick>>)> = None;
         for &p in spots {
-            let (sum, picks) = assign(&cands, &weights, |i| {
+            let (sum, picks) = assign(&local, &weights, |i| {
                 let q = ground[i];
                 together((q[0] - p[0]).hypot(q[1] - p[1]))
             });
