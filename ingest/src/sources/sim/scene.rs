@@ -350,7 +350,7 @@ impl Kind {
             ),
             Kind::Pole => b(
                 &["pole", "utility pole", "post"],
-                &["grey", "wooden", "green", "black"],
+                &["grey", "brown", "green", "black"],
                 &["tall", "thin", "slender"],
                 &["metal", "wooden", "concrete"],
                 &["beside the road", "carrying cables"],
@@ -371,7 +371,7 @@ impl Kind {
             ),
             Kind::BusStopShelter => b(
                 &["bus stop shelter", "bus shelter", "covered bus stop"],
-                &["glass", "blue", "grey"],
+                &["green", "blue", "grey"],
                 &["small", "long"],
                 &["glass and steel", "metal"],
                 &["with a bench inside", "with a timetable", "at the curb"],
@@ -465,11 +465,29 @@ impl Attributes {
         let b = kind.bank();
         let pick =
             |rng: &mut ChaCha8Rng, v: &'static [&'static str]| v[rng.random_range(0..v.len())];
+        let noun = pick(rng, b.nouns);
+        let colour = pick(rng, b.colours);
+        let size = pick(rng, b.sizes);
+        let material = (!b.materials.is_empty()).then(|| pick(rng, b.materials));
+        // a noun that says the material ("wooden bench") is made of it: no "stone wooden
+        // bench"; a colour that says it ("red-brick") takes no other besides
+        let implied = |w: &str| {
+            b.materials.iter().copied().find(|m| {
+                m.split(' ')
+                    .filter(|x| *x != "and")
+                    .any(|x| w.contains(x.trim_end_matches("en")))
+            })
+        };
+        let material = match (implied(noun), implied(colour)) {
+            (Some(m), _) => Some(m),
+            (None, Some(_)) => None,
+            (None, None) => material,
+        };
         Attributes {
-            noun: pick(rng, b.nouns),
-            colour: pick(rng, b.colours),
-            size: pick(rng, b.sizes),
-            material: (!b.materials.is_empty()).then(|| pick(rng, b.materials)),
+            noun,
+            colour,
+            size,
+            material,
             state: pick(rng, b.states),
         }
     }
@@ -479,8 +497,13 @@ impl Attributes {
     pub fn caption(&self, kind: Kind, phrasing: u8, colour: Option<&str>) -> String {
         let colour = colour.unwrap_or(self.colour);
         let worn = kind == Kind::Person;
-        let material = self.material.map(|m| format!("{m} ")).unwrap_or_default();
-        match (phrasing % 3, worn) {
+        // a colour that says the material ("red-brick") says it once
+        let material = self
+            .material
+            .filter(|m| !m.split(' ').any(|x| x != "and" && colour.contains(x)))
+            .map(|m| format!("{m} "))
+            .unwrap_or_default();
+        let text = match (phrasing % 3, worn) {
             (0, false) => format!(
                 "a {} {colour} {material}{} {}",
                 self.size, self.noun, self.state
@@ -499,8 +522,40 @@ impl Attributes {
                 self.size,
                 self.noun
             ),
-        }
+        };
+        tidy_caption(&text)
     }
+}
+
+/// A caption as a person would write it: "an" before a vowel sound ("an old bench", "an
+/// orange bin"), and no word twice in a row.
+fn tidy_caption(text: &str) -> String {
+    let words: Vec<&str> = text.split(' ').filter(|w| !w.is_empty()).collect();
+    let mut out: Vec<String> = Vec::with_capacity(words.len());
+    for (i, w) in words.iter().enumerate() {
+        if out
+            .last()
+            .is_some_and(|p: &String| p.eq_ignore_ascii_case(w) && !w.ends_with([',', ':']))
+        {
+            continue;
+        }
+        let next = words.get(i + 1).copied().unwrap_or("");
+        let article = match *w {
+            "a" | "an" => Some(if vowel_sound(next) { "an" } else { "a" }),
+            "A" | "An" => Some(if vowel_sound(next) { "An" } else { "A" }),
+            _ => None,
+        };
+        out.push(article.map_or_else(|| (*w).to_string(), str::to_string));
+    }
+    out.join(" ")
+}
+
+/// Whether a word begins with a vowel sound (by its spelling; "one", "uni-", "use-" and "eu-"
+/// begin with a consonant sound).
+fn vowel_sound(word: &str) -> bool {
+    let w = word.to_lowercase();
+    let consonant_sound = ["one", "uni", "use", "usu", "eu"];
+    w.starts_with(['a', 'e', 'i', 'o', 'u']) && !consonant_sound.iter().any(|p| w.starts_with(p))
 }
 
 /// A primitive shape of an object.
@@ -1647,6 +1702,89 @@ mod tests {
             s.cast([5000.0, -1.73, 5000.0], [0.0, -1.0, 0.0], 120.0)
                 .is_none()
         );
+    }
+
+    #[test]
+    fn captions_read_like_a_captioners_for_every_kind_and_phrasing() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut all_materials: Vec<&str> = Kind::ALL
+            .iter()
+            .flat_map(|k| k.bank().materials.iter().copied())
+            .collect();
+        all_materials.sort_unstable();
+        all_materials.dedup();
+        for k in Kind::ALL {
+            let b = k.bank();
+            for _ in 0..200 {
+                let a = Attributes::draw(k, &mut rng);
+                // the wrong-colour noise uses the bank's other colours
+                let colours = std::iter::once(None).chain(b.colours.iter().map(|c| Some(*c)));
+                for colour in colours {
+                    for ph in 0..3 {
+                        let c = a.caption(k, ph, colour);
+                        let words: Vec<&str> = c.split(' ').collect();
+                        for w in words.windows(2) {
+                            let (art, next) = (w[0].to_lowercase(), w[1]);
+                            if art == "a" {
+                                assert!(!vowel_sound(next), "{k:?} {ph}: {c}");
+                            }
+                            if art == "an" {
+                                assert!(vowel_sound(next), "{k:?} {ph}: {c}");
+                            }
+                            assert!(!w[0].eq_ignore_ascii_case(w[1]), "{k:?} {ph}: {c}");
+                            // "red-brick brick": a material the word before already says
+                            assert!(
+                                !(all_materials.contains(&w[1]) && w[0].contains(w[1])),
+                                "{k:?} {ph}: {c}"
+                            );
+                        }
+                        // one material at most, and none that the noun contradicts
+                        let said: Vec<&&str> = all_materials
+                            .iter()
+                            .filter(|m| {
+                                words.iter().any(|w| {
+                                    w.trim_matches(|c: char| !c.is_alphanumeric()) == **m
+                                }) || (m.contains(' ') && c.contains(**m))
+                            })
+                            .collect();
+                        let own: Vec<&&str> =
+                            said.iter().copied().filter(|m| !m.contains(' ')).collect();
+                        assert!(
+                            own.len() <= 1 || said.iter().any(|m| m.contains(' ')),
+                            "{k:?} {ph}: {c}: {said:?}"
+                        );
+                        assert!(c.contains(a.noun), "{c}");
+                    }
+                }
+            }
+        }
+        // the cases the map-quality issue names
+        let bench = Attributes {
+            noun: "wooden bench",
+            colour: "green",
+            size: "old",
+            material: None,
+            state: "empty",
+        };
+        assert_eq!(
+            bench.caption(Kind::Bench, 0, None),
+            "an old green wooden bench empty"
+        );
+        let house = Attributes {
+            noun: "house",
+            colour: "white",
+            size: "low",
+            material: Some("brick"),
+            state: "with a flat roof",
+        };
+        assert_eq!(
+            house.caption(Kind::Building, 0, Some("red-brick")),
+            "a low red-brick house with a flat roof"
+        );
+        assert_eq!(tidy_caption("a elderly man in a dark coat"), "an elderly man in a dark coat");
+        assert_eq!(tidy_caption("A orange bin"), "An orange bin");
+        assert_eq!(tidy_caption("a glass glass and steel shelter"), "a glass and steel shelter");
+        assert_eq!(tidy_caption("an unicycle and a one-way sign"), "a unicycle and a one-way sign");
     }
 
     #[test]
