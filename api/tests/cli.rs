@@ -511,3 +511,71 @@ fn export_to_stdout() {
     assert!(!v["nodes"].as_array().unwrap().is_empty());
     assert!(!std::path::Path::new("-").exists());
 }
+
+/// JSON has no number for NaN or ±infinity and `null` is Cypher's null: the tagged form
+/// tells them apart. GraphML keeps carriage returns and tabs (as character references) and
+/// writes control characters XML 1.0 cannot carry as their control pictures, with a warning.
+#[test]
+fn special_floats_and_control_characters_survive_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("t.og");
+    ok(&og(&["init", "--db", s(&db)]));
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--json",
+        "RETURN 0.0/0.0 AS nan, 1.0/0.0 AS inf, -1.0/0.0 AS ninf, null AS n, [1.5, 0.0/0.0] AS l",
+    ]);
+    ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v[0]["nan"], serde_json::json!({"$float": "NaN"}), "{v}");
+    assert_eq!(v[0]["inf"], serde_json::json!({"$float": "Infinity"}));
+    assert_eq!(v[0]["ninf"], serde_json::json!({"$float": "-Infinity"}));
+    assert!(v[0]["n"].is_null());
+    assert_eq!(v[0]["l"], serde_json::json!([1.5, {"$float": "NaN"}]));
+
+    ok(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "CREATE (:Note {text: 'one\\r\\ntwo\\tthree\\u0001'})",
+    ]));
+    let gml = dir.path().join("t.graphml");
+    let out = og(&[
+        "export",
+        "--db",
+        s(&db),
+        "--format",
+        "graphml",
+        "--out",
+        s(&gml),
+    ]);
+    ok(&out);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("control pictures"),
+        "the substitution is reported: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // a real XML parser reads the text back
+    let py = std::process::Command::new("python3")
+        .args([
+            "-c",
+            "import sys, xml.etree.ElementTree as ET, json\n\
+             ns = {'g': 'http://graphml.graphdrawing.org/xmlns'}\n\
+             t = ET.parse(sys.argv[1])\n\
+             keys = {k.get('id'): k.get('attr.name') for k in t.getroot().findall('g:key', ns)}\n\
+             out = {keys[d.get('key')]: d.text for d in t.getroot().iter('{http://graphml.graphdrawing.org/xmlns}data')}\n\
+             print(json.dumps(out))",
+            s(&gml),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        py.status.success(),
+        "{}",
+        String::from_utf8_lossy(&py.stderr)
+    );
+    let back: serde_json::Value = serde_json::from_slice(&py.stdout).unwrap();
+    assert_eq!(back["text"], "one\r\ntwo\tthree\u{2401}", "{back}");
+}

@@ -4,7 +4,9 @@
 //! every property. Relationship attributes: `type`, `key` (the relationship id) and every
 //! property. A property whose name collides with one of these gets a leading underscore.
 //! Points become `{x, y[, z]}` maps (JSON strings in GraphML), vectors and lists JSON arrays.
-//! Payloads (point clouds) are not exported.
+//! Payloads (point clouds) are not exported. In GraphML, carriage returns, tabs and line feeds
+//! are character references; other control characters, which XML 1.0 cannot carry, become
+//! their Unicode control pictures, with a warning (see `xml_escape`).
 
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -170,9 +172,14 @@ fn graphml_text(v: &Value) -> String {
     }
 }
 
-/// Escapes text for XML 1.0, dropping characters XML cannot carry.
+/// Escapes text for XML 1.0. A carriage return becomes `&#13;` (a parser would turn a raw one
+/// into a line feed), tabs and line feeds `&#9;` and `&#10;` (kept in attributes too). The
+/// other C0 control characters, which XML 1.0 cannot carry at all, become their Unicode
+/// control pictures (U+0001 → U+2401 "␁"), and U+FFFE / U+FFFF become U+FFFD; each such
+/// substitution is logged as a warning with the count, never silent.
 pub(crate) fn xml_escape(s: &str) -> String {
     let mut o = String::with_capacity(s.len());
+    let mut replaced = 0usize;
     for c in s.chars() {
         match c {
             '&' => o.push_str("&amp;"),
@@ -180,10 +187,24 @@ pub(crate) fn xml_escape(s: &str) -> String {
             '>' => o.push_str("&gt;"),
             '"' => o.push_str("&quot;"),
             '\'' => o.push_str("&apos;"),
-            '\t' | '\n' | '\r' => o.push(c),
-            c if (c as u32) < 0x20 || c == '\u{FFFE}' || c == '\u{FFFF}' => {}
+            '\t' => o.push_str("&#9;"),
+            '\n' => o.push_str("&#10;"),
+            '\r' => o.push_str("&#13;"),
+            c if (c as u32) < 0x20 => {
+                replaced += 1;
+                o.push(char::from_u32(0x2400 + c as u32).unwrap_or('\u{FFFD}'));
+            }
+            '\u{FFFE}' | '\u{FFFF}' => {
+                replaced += 1;
+                o.push('\u{FFFD}');
+            }
             c => o.push(c),
         }
+    }
+    if replaced > 0 {
+        tracing::warn!(
+            "GraphML: {replaced} character(s) XML 1.0 cannot carry written as control pictures (U+2400..U+241F) or U+FFFD"
+        );
     }
     o
 }
@@ -315,7 +336,13 @@ mod tests {
 
     #[test]
     fn escapes_markup_and_drops_control_chars() {
-        assert_eq!(xml_escape("a<b & \"c\"\u{1}"), "a&lt;b &amp; &quot;c&quot;");
+        assert_eq!(
+            xml_escape("a<b & \"c\"\u{1}"),
+            "a&lt;b &amp; &quot;c&quot;\u{2401}"
+        );
+        // line ends survive a parser's normalisation
+        assert_eq!(xml_escape("a\r\nb\tc"), "a&#13;&#10;b&#9;c");
+        assert_eq!(xml_escape("\u{FFFF}"), "\u{FFFD}");
     }
 
     #[test]

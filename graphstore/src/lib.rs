@@ -30,4 +30,4 @@ pub use schema::{
 pub use store::{Committed, FORMAT_VERSION, GraphCounts, Store};
 pub use tokens::{LabelId, PropKey, RelType};
 pub use txn::{ReadTxn, WriteTxn};
-pub use value::{Value, ValueType};
+pub use value::{Value, ValueType, float_json};

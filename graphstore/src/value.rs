@@ -213,22 +213,58 @@ impl Value {
     }
 
     /// The value as JSON. Points become `{"x","y"[,"z"]}`, bytes become a list of numbers.
+    /// A float that JSON has no number for is `{"$float": "NaN"}`, `{"$float": "Infinity"}`
+    /// or `{"$float": "-Infinity"}` ([`float_json`]), never `null`, which is Cypher's null.
     pub fn to_json(&self) -> serde_json::Value {
         use serde_json::json;
         match self {
             Value::Null => serde_json::Value::Null,
             Value::Bool(b) => json!(b),
             Value::Int(i) => json!(i),
-            Value::Float(f) => json!(f),
+            Value::Float(f) => float_json(*f),
             Value::String(s) => json!(s),
             Value::List(l) => serde_json::Value::Array(l.iter().map(Value::to_json).collect()),
             Value::Map(m) => {
                 serde_json::Value::Object(m.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
             }
-            Value::Point2D([x, y]) => json!({"x": x, "y": y}),
-            Value::Point3D([x, y, z]) => json!({"x": x, "y": y, "z": z}),
-            Value::Vector(v) => json!(v),
+            Value::Point2D([x, y]) => json!({"x": float_json(*x), "y": float_json(*y)}),
+            Value::Point3D([x, y, z]) => {
+                json!({"x": float_json(*x), "y": float_json(*y), "z": float_json(*z)})
+            }
+            Value::Vector(v) => {
+                // finite f32 as f32 (shortest form: 0.1, not 0.10000000149011612)
+                serde_json::Value::Array(
+                    v.iter()
+                        .map(|c| {
+                            if c.is_finite() {
+                                json!(c)
+                            } else {
+                                float_json(f64::from(*c))
+                            }
+                        })
+                        .collect(),
+                )
+            }
             Value::Bytes(b) => json!(b),
+        }
+    }
+}
+
+/// A float as JSON: a number when finite, else the one tagged form every JSON the project
+/// writes uses: `{"$float": "NaN"}`, `{"$float": "Infinity"}` or `{"$float": "-Infinity"}`
+/// (JSON has no number for them, and `null` is Cypher's null).
+pub fn float_json(f: f64) -> serde_json::Value {
+    match serde_json::Number::from_f64(f) {
+        Some(n) => serde_json::Value::Number(n),
+        None => {
+            let name = if f.is_nan() {
+                "NaN"
+            } else if f > 0.0 {
+                "Infinity"
+            } else {
+                "-Infinity"
+            };
+            serde_json::json!({ "$float": name })
         }
     }
 }

@@ -1742,9 +1742,10 @@ mod tests {
                         let said: Vec<&&str> = all_materials
                             .iter()
                             .filter(|m| {
-                                words.iter().any(|w| {
-                                    w.trim_matches(|c: char| !c.is_alphanumeric()) == **m
-                                }) || (m.contains(' ') && c.contains(**m))
+                                words
+                                    .iter()
+                                    .any(|w| w.trim_matches(|c: char| !c.is_alphanumeric()) == **m)
+                                    || (m.contains(' ') && c.contains(**m))
                             })
                             .collect();
                         let own: Vec<&&str> =
@@ -1781,10 +1782,19 @@ mod tests {
             house.caption(Kind::Building, 0, Some("red-brick")),
             "a low red-brick house with a flat roof"
         );
-        assert_eq!(tidy_caption("a elderly man in a dark coat"), "an elderly man in a dark coat");
+        assert_eq!(
+            tidy_caption("a elderly man in a dark coat"),
+            "an elderly man in a dark coat"
+        );
         assert_eq!(tidy_caption("A orange bin"), "An orange bin");
-        assert_eq!(tidy_caption("a glass glass and steel shelter"), "a glass and steel shelter");
-        assert_eq!(tidy_caption("an unicycle and a one-way sign"), "a unicycle and a one-way sign");
+        assert_eq!(
+            tidy_caption("a glass glass and steel shelter"),
+            "a glass and steel shelter"
+        );
+        assert_eq!(
+            tidy_caption("an unicycle and a one-way sign"),
+            "a unicycle and a one-way sign"
+        );
     }
 
     #[test]
