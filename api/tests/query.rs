@@ -250,3 +250,34 @@ fn integer_parameters_beyond_64_bits_are_refused() {
         assert!(err.contains("outside the INTEGER range"), "{v}: {err}");
     }
 }
+
+#[test]
+fn explain_with_json_prints_the_plan_as_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("e.og");
+    ok(&og(&["init", "--db", s(&db)]));
+    let out = og(&[
+        "query",
+        "--db",
+        s(&db),
+        "--json",
+        "EXPLAIN MATCH (n:Note) WHERE n.x > 1 RETURN n",
+    ]);
+    ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let plan = v["plan"].as_array().unwrap();
+    assert_eq!(
+        plan[0],
+        serde_json::json!({"operator": "Match", "depth": 0}),
+        "{v}"
+    );
+    assert!(
+        plan.iter()
+            .any(|o| o["operator"] == "NodeByLabelScan n:Note" && o["depth"] == 1),
+        "{v}"
+    );
+    // and without --json, the text plan
+    let out = og(&["query", "--db", s(&db), "EXPLAIN MATCH (n:Note) RETURN n"]);
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("Match\n"));
+}

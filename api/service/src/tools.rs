@@ -292,7 +292,9 @@ fn output_schema(name: &str) -> Json {
     );
     let cypher = obj(
         json!({"columns": arr(s.clone()), "rows": arr(json!({"type": "object"})),
-               "row_count": {"type": "integer", "minimum": 0}, "stats": {"type": "object"}}),
+               "row_count": {"type": "integer", "minimum": 0}, "stats": {"type": "object"},
+               "plan": arr(obj(json!({"operator": s, "depth": {"type": "integer", "minimum": 0}}),
+                               &["operator", "depth"]))}),
         &["columns", "rows", "row_count", "stats"],
     );
     match name {
@@ -682,7 +684,7 @@ impl Toolbox {
             graphstore::Error::Query(_) => ToolError::BadArguments(e.to_string()),
             other => failed(other),
         })?;
-        Ok(json!({
+        let mut out = json!({
             "columns": r.columns,
             "rows": r.rows_json(),
             "row_count": r.rows.len(),
@@ -693,7 +695,11 @@ impl Toolbox {
                 "relationships_deleted": r.stats.relationships_deleted,
                 "properties_set": r.stats.properties_set,
             },
-        }))
+        });
+        if let Some(plan) = r.plan_json() {
+            out["plan"] = plan;
+        }
+        Ok(out)
     }
 
     fn describe_area(&self, segment: Option<u64>) -> ToolResult<Json> {

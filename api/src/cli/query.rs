@@ -35,7 +35,12 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let r = store.query(&cypher, &opts)?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     if let Some(plan) = &r.plan {
-        out!("{plan}");
+        if json {
+            let v = serde_json::json!({"plan": r.plan_json()});
+            outln!("{}", serde_json::to_string_pretty(&v)?);
+        } else {
+            out!("{plan}");
+        }
         return Ok(());
     }
     if json {

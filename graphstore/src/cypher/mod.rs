@@ -259,6 +259,22 @@ pub struct QueryResult {
 }
 
 impl QueryResult {
+    /// For `EXPLAIN`: the plan as JSON, one `{"operator", "depth"}` per line of the text plan,
+    /// outermost first (depth 0 is a clause, deeper lines the operators under it); None when
+    /// the statement was not an `EXPLAIN`.
+    pub fn plan_json(&self) -> Option<serde_json::Value> {
+        let plan = self.plan.as_ref()?;
+        Some(serde_json::Value::Array(
+            plan.lines()
+                .filter(|l| !l.trim().is_empty())
+                .map(|l| {
+                    let indent = l.len() - l.trim_start().len();
+                    serde_json::json!({"operator": l.trim(), "depth": indent / 2})
+                })
+                .collect(),
+        ))
+    }
+
     /// A value as Cypher literal text: `(:Lane {id: 1})`, `[:NEXT]`, `'text'`, `[1, 2]`.
     pub fn render(&self, v: &Val) -> String {
         let map = |m: &BTreeMap<String, Val>| -> String {
