@@ -164,20 +164,35 @@ pub fn png_size(path: &Path) -> Result<(u32, u32)> {
     Ok((be(16), be(20)))
 }
 
-/// KITTI odometry calibration.
+/// KITTI calibration: the rectified cameras' projections and the velodyne's pose in
+/// rectified cam0.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Calib {
     /// Projection matrices P0..P3 (rectified cameras).
     pub p: [Mat34; 4],
-    /// `Tr`: cam0 from velodyne.
+    /// Rectified cam0 from velodyne: the odometry layout's `Tr`, or `R0_rect ·
+    /// Tr_velo_to_cam` from the object and raw layouts.
     pub cam0_from_velo: Mat34,
 }
 
-/// Reads `calib.txt`; `Tr` and `P0`..`P3` must all be present.
+/// Reads a KITTI `calib.txt` in one of the two layouts it supports, each line `KEY: numbers`:
+///
+/// - odometry (`P0`..`P3`, `Tr`): `Tr` maps velodyne to rectified cam0;
+/// - 3D object / raw-data per-frame (`P0`..`P3`, `R0_rect` with 9 numbers, `Tr_velo_to_cam`,
+///   `Tr_imu_to_velo`): `Tr_velo_to_cam` maps to the *unrectified* cam0, so the velodyne's
+///   pose in rectified cam0 is `R0_rect · Tr_velo_to_cam`, and the left colour camera projects
+///   with `P2 · R0_rect · Tr_velo_to_cam` (the devkits' formula).
+///
+/// # Errors
+/// A key of another layout (the raw data's `calib_cam_to_cam.txt` / `calib_velo_to_cam.txt`
+/// keys such as `R`, `T`, `K_00`, `P_rect_02`), a layout mixed or incomplete (`Tr_velo_to_cam`
+/// without `R0_rect`, both `Tr` and `Tr_velo_to_cam`), a missing `P` line, or a bad number:
+/// each names the file and line.
 pub fn read_calib(path: &Path) -> Result<Calib> {
     let text = read_text(path)?;
     let mut p: [Option<Mat34>; 4] = [None; 4];
-    let mut tr = None;
+    let (mut tr, mut velo_to_cam, mut r0) = (None, None, None);
+    let mut tr_line = 0;
     for (i, line) in text.lines().enumerate() {
         let Some((key, rest)) = line.split_once(':') else {
             if line.trim().is_empty() {
@@ -186,26 +201,75 @@ pub fn read_calib(path: &Path) -> Result<Calib> {
             return Err(Error::Parse {
                 path: path.to_path_buf(),
                 line: i + 1,
-                detail: "expected `KEY: 12 numbers`".into(),
+                detail: "expected `KEY: numbers`".into(),
             });
         };
         let key = key.trim();
-        let slot = match key {
-            "P0" => &mut p[0],
-            "P1" => &mut p[1],
-            "P2" => &mut p[2],
-            "P3" => &mut p[3],
-            "Tr" | "Tr_velo_to_cam" => &mut tr,
-            _ => continue,
-        };
-        let v = parse_floats(path, i + 1, rest, 12)?;
-        *slot = Mat34::from_row_major(&v);
+        match key {
+            "P0" | "P1" | "P2" | "P3" => {
+                let k = usize::from(key.as_bytes()[1] - b'0');
+                p[k] = Mat34::from_row_major(&parse_floats(path, i + 1, rest, 12)?);
+            }
+            "Tr" => {
+                tr = Mat34::from_row_major(&parse_floats(path, i + 1, rest, 12)?);
+                tr_line = i + 1;
+            }
+            "Tr_velo_to_cam" => {
+                velo_to_cam = Mat34::from_row_major(&parse_floats(path, i + 1, rest, 12)?);
+                tr_line = i + 1;
+            }
+            "R0_rect" => {
+                let v = parse_floats(path, i + 1, rest, 9)?;
+                r0 = Some(Mat34([
+                    [v[0], v[1], v[2], 0.0],
+                    [v[3], v[4], v[5], 0.0],
+                    [v[6], v[7], v[8], 0.0],
+                ]));
+            }
+            // the object layout's IMU pose is not used
+            "Tr_imu_to_velo" => {
+                parse_floats(path, i + 1, rest, 12)?;
+            }
+            other => {
+                return Err(Error::Parse {
+                    path: path.to_path_buf(),
+                    line: i + 1,
+                    detail: format!(
+                        "unsupported calibration key {other:?}: the odometry layout (P0..P3, Tr) and the 3D object / raw per-frame layout (P0..P3, R0_rect, Tr_velo_to_cam, Tr_imu_to_velo) are read; the raw data's calib_cam_to_cam.txt / calib_velo_to_cam.txt are not"
+                    ),
+                });
+            }
+        }
     }
     let missing = |k: &str| Error::File {
         path: path.to_path_buf(),
         detail: format!("calibration has no {k} line"),
     };
-    let cam0_from_velo = tr.ok_or_else(|| missing("Tr"))?;
+    let layout_err = |d: &str| Error::Parse {
+        path: path.to_path_buf(),
+        line: tr_line,
+        detail: d.to_string(),
+    };
+    let cam0_from_velo = match (tr, velo_to_cam, r0) {
+        (Some(t), None, None) => t,
+        (None, Some(t), Some(r)) => r.compose(&t),
+        (None, Some(_), None) => {
+            return Err(layout_err(
+                "Tr_velo_to_cam maps to the unrectified camera, and the R0_rect line that rectifies it is missing",
+            ));
+        }
+        (Some(_), Some(_), _) => {
+            return Err(layout_err(
+                "both Tr (odometry layout) and Tr_velo_to_cam (object layout): one layout per file",
+            ));
+        }
+        (Some(_), None, Some(_)) => {
+            return Err(layout_err(
+                "R0_rect with the odometry layout's Tr: Tr is already rectified; use Tr_velo_to_cam with R0_rect",
+            ));
+        }
+        (None, None, _) => return Err(missing("Tr (or Tr_velo_to_cam)")),
+    };
     let get = |i: usize| p[i].ok_or_else(|| missing(&format!("P{i}")));
     Ok(Calib {
         p: [get(0)?, get(1)?, get(2)?, get(3)?],
@@ -405,7 +469,51 @@ mod tests {
             read_calib(&c)
                 .unwrap_err()
                 .to_string()
-                .contains("no Tr line")
+                .contains("no Tr (or Tr_velo_to_cam) line")
+        );
+    }
+
+    #[test]
+    fn object_layout_is_rectified_and_other_layouts_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = dir.path().join("calib.txt");
+        let p = "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nP1: 1 0 0 0 0 1 0 0 0 0 1 0\nP2: 700 0 600 45 0 700 170 0.2 0 0 1 0.003\nP3: 1 0 0 0 0 1 0 0 0 0 1 0\n";
+        // R0_rect: a rotation by 90 degrees about z; Tr_velo_to_cam: a translation
+        std::fs::write(
+            &c,
+            format!("{p}R0_rect: 0 -1 0 1 0 0 0 0 1\nTr_velo_to_cam: 1 0 0 1 0 1 0 2 0 0 1 3\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n"),
+        )
+        .unwrap();
+        let k = read_calib(&c).unwrap();
+        // velodyne origin -> (1, 2, 3) unrectified -> (-2, 1, 3) rectified
+        let o = k.cam0_from_velo.apply([0.0, 0.0, 0.0]);
+        for (a, b) in o.iter().zip([-2.0, 1.0, 3.0]) {
+            assert!((a - b).abs() < 1e-12, "{o:?}");
+        }
+        let refused = |text: String, want: &str| {
+            std::fs::write(&c, text).unwrap();
+            let e = read_calib(&c).unwrap_err().to_string();
+            assert!(e.contains(want) && e.contains("calib.txt"), "{e}");
+        };
+        refused(
+            format!("{p}Tr_velo_to_cam: 1 0 0 1 0 1 0 2 0 0 1 3\n"),
+            "R0_rect line that rectifies it is missing",
+        );
+        refused(
+            format!("{p}Tr: 1 0 0 0 0 1 0 0 0 0 1 0\nTr_velo_to_cam: 1 0 0 1 0 1 0 2 0 0 1 3\n"),
+            "one layout per file",
+        );
+        refused(
+            format!("{p}R0_rect: 1 0 0 0 1 0 0 0 1\nTr: 1 0 0 0 0 1 0 0 0 0 1 0\n"),
+            "already rectified",
+        );
+        refused(
+            "calib_time: 15-Mar-2012 11:37:16\nR: 1 0 0 0 1 0 0 0 1\nT: 0 0 0\n".into(),
+            "unsupported calibration key \"calib_time\"",
+        );
+        refused(
+            format!("{p}R0_rect: 1 0 0 0 1 0 0 0\nTr_velo_to_cam: 1 0 0 1 0 1 0 2 0 0 1 3\n"),
+            "calib.txt:5: expected 9 numbers, found 8",
         );
     }
 }
