@@ -117,7 +117,7 @@ impl DetectionFrame {
                 "not an OpenGraph detections file (\"format\" must be {FORMAT:?})"
             )));
         }
-        match v.get("version").and_then(Json::as_u64) {
+        match v.get("version").and_then(whole) {
             Some(VERSION) => {}
             Some(other) => {
                 return Err(b(format!(
@@ -127,7 +127,7 @@ impl DetectionFrame {
             None => return Err(b("missing \"version\"".into())),
         }
         let u32_of = |x: Option<&Json>, what: &str| -> Result<u32> {
-            x.and_then(Json::as_u64)
+            x.and_then(whole)
                 .and_then(|n| u32::try_from(n).ok())
                 .ok_or_else(|| b(format!("{what} must be a non-negative integer")))
         };
@@ -174,11 +174,9 @@ impl DetectionFrame {
                 Some(Json::Array(a)) => a
                     .iter()
                     .map(|c| {
-                        c.as_u64()
-                            .and_then(|c| u32::try_from(c).ok())
-                            .ok_or_else(|| {
-                                Error::Invalid("counts must be non-negative integers".into())
-                            })
+                        whole(c).and_then(|c| u32::try_from(c).ok()).ok_or_else(|| {
+                            Error::Invalid("counts must be non-negative integers".into())
+                        })
                     })
                     .collect::<Result<Vec<u32>>>()
                     .and_then(|counts| {
@@ -213,16 +211,15 @@ impl DetectionFrame {
                 .and_then(Json::as_f64)
                 .filter(|s| (0.0..=1.0).contains(s))
                 .ok_or_else(|| e("score must be a number in [0, 1]".into()))?;
-            let tags = d
-                .get("tags")
-                .and_then(Json::as_array)
-                .map(|a| {
-                    a.iter()
-                        .map(|t| t.as_str().map(str::to_string))
-                        .collect::<Option<Vec<_>>>()
-                })
-                .unwrap_or(Some(Vec::new()))
-                .ok_or_else(|| e("tags must be strings".into()))?;
+            let tags = match d.get("tags") {
+                None => Vec::new(),
+                Some(Json::Array(a)) => a
+                    .iter()
+                    .map(|t| t.as_str().map(str::to_string))
+                    .collect::<Option<Vec<_>>>()
+                    .ok_or_else(|| e("tags must be strings".into()))?,
+                Some(_) => return Err(e("tags must be a list of strings".into())),
+            };
             let caption = d
                 .get("caption")
                 .and_then(Json::as_str)
@@ -257,6 +254,16 @@ impl DetectionFrame {
             detections,
         })
     }
+}
+
+/// A JSON number that is a whole non-negative value: `123` or `123.0` (JSON Schema's
+/// "integer", which the documented schema uses, admits both).
+fn whole(v: &Json) -> Option<u64> {
+    v.as_u64().or_else(|| {
+        v.as_f64()
+            .filter(|f| f.fract() == 0.0 && *f >= 0.0 && *f <= u64::MAX as f64)
+            .map(|f| f as u64)
+    })
 }
 
 /// Reads a detections file; bad JSON is reported with its line and column.
