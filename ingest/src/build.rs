@@ -1168,6 +1168,7 @@ mod tests {
             ("hierarchy.lanes", "association_m"),
             ("hierarchy.lanes", "resample_m"),
             ("hierarchy.lanes", "edge_merge_m"),
+            ("hierarchy.lanes", "gap_m"),
             ("hierarchy.lanes", "l_turn_min_deg"),
             ("hierarchy.lanes", "l_turn_max_deg"),
             ("hierarchy.lanes", "way_merge_deg"),

@@ -448,6 +448,19 @@ pub(crate) fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>
             h.lane_edges,
             h.instances_linked
         );
+        if let Some(g) = h
+            .trajectory_gaps
+            .iter()
+            .max_by(|a, b| a.distance_m.total_cmp(&b.distance_m))
+        {
+            let _ = writeln!(
+                s,
+                "trajectory split at {} gap(s) in the recording (largest {:.0} m after pose {}); no lane edge crosses one",
+                h.trajectory_gaps.len(),
+                g.distance_m,
+                g.after_pose
+            );
+        }
     }
     if let Some(m) = rss_mib {
         let _ = writeln!(s, "peak RSS: {m:.0} MiB");

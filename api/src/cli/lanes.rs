@@ -31,6 +31,9 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
             *f *= stride;
         }
     }
+    for gap in &mut g.gaps {
+        gap.after_pose *= stride;
+    }
     let gj = render::geojson(&g, Some(&segs));
     std::fs::write(&out, serde_json::to_vec_pretty(&gj)?)
         .with_context(|| format!("writing {}", out.display()))?;
@@ -55,6 +58,13 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
             segs.segments.len(),
             took.as_secs_f64() * 1e3
         );
+        for gap in &g.gaps {
+            outln!(
+                "gap in the recording: {:.0} m after pose {}; the trajectory is split there",
+                gap.distance_m,
+                gap.after_pose
+            );
+        }
     }
     Ok(())
 }

@@ -49,6 +49,10 @@ pub struct LaneConfig {
     pub way_merge_deg: f64,
     /// Edges between the same nodes closer than this (Hausdorff) are one road.
     pub edge_merge_m: f64,
+    /// Consecutive poses farther apart than this are a gap in the recording: the trajectory
+    /// splits there and no lane edge crosses it. None (the default): 20 times the median
+    /// distance between consecutive moving poses, and at least 10 m.
+    pub gap_m: Option<f64>,
 }
 
 impl Default for LaneConfig {
@@ -64,6 +68,7 @@ impl Default for LaneConfig {
             resample_m: 2.0,
             way_merge_deg: 35.0,
             edge_merge_m: 8.0,
+            gap_m: None,
         }
     }
 }
@@ -132,6 +137,36 @@ pub struct LaneGraph {
     pub nodes: Vec<LaneNode>,
     /// Edges, in order of first drive.
     pub edges: Vec<LaneEdge>,
+    /// Where the trajectory was split: gaps between consecutive poses, in pose order.
+    pub gaps: Vec<TrajectoryGap>,
+}
+
+/// A gap in the recording: two consecutive poses too far apart to have been driven between.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct TrajectoryGap {
+    /// Index of the pose before the gap (the next one starts a new piece).
+    pub after_pose: u32,
+    /// Ground-plane distance between the two poses, metres.
+    pub distance_m: f64,
+}
+
+/// The gap threshold for a trajectory: `cfg.gap_m`, else 20 times the median step between
+/// consecutive moving poses (steps under 1 mm are standing still), at least 10 m.
+pub fn gap_threshold_m(traj: &[[f64; 2]], cfg: &LaneConfig) -> f64 {
+    if let Some(g) = cfg.gap_m {
+        return g;
+    }
+    let mut steps: Vec<f64> = traj
+        .windows(2)
+        .map(|w| dist(w[0], w[1]))
+        .filter(|d| *d > 1e-3)
+        .collect();
+    if steps.is_empty() {
+        return 10.0;
+    }
+    let mid = steps.len() / 2;
+    let median = *steps.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (20.0 * median).max(10.0)
 }
 
 impl LaneGraph {
@@ -412,9 +447,40 @@ pub fn extract_lanes(traj: &[[f64; 2]], cfg: &LaneConfig) -> Result<LaneGraph> {
     if !(cfg.resample_m > 0.0 && cfg.radius_m > 0.0 && cfg.association_m > 0.0) {
         return Err(Error::Invalid("lane parameters must be positive".into()));
     }
-    let samples = resample(traj, cfg.resample_m);
+    if cfg.gap_m.is_some_and(|g| !(g.is_finite() && g > 0.0)) {
+        return Err(Error::Invalid(
+            "gap_m must be a positive number of metres".into(),
+        ));
+    }
+    // pieces of the drive between gaps in the recording, resampled apart
+    let gap_m = gap_threshold_m(traj, cfg);
+    let mut gaps = Vec::new();
+    let mut piece_starts = vec![0usize];
+    for (i, w) in traj.windows(2).enumerate() {
+        let d = dist(w[0], w[1]);
+        if d > gap_m {
+            gaps.push(TrajectoryGap {
+                after_pose: i as u32,
+                distance_m: d,
+            });
+            piece_starts.push(i + 1);
+        }
+    }
+    piece_starts.push(traj.len());
+    let mut samples: Vec<Sample> = Vec::new();
+    let mut hs: Vec<f64> = Vec::new();
+    // sample index ranges of the pieces
+    let mut pieces: Vec<std::ops::Range<usize>> = Vec::new();
+    for w in piece_starts.windows(2) {
+        let mut piece = resample(&traj[w[0]..w[1]], cfg.resample_m);
+        for smp in &mut piece {
+            smp.src += w[0] as u32;
+        }
+        hs.extend(headings(&piece));
+        pieces.push(samples.len()..samples.len() + piece.len());
+        samples.extend(piece);
+    }
     let pts: Vec<[f64; 2]> = samples.iter().map(|s| s.xy).collect();
-    let hs = headings(&samples);
     let grid = Grid2::new(&pts, cfg.radius_m);
     let mut lambda = vec![0.0; pts.len()];
     let mut is_break = vec![false; pts.len()];
@@ -542,7 +608,9 @@ pub fn extract_lanes(traj: &[[f64; 2]], cfg: &LaneConfig) -> Result<LaneGraph> {
             lambda: 0.0,
         });
     }
-    build_edges(&samples, &pts, nodes, cfg)
+    let mut g = build_edges(&samples, &pts, &pieces, nodes, cfg)?;
+    g.gaps = gaps;
+    Ok(g)
 }
 
 struct Visit {
@@ -590,63 +658,136 @@ fn visits(pts: &[[f64; 2]], nodes: &[Candidate], cfg: &LaneConfig) -> Vec<Visit>
     out
 }
 
-fn build_edges(
+/// A driven path between two node visits: sample indices, and poses before or after it that
+/// belong to it (the start or end of a piece of the drive short of a node).
+struct DrivenPath {
+    a: usize,
+    b: usize,
+    idx: Vec<usize>,
+    extra: Vec<u32>,
+}
+
+/// Splits a path that starts and ends at the same node into laps: it is cut each time it
+/// comes back within `2 · resample_m` (at least 3 m) of its start after at least
+/// `association_m` of driving, so a loop driven three times is one loop driven three times,
+/// not one edge of three times its length.
+fn laps(pts: &[[f64; 2]], idx: &[usize], cfg: &LaneConfig) -> Vec<Vec<usize>> {
+    let Some(&first) = idx.first() else {
+        return Vec::new();
+    };
+    let start = pts[first];
+    let near = (2.0 * cfg.resample_m).max(3.0);
+    let mut out = Vec::new();
+    let mut cur = vec![first];
+    let mut travelled = 0.0;
+    for w in idx.windows(2) {
+        travelled += dist(pts[w[0]], pts[w[1]]);
+        cur.push(w[1]);
+        if travelled >= cfg.association_m && dist(pts[w[1]], start) < near {
+            out.push(std::mem::take(&mut cur));
+            cur.push(w[1]);
+            travelled = 0.0;
+        }
+    }
+    if cur.len() > 1 {
+        match out.last_mut() {
+            // a short tail after the last return belongs to the last lap
+            Some(l)
+                if polyline_length(&cur.iter().map(|&i| pts[i]).collect::<Vec<_>>())
+                    < cfg.association_m =>
+            {
+                l.extend(cur.into_iter().skip(1));
+            }
+            _ => out.push(cur),
+        }
+    }
+    out
+}
+
+/// The paths between node visits along one piece of the drive (sample range `piece`).
+fn piece_paths(
     samples: &[Sample],
     pts: &[[f64; 2]],
-    mut nodes: Vec<Candidate>,
+    piece: std::ops::Range<usize>,
+    nodes: &mut Vec<Candidate>,
     cfg: &LaneConfig,
-) -> Result<LaneGraph> {
-    let last = pts.len() - 1;
-    let mut vs = visits(pts, &nodes, cfg);
-    let closes = dist(pts[0], pts[last]) < cfg.association_m;
-    // paths between consecutive visits: (from node, to node, sample range)
-    let mut paths: Vec<(usize, usize, Vec<usize>)> = Vec::new();
-    let n_poses = samples[last].src + 1;
+) -> Vec<DrivenPath> {
+    let (p0, last) = (piece.start, piece.end - 1);
+    let mut paths: Vec<DrivenPath> = Vec::new();
+    let breakpoint = |xy: [f64; 2]| Candidate {
+        xy,
+        kind: LaneNodeKind::Breakpoint,
+        ways: 1,
+        lambda: 0.0,
+    };
+    let mut vs: Vec<Visit> = visits(&pts[piece.clone()], nodes, cfg)
+        .into_iter()
+        .map(|v| Visit {
+            node: v.node,
+            at: v.at + p0,
+        })
+        .collect();
+    let length = polyline_length(&pts[piece.clone()]);
+    let closes = dist(pts[p0], pts[last]) < cfg.association_m && length > 2.0 * cfg.association_m;
     if vs.is_empty() {
+        if closes {
+            // a loop with no junction: one node where the drive starts, the laps between
+            nodes.push(breakpoint(pts[p0]));
+            let n = nodes.len() - 1;
+            for lap in laps(pts, &(p0..=last).collect::<Vec<_>>(), cfg) {
+                paths.push(DrivenPath {
+                    a: n,
+                    b: n,
+                    idx: lap,
+                    extra: Vec::new(),
+                });
+            }
+            return paths;
+        }
+        if last == p0 {
+            return paths;
+        }
         // no junction and no detected end: make the two ends breakpoints
-        for i in [0, last] {
-            nodes.push(Candidate {
-                xy: pts[i],
-                kind: LaneNodeKind::Breakpoint,
-                ways: 1,
-                lambda: 0.0,
-            });
+        for i in [p0, last] {
+            nodes.push(breakpoint(pts[i]));
             vs.push(Visit {
                 node: nodes.len() - 1,
                 at: i,
             });
         }
     }
-    let head_gap = polyline_length(&pts[..=vs[0].at]);
-    let tail_gap = polyline_length(&pts[vs[vs.len() - 1].at..]);
+    let head_gap = polyline_length(&pts[p0..=vs[0].at]);
+    let tail_gap = polyline_length(&pts[vs[vs.len() - 1].at..=last]);
     if closes && head_gap + tail_gap > cfg.association_m {
         // a closed drive: the stretch across the start joins the last visit to the first
         let (a, b) = (&vs[vs.len() - 1], &vs[0]);
-        let idx: Vec<usize> = (a.at..=last).chain(0..=b.at).collect();
-        paths.push((a.node, b.node, idx));
+        let idx: Vec<usize> = (a.at..=last).chain(p0..=b.at).collect();
+        let pieces = if a.node == b.node {
+            laps(pts, &idx, cfg)
+        } else {
+            vec![idx]
+        };
+        for idx in pieces {
+            paths.push(DrivenPath {
+                a: a.node,
+                b: b.node,
+                idx,
+                extra: Vec::new(),
+            });
+        }
     } else {
         if head_gap > cfg.association_m / 2.0 {
-            nodes.push(Candidate {
-                xy: pts[0],
-                kind: LaneNodeKind::Breakpoint,
-                ways: 1,
-                lambda: 0.0,
-            });
+            nodes.push(breakpoint(pts[p0]));
             vs.insert(
                 0,
                 Visit {
                     node: nodes.len() - 1,
-                    at: 0,
+                    at: p0,
                 },
             );
         }
         if tail_gap > cfg.association_m / 2.0 {
-            nodes.push(Candidate {
-                xy: pts[last],
-                kind: LaneNodeKind::Breakpoint,
-                ways: 1,
-                lambda: 0.0,
-            });
+            nodes.push(breakpoint(pts[last]));
             vs.push(Visit {
                 node: nodes.len() - 1,
                 at: last,
@@ -660,21 +801,58 @@ fn build_edges(
         if a.node == b.node && len < 2.0 * cfg.association_m {
             continue;
         }
-        paths.push((a.node, b.node, idx));
+        let pieces = if a.node == b.node {
+            laps(pts, &idx, cfg)
+        } else {
+            vec![idx]
+        };
+        for idx in pieces {
+            paths.push(DrivenPath {
+                a: a.node,
+                b: b.node,
+                idx,
+                extra: Vec::new(),
+            });
+        }
     }
-    // poses before the first visit and after the last one (a few metres at the ends) belong
-    // to the first and last paths
+    // poses before the first visit and after the last one (a few metres at the ends of the
+    // piece) belong to the first and last paths
     let (first_at, last_at) = (vs[0].at, vs[vs.len() - 1].at);
-    paths.sort_by_key(|(_, _, idx)| {
-        if idx.first() > idx.last() {
+    let (src0, src1) = (samples[p0].src, samples[last].src);
+    for path in &mut paths {
+        if path.idx.first() == Some(&first_at) {
+            path.extra.extend(src0..=samples[first_at].src);
+        }
+        if path.idx.last() == Some(&last_at) {
+            path.extra.extend(samples[last_at].src..=src1);
+        }
+    }
+    paths
+}
+
+fn build_edges(
+    samples: &[Sample],
+    pts: &[[f64; 2]],
+    pieces: &[std::ops::Range<usize>],
+    mut nodes: Vec<Candidate>,
+    cfg: &LaneConfig,
+) -> Result<LaneGraph> {
+    let mut paths: Vec<DrivenPath> = Vec::new();
+    for piece in pieces {
+        if !piece.is_empty() {
+            paths.extend(piece_paths(samples, pts, piece.clone(), &mut nodes, cfg));
+        }
+    }
+    paths.sort_by_key(|p| {
+        if p.idx.first() > p.idx.last() {
             0
         } else {
-            idx[0] + 1
+            p.idx[0] + 1
         }
     });
     // merge repeated drives
     let mut edges: Vec<LaneEdge> = Vec::new();
-    for (a, b, idx) in paths {
+    for DrivenPath { a, b, idx, extra } in paths {
         let mut poly: Vec<[f64; 2]> = Vec::with_capacity(idx.len() + 2);
         poly.push(nodes[a].xy);
         poly.extend(idx.iter().map(|&i| pts[i]));
@@ -682,7 +860,7 @@ fn build_edges(
         poly.dedup_by(|x, y| dist(*x, *y) < 1e-9);
         let (from, to) = (a, b);
         // every pose between consecutive samples of the path (not only the sampled ones)
-        let mut frames: Vec<u32> = Vec::new();
+        let mut frames: Vec<u32> = extra;
         for w in idx.windows(2) {
             let (x, y) = (samples[w[0]].src, samples[w[1]].src);
             if w[1] == w[0] + 1 && x <= y {
@@ -693,12 +871,6 @@ fn build_edges(
             }
         }
         frames.extend(idx.first().map(|&i| samples[i].src));
-        if idx.first() == Some(&first_at) {
-            frames.extend(0..=samples[first_at].src);
-        }
-        if idx.last() == Some(&last_at) {
-            frames.extend(samples[last_at].src..n_poses);
-        }
         frames.sort_unstable();
         frames.dedup();
         if let Some(e) = edges.iter_mut().find(|e| {
@@ -750,6 +922,7 @@ fn build_edges(
     Ok(LaneGraph {
         nodes: out_nodes,
         edges,
+        gaps: Vec::new(),
     })
 }
 
@@ -851,6 +1024,68 @@ pub(crate) mod tests {
         );
         assert_eq!(g.edges.len(), 4);
         check_cover(&g, &t);
+    }
+
+    #[test]
+    fn a_small_loop_driven_three_times_is_one_loop() {
+        let r = 8.0;
+        let n = 50;
+        let mut t = Vec::new();
+        for _ in 0..3 {
+            for k in 0..n {
+                let a = std::f64::consts::TAU * f64::from(k) / f64::from(n);
+                t.push([r * a.cos(), r * a.sin()]);
+            }
+        }
+        t.push(t[0]);
+        let g = extract_lanes(&t, &LaneConfig::default()).unwrap();
+        let lengths: Vec<f64> = g.edges.iter().map(|e| e.length_m).collect();
+        assert_eq!(lengths.len(), 1, "{lengths:?}");
+        // one lap, not three
+        let lap = std::f64::consts::TAU * r;
+        assert!((lengths[0] - lap).abs() < 0.1 * lap, "{lengths:?} vs {lap}");
+        // every pose drove it
+        assert_eq!(g.edges[0].frames.len(), t.len());
+        assert!(g.gaps.is_empty());
+    }
+
+    #[test]
+    fn a_gap_in_the_recording_splits_the_trajectory() {
+        // 200 m along z at 1 m, then the next pose 2 km on, 200 m more
+        let mut t: Vec<[f64; 2]> = (0..200).map(|z| [0.0, f64::from(z)]).collect();
+        t.extend((0..200).map(|z| [0.0, 2200.0 + f64::from(z)]));
+        let g = extract_lanes(&t, &LaneConfig::default()).unwrap();
+        assert_eq!(g.gaps.len(), 1, "{:?}", g.gaps);
+        assert_eq!(g.gaps[0].after_pose, 199);
+        assert!((g.gaps[0].distance_m - 2001.0).abs() < 1e-9);
+        assert_eq!(g.edges.len(), 2, "{:#?}", g.edges);
+        for e in &g.edges {
+            assert!(e.length_m < 200.0, "{}", e.length_m);
+            // no edge has a point in the gap
+            assert!(e.polyline.iter().all(|p| p[1] < 200.0 || p[1] >= 2200.0));
+        }
+        // the threshold follows the data's rate, and a given one is used as given
+        assert!((gap_threshold_m(&t, &LaneConfig::default()) - 20.0).abs() < 1e-9);
+        let cfg = LaneConfig {
+            gap_m: Some(5000.0),
+            ..LaneConfig::default()
+        };
+        assert!(extract_lanes(&t, &cfg).unwrap().gaps.is_empty());
+        let cfg = LaneConfig {
+            gap_m: Some(f64::NAN),
+            ..LaneConfig::default()
+        };
+        assert!(extract_lanes(&t, &cfg).is_err());
+        // standing still is no gap and does not shrink the threshold
+        let mut still = vec![[0.0, 0.0]; 50];
+        still.extend((0..100).map(|z| [0.0, f64::from(z)]));
+        assert!((gap_threshold_m(&still, &LaneConfig::default()) - 20.0).abs() < 1e-9);
+        assert!(
+            extract_lanes(&still, &LaneConfig::default())
+                .unwrap()
+                .gaps
+                .is_empty()
+        );
     }
 
     #[test]

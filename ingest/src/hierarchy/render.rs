@@ -201,5 +201,6 @@ pub fn lanes_json(lanes: &LaneGraph) -> serde_json::Value {
     json!({
         "nodes": lanes.nodes.iter().map(|n| json!({"id": n.id, "kind": n.kind.as_str(), "xy": n.xy})).collect::<Vec<_>>(),
         "edges": lanes.edges.iter().map(|e| json!({"from": e.from, "to": e.to, "length_m": e.length_m})).collect::<Vec<_>>(),
+        "gaps": lanes.gaps.iter().map(|g| json!({"after_pose": g.after_pose, "distance_m": g.distance_m})).collect::<Vec<_>>(),
     })
 }

@@ -81,6 +81,13 @@ impl HierarchyConfig {
                 l.l_turn_min_deg, l.l_turn_max_deg
             )));
         }
+        if let Some(g) = l.gap_m
+            && !(g.is_finite() && g > 0.0 && g < 1e6)
+        {
+            return Err(Error::Invalid(format!(
+                "[hierarchy] lanes.gap_m must be a positive number below 1e6, got {g}"
+            )));
+        }
         if l.dbscan_min_samples == 0 {
             return Err(Error::Invalid(
                 "[hierarchy] lanes.dbscan_min_samples must be at least 1".into(),
@@ -109,6 +116,8 @@ pub struct HierarchyReport {
     pub lane_nodes: BTreeMap<String, usize>,
     /// Lane edges.
     pub lane_edges: usize,
+    /// Gaps in the recording where the trajectory was split (no lane edge crosses one).
+    pub trajectory_gaps: Vec<crate::hierarchy::lanes::TrajectoryGap>,
     /// Segments per kind.
     pub segments: BTreeMap<String, usize>,
     /// Instances linked to a segment.
@@ -333,6 +342,7 @@ fn write_all(
         )?;
     }
     report.lane_edges = lanes.edges.len();
+    report.trajectory_gaps = lanes.gaps.clone();
     // instances
     let instances = tx.nodes_with_label("Instance")?;
     let mut boxes = Vec::with_capacity(instances.len());
