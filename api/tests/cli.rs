@@ -579,3 +579,43 @@ fn special_floats_and_control_characters_survive_export() {
     let back: serde_json::Value = serde_json::from_slice(&py.stdout).unwrap();
     assert_eq!(back["text"], "one\r\ntwo\tthree\u{2401}", "{back}");
 }
+
+/// `plan --av2-map`: a route over an Argoverse 2 HD map from `../shared/data/av2` (skipped
+/// with a message when it is absent), along successor links, refined by OMPL.
+#[test]
+fn plan_over_an_argoverse_2_map() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/av2");
+    let map = dir.join("log_map_archive_0a1e6f0a-1817-4a98-b02e-db8c9327d151.json");
+    if !map.exists() {
+        eprintln!("skipping: {} is absent", map.display());
+        return;
+    }
+    // seven lane segments along successor links, from the first one's start
+    let out = og(&[
+        "plan",
+        "--av2-map",
+        s(&map),
+        "--from=-438.53,1317.34",
+        "--to=-429.36,1440.21",
+        "--json",
+    ]);
+    ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let len = v["route"]["length_m"].as_f64().unwrap();
+    assert!((100.0..160.0).contains(&len), "{v}");
+    assert!(v["path"]["length_m"].as_f64().unwrap() > 100.0, "{v}");
+    // node ids mean nothing on such a map; a far point is refused with the distance
+    let out = og(&[
+        "plan",
+        "--av2-map",
+        s(&map),
+        "--from",
+        "lane:3",
+        "--to=-429.36,1440.21",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no node ids"));
+    let out = og(&["plan", "--av2-map", s(&map), "--from", "0,0", "--to", "1,1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("snap limit"));
+}

@@ -89,6 +89,62 @@ pub fn plan(
     })
 }
 
+/// Plans between two ground points over an Argoverse 2 HD map (`log_map_archive_*.json`,
+/// the city frame's x and y in metres): both ends are snapped to the nearest lane segment
+/// within `opts.snap_m`, routed along successor links with A*, and refined with OMPL. The map
+/// has no objects, so nothing blocks the corridor.
+///
+/// # Errors
+/// The map cannot be read, an end is not a point (`X,Y`), no lane is near an end, no route.
+pub fn plan_on_av2(
+    map: &std::path::Path,
+    from: &str,
+    to: &str,
+    opts: &PlanOptions,
+) -> planner::Result<PlanAnswer> {
+    let t0 = Instant::now();
+    let (g, _) = planner::RoadGraph::from_av2(map)?;
+    let point = |text: &str| -> planner::Result<planner::Target> {
+        match text.parse::<Spec>()? {
+            Spec::Point(xy) => Ok(planner::Target {
+                spec: text.to_string(),
+                node: None,
+                kind: "point".into(),
+                xy,
+            }),
+            _ => Err(planner::Error::BadSpec {
+                spec: text.to_string(),
+                detail: "an Argoverse 2 map has no node ids: give X,Y in the map's city frame"
+                    .into(),
+            }),
+        }
+    };
+    let (from_t, to_t) = (point(from)?, point(to)?);
+    let a = planner::snap(&g, from_t.xy, opts.snap_m)?;
+    let b = planner::snap(&g, to_t.xy, opts.snap_m)?;
+    let route = planner::astar(&g, a, b)?;
+    let t_route = t0.elapsed().as_secs_f64() * 1e3;
+    let cfg = planner::MotionConfig {
+        turning_radius_m: opts.turning_radius_m,
+        budget_ms: opts.budget_ms,
+        corridor_half_width_m: opts.corridor_m,
+        ..planner::MotionConfig::default()
+    };
+    let path = planner::plan_path(&route, &[], &cfg)?;
+    if let Some(p) = &opts.png {
+        let markers = [(from_t.xy, (20, 170, 40)), (to_t.xy, (220, 30, 30))];
+        planner::render::write_map_png(p, &g, &route, &path, &[], &[], &markers)?;
+    }
+    Ok(PlanAnswer {
+        from: from_t,
+        to: to_t,
+        route,
+        path,
+        blocking: 0,
+        timings_ms: [t_route, t0.elapsed().as_secs_f64() * 1e3],
+    })
+}
+
 /// How one end of a navigation was resolved.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[serde(tag = "by", rename_all = "snake_case")]

@@ -81,11 +81,16 @@ pub(crate) enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Route over the store's lane graph (A*) and refine it into a drivable path with OMPL.
+    /// Route over the store's lane graph (A*) and refine it into a drivable path with OMPL;
+    /// or over an Argoverse 2 HD map with --av2-map.
     Plan {
         /// The store file.
+        #[arg(long, required_unless_present = "av2_map", conflicts_with = "av2_map")]
+        db: Option<PathBuf>,
+        /// Plan over an Argoverse 2 HD map (`log_map_archive_*.json`) instead of a store:
+        /// --from and --to are then X,Y in the map's city frame (metres).
         #[arg(long)]
-        db: PathBuf,
+        av2_map: Option<PathBuf>,
         /// Start: X,Y (ground plane), or lane:ID, segment:ID, instance:ID, node:ID with a node id
         /// (the id `find`, `query` and exports print).
         #[arg(long, allow_hyphen_values = true)]

@@ -7,6 +7,7 @@ use super::common::*;
 pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let Command::Plan {
         db,
+        av2_map,
         from,
         to,
         opts,
@@ -14,6 +15,14 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     } = cmd
     else {
         unreachable!("run dispatches only Command::Plan here")
+    };
+    if let Some(map) = av2_map {
+        let p = api::plan::plan_on_av2(&map, &from, &to, &opts.options())?;
+        print_plan(&p, json, None)?;
+        return Ok(());
+    }
+    let Some(db) = db else {
+        unreachable!("clap requires --db without --av2-map")
     };
     let store = open_read(&db)?;
     let r = store.read()?;
