@@ -114,6 +114,7 @@ pub enum Error {
         /// The file.
         path: PathBuf,
         /// The OS error.
+        #[source]
         error: std::io::Error,
     },
 }
