@@ -291,8 +291,24 @@ fn a_closed_stdout_is_a_quiet_exit_and_bad_text_exits_2() {
             "UNWIND range(1, 90000) AS x RETURN x",
         ],
         vec!["info", "--db", s(&db), "--json"],
-        vec!["export", "--db", s(&db), "--format", "graphml", "--out", "-"],
-        vec!["export", "--db", s(&db), "--format", "node-link", "--out", "-"],
+        vec![
+            "export",
+            "--db",
+            s(&db),
+            "--format",
+            "graphml",
+            "--out",
+            "-",
+        ],
+        vec![
+            "export",
+            "--db",
+            s(&db),
+            "--format",
+            "node-link",
+            "--out",
+            "-",
+        ],
     ] {
         let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
             .args(&args)
