@@ -949,9 +949,17 @@ pub fn build(
             (node, i64::from(frames[0]), 0, false, false)
         }
     };
+    // what produced the detections: the first key frame's file says, in every run, so that a
+    // resumed build that only has post-processing left still records it on each instance
     let producer = match &args.source {
         Source::Oracle => "oracle".to_string(),
-        Source::Detections(_) => String::new(),
+        Source::Detections(dir) => match frames.first() {
+            Some(f) => read_detections(&dir.join(format!("{f:06}.json")))?
+                .producer
+                .as_str()
+                .to_string(),
+            None => String::new(),
+        },
     };
     let mut emb = EmbedCache {
         embedder,
