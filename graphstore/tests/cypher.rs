@@ -669,3 +669,62 @@ fn deep_nesting_is_an_error_not_a_stack_overflow() {
     );
     assert_eq!(r.rows, vec![vec![Val::Int(2999), Val::Int(2999)]]);
 }
+
+/// Mixed INTEGER/FLOAT comparison, equality, ordering, DISTINCT and grouping follow the exact
+/// values at every magnitude: near 2^53, where floats skip integers, and at the ends of the
+/// i64 range, where i64::MAX rounds to 2^63 as a float.
+#[test]
+fn integers_and_floats_compare_by_exact_value() {
+    let (_d, s) = store();
+    let row = |text: &str| -> Vec<Val> { q(&s, text).rows.remove(0) };
+    let b = |v: &Val| match v {
+        Val::Bool(x) => *x,
+        o => panic!("{o:?}"),
+    };
+    for (text, want) in [
+        ("RETURN 9223372036854775807 < 9223372036854775808.0", true),
+        ("RETURN 9223372036854775807 = 9223372036854775808.0", false),
+        ("RETURN 9223372036854775808.0 > 9223372036854775807", true),
+        ("RETURN -9223372036854775808 = -9223372036854775808.0", true),
+        ("RETURN -9223372036854775808 > -9223372036854777856.0", true),
+        ("RETURN 9007199254740993 > 9007199254740992.0", true),
+        ("RETURN 9007199254740993 = 9007199254740992.0", false),
+        ("RETURN 9007199254740993 < 9007199254740994.0", true),
+        ("RETURN 9007199254740992 = 9007199254740992.0", true),
+        ("RETURN 3 < 3.5 AND 3 > 2.5 AND -3 < -2.5", true),
+        ("RETURN 1 < 1.0e300 AND -1 > -1.0e300", true),
+    ] {
+        assert_eq!(b(&row(text)[0]), want, "{text}");
+    }
+    // ordering, DISTINCT and grouping keep 2^53 + 1 apart from 2^53
+    let r = q(
+        &s,
+        "UNWIND [9007199254740993, 9007199254740992.0, 9007199254740992, 9223372036854775807, 9223372036854775808.0] AS x \
+         RETURN x, count(*) AS n ORDER BY x",
+    );
+    let got: Vec<(String, i64)> = r
+        .rows
+        .iter()
+        .map(|row| {
+            (
+                r.render(&row[0]),
+                match row[1] {
+                    Val::Int(n) => n,
+                    _ => panic!(),
+                },
+            )
+        })
+        .collect();
+    assert_eq!(got.len(), 4, "{got:?}");
+    assert_eq!(got[1].0, "9007199254740993", "{got:?}");
+    assert_eq!(
+        got[0].1, 2,
+        "2^53 as integer and float are one group: {got:?}"
+    );
+    assert_eq!(got[2].0, "9223372036854775807", "{got:?}");
+    let r = q(
+        &s,
+        "UNWIND [9223372036854775807, 9223372036854775808.0, 9223372036854775807] AS x RETURN DISTINCT x",
+    );
+    assert_eq!(r.rows.len(), 2);
+}

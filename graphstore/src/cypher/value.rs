@@ -221,18 +221,22 @@ pub(crate) fn compare(a: &Val, b: &Val) -> Option<Ordering> {
     }
 }
 
+/// An integer against a float by their exact values (no rounding of the integer through
+/// f64, which cannot hold every i64): the float's integer part, exact in i128 for every finite
+/// f64 up to 2^127, then its fraction.
 fn cmp_int_float(i: i64, f: f64) -> Option<Ordering> {
     if f.is_nan() {
         return None;
     }
-    if f >= 9.3e18 {
-        return Some(Ordering::Less);
+    if f.is_infinite() || f.abs() >= 1e38 {
+        return Some(if f > 0.0 {
+            Ordering::Less
+        } else {
+            Ordering::Greater
+        });
     }
-    if f <= -9.3e18 {
-        return Some(Ordering::Greater);
-    }
-    let fi = f.trunc() as i64;
-    match i.cmp(&fi) {
+    let fi = f.trunc() as i128;
+    match i128::from(i).cmp(&fi) {
         Ordering::Equal => 0.0f64.partial_cmp(&f.fract()),
         o => Some(o),
     }
