@@ -382,19 +382,36 @@ pub fn similarity_gates(
     plateau: f64,
     falloff: f64,
 ) -> Result<Vec<Option<f64>>> {
+    Ok(similarity_gates_and_best(scene, embedder, phrases, allowed, plateau, falloff)?.0)
+}
+
+/// [`similarity_gates`], and the best (colour-checked) cosine they are relative to: low when
+/// the map holds nothing like the phrases.
+///
+/// # Errors
+/// The embedder fails or disagrees with the map's features.
+pub fn similarity_gates_and_best(
+    scene: &Scene,
+    embedder: &mut dyn Embedder,
+    phrases: &[&str],
+    allowed: impl Fn(&SceneObject) -> bool,
+    plateau: f64,
+    falloff: f64,
+) -> Result<(Vec<Option<f64>>, f64)> {
     let sims = colour_checked_similarities(scene, embedder, phrases, allowed)?;
     let best = sims
         .iter()
         .flatten()
         .copied()
         .fold(f64::NEG_INFINITY, f64::max);
-    Ok(sims
+    let gates = sims
         .into_iter()
         // the raw cosine orders candidates that the gate leaves tied
         .map(|s| {
             s.map(|s| gate(s, best, plateau, falloff) * (0.9 + 0.1 * (s / best).clamp(0.0, 1.0)))
         })
-        .collect())
+        .collect();
+    Ok((gates, best))
 }
 
 /// Indices of the `n` best, best first (ties by index), and the best value.

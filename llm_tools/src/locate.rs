@@ -21,7 +21,7 @@ use graphstore::{GraphRead, Value};
 use crate::chat::ChatModel;
 use crate::embed::Embedder;
 use crate::error::{Error, Result};
-use crate::graph_find::{Scene, SceneObject, similarity_gates};
+use crate::graph_find::{Scene, SceneObject, similarity_gates_and_best};
 use crate::request::{self, SegmentConstraint};
 use crate::vocab::{colour_agreement, names_surface, without_colours};
 
@@ -258,8 +258,9 @@ pub fn parse_description_llm(model: &mut dyn ChatModel, text: &str) -> Result<De
 pub struct LandmarkEvidence {
     /// The landmark phrase.
     pub landmark: String,
-    /// The instance that matches it (node id).
-    pub instance_id: u64,
+    /// The instance that matches it: its node id, as `find`, `query` and `plan` take it (not
+    /// the `Instance.instance_id` property).
+    pub id: u64,
     /// Its caption.
     pub caption: String,
     /// Its distance from the segment's area, metres.
@@ -286,6 +287,15 @@ pub struct Located {
     pub evidence: Vec<LandmarkEvidence>,
 }
 
+/// A landmark that nothing in the map matches well: it is left out of the scoring.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct UnmatchedLandmark {
+    /// The landmark phrase.
+    pub landmark: String,
+    /// The best cosine any instance reached (below the floor).
+    pub best_cosine: f64,
+}
+
 /// Ranks the map's segments for a description, best first (ties by id); `k` of them.
 ///
 /// # Errors
@@ -297,12 +307,32 @@ pub fn locate(
     desc: &Description,
     k: usize,
 ) -> Result<Vec<Located>> {
+    Ok(locate_with_floor(scene, segments, embedder, desc, k, f64::NEG_INFINITY)?.0)
+}
+
+/// [`locate`], leaving out every landmark whose best cosine is below `floor` (nothing in the
+/// map is like it: "a dead end", "a purple elephant"); those are returned apart. When no
+/// landmark is left and no segment kind was said, nothing is ranked.
+///
+/// # Errors
+/// The embedder fails or disagrees with the map's features.
+pub fn locate_with_floor(
+    scene: &Scene,
+    segments: &[SegmentInfo],
+    embedder: &mut dyn Embedder,
+    desc: &Description,
+    k: usize,
+    floor: f64,
+) -> Result<(Vec<Located>, Vec<UnmatchedLandmark>)> {
     // per landmark: (object index, gate) of every candidate with a positive gate; what the
     // thing is is matched without its colour, and the colour is checked apart
+    let mut kept = desc.clone();
+    kept.landmarks.clear();
+    let mut unmatched = Vec::new();
     let mut cands: Vec<Vec<(usize, f64)>> = Vec::new();
     for l in &desc.landmarks {
         let kind_phrase = without_colours(l);
-        let gates = similarity_gates(
+        let (gates, best) = similarity_gates_and_best(
             scene,
             embedder,
             &[kind_phrase.as_str()],
@@ -310,6 +340,14 @@ pub fn locate(
             0.1,
             0.2,
         )?;
+        if best < floor {
+            unmatched.push(UnmatchedLandmark {
+                landmark: l.clone(),
+                best_cosine: (best * 1000.0).round() / 1000.0,
+            });
+            continue;
+        }
+        kept.landmarks.push(l.clone());
         cands.push(
             gates
                 .into_iter()
@@ -320,6 +358,10 @@ pub fn locate(
                 })
                 .collect(),
         );
+    }
+    if kept.landmarks.is_empty() && desc.segment.is_none() {
+        // nothing said that the map holds: no ranking to give
+        return Ok((Vec::new(), unmatched));
     }
     let ground: Vec<[f64; 2]> = scene
         .objects
@@ -387,14 +429,14 @@ pub fn locate(
         {
             support = sum / total_w;
             position = p;
-            for (l, pick) in desc.landmarks.iter().zip(picks) {
+            for (l, pick) in kept.landmarks.iter().zip(picks) {
                 if let Some((i, v, g)) = pick
                     && v > 0.05
                 {
                     let o = &scene.objects[i];
                     evidence.push(LandmarkEvidence {
                         landmark: l.clone(),
-                        instance_id: o.id,
+                        id: o.id,
                         caption: o.caption.clone(),
                         distance_m: (s.area.distance(ground[i]) * 100.0).round() / 100.0,
                         similarity: g,
@@ -413,7 +455,7 @@ pub fn locate(
     }
     out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.segment.cmp(&b.segment)));
     out.truncate(k);
-    Ok(out)
+    Ok((out, unmatched))
 }
 
 /// Spacing of the places along a road where the speaker may stand.
@@ -595,7 +637,32 @@ mod tests {
         let best = &locate(&scene, &segs, &mut emb, &d, 1).unwrap()[0];
         assert_eq!(best.segment, 20);
         assert!(segs[1].area.contains(best.position), "{:?}", best.position);
-        assert_eq!(best.evidence[0].instance_id, 4);
+        assert_eq!(best.evidence[0].id, 4);
+    }
+
+    #[test]
+    fn landmarks_the_map_does_not_hold_are_left_out() {
+        let segs = [junction(10, [0.0, 0.0]), junction(20, [200.0, 0.0])];
+        let (scene, mut emb) = scene_of(&[
+            (1, "a green bench on the sidewalk", [5.0, 3.0]),
+            (2, "a red post box on a short post", [203.0, -6.0]),
+        ]);
+        let d = parse_description_rules("there's a purple elephant and a red post box").unwrap();
+        let (ranked, unmatched) = locate_with_floor(&scene, &segs, &mut emb, &d, 3, 0.4).unwrap();
+        assert_eq!(unmatched.len(), 1, "{unmatched:?}");
+        assert_eq!(unmatched[0].landmark, "a purple elephant");
+        assert!(unmatched[0].best_cosine < 0.4);
+        assert_eq!(ranked[0].segment, 20);
+        assert_eq!(ranked[0].evidence.len(), 1);
+        // nothing left and no kind said: nothing to rank
+        let d = parse_description_rules("I can see a purple elephant").unwrap();
+        let (ranked, unmatched) = locate_with_floor(&scene, &segs, &mut emb, &d, 3, 0.4).unwrap();
+        assert!(ranked.is_empty());
+        assert_eq!(unmatched.len(), 1);
+        // a kind said still ranks
+        let d = parse_description_rules("I'm at a crossroads with a purple elephant").unwrap();
+        let (ranked, _) = locate_with_floor(&scene, &segs, &mut emb, &d, 3, 0.4).unwrap();
+        assert_eq!(ranked.len(), 2);
     }
 
     #[test]

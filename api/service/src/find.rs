@@ -111,8 +111,11 @@ pub struct LocateAnswer {
     pub description: Description,
     /// The model that parsed it, with the prompt id.
     pub parsed_by: Option<String>,
-    /// Segments, best first.
+    /// Segments, best first (none when nothing said is in the map and no kind was said).
     pub results: Vec<Located>,
+    /// Landmarks nothing in the map matches well (best cosine under the weak-match level);
+    /// they were left out.
+    pub unmatched: Vec<locate::UnmatchedLandmark>,
     /// Milliseconds: parse, rank.
     pub timings_ms: [f64; 2],
 }
@@ -241,17 +244,23 @@ impl Finder {
         let t1 = Instant::now();
         self.scene(r)?;
         let scene = self.scene.as_ref().expect("loaded");
-        let results = locate::locate(
+        // the hash embedder has no weak-match level (0): no floor then
+        let floor = Some(self.weak_match_cosine())
+            .filter(|w| *w > 0.0)
+            .unwrap_or(f64::NEG_INFINITY);
+        let (results, unmatched) = locate::locate_with_floor(
             scene,
             &scene.segments,
             self.embedder.as_mut(),
             &description,
             req.k,
+            floor,
         )?;
         Ok(LocateAnswer {
             description,
             parsed_by,
             results,
+            unmatched,
             timings_ms: [parse_ms, t1.elapsed().as_secs_f64() * 1e3],
         })
     }

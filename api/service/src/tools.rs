@@ -324,7 +324,9 @@ fn output_schema(name: &str) -> Json {
         ),
         "locate" => obj(
             json!({"description": {"type": "object"}, "parsed_by": s_or_null,
-                   "results": arr(located), "timings_ms": {"type": "array"}}),
+                   "results": arr(located),
+                   "unmatched": arr(obj(json!({"landmark": s, "best_cosine": num}), &["landmark", "best_cosine"])),
+                   "timings_ms": {"type": "array"}}),
             &["description", "results"],
         ),
         "plan_route" => {

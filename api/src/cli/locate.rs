@@ -35,6 +35,18 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         if let Some(m) = &a.parsed_by {
             errln!("parsed by {m}");
         }
+        for u in &a.unmatched {
+            errln!(
+                "nothing in the map matches '{}' well (best cosine {:.2}); it was left out",
+                u.landmark,
+                u.best_cosine
+            );
+        }
+        if a.results.is_empty() {
+            errln!(
+                "no segment to rank: the description names no road kind and nothing the map holds"
+            );
+        }
         for (i, l) in a.results.iter().enumerate() {
             outln!(
                 "{}. segment {} ({}), score {:.3}, position [{:.1}, {:.1}]{}",
@@ -53,7 +65,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
                 outln!(
                     "     '{}': node {} {:.1} m from the segment ({})",
                     e.landmark,
-                    e.instance_id,
+                    e.id,
                     e.distance_m,
                     e.caption
                 );
