@@ -571,7 +571,10 @@ fn special_floats_and_control_characters_survive_export() {
     ]);
     ok(&out);
     assert!(
-        String::from_utf8_lossy(&out.stderr).contains("control pictures"),
+        String::from_utf8_lossy(&out.stderr)
+            .matches("control pictures")
+            .count()
+            == 1,
         "the substitution is reported: {}",
         String::from_utf8_lossy(&out.stderr)
     );
@@ -636,4 +639,23 @@ fn plan_over_an_argoverse_2_map() {
     let out = og(&["plan", "--av2-map", s(&map), "--from", "0,0", "--to", "1,1"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("snap limit"));
+    // a map without lanes says so (not "run opengraph hierarchy")
+    let tmp = tempfile::tempdir().unwrap();
+    let empty = tmp.path().join("log_map_archive_empty.json");
+    std::fs::write(&empty, r#"{"lane_segments": {}}"#).unwrap();
+    let out = og(&[
+        "plan",
+        "--av2-map",
+        s(&empty),
+        "--from",
+        "0,0",
+        "--to",
+        "1,1",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no lane segments") && err.contains("log_map_archive_empty.json"),
+        "{err}"
+    );
 }

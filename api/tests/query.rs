@@ -281,3 +281,16 @@ fn explain_with_json_prints_the_plan_as_json() {
     ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("Match\n"));
 }
+
+#[test]
+fn table_cells_show_control_characters_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("t.og");
+    ok(&og(&["init", "--db", s(&db)]));
+    let out = og(&["query", "--db", s(&db), "RETURN 'a\\rb\\nc\\td' AS x"]);
+    ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    // header, rule, one row: the cell is one line
+    assert_eq!(text.lines().count(), 3, "{text}");
+    assert!(text.contains("a\\rb\\nc\\td"), "{text}");
+}

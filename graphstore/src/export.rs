@@ -175,11 +175,10 @@ fn graphml_text(v: &Value) -> String {
 /// Escapes text for XML 1.0. A carriage return becomes `&#13;` (a parser would turn a raw one
 /// into a line feed), tabs and line feeds `&#9;` and `&#10;` (kept in attributes too). The
 /// other C0 control characters, which XML 1.0 cannot carry at all, become their Unicode
-/// control pictures (U+0001 → U+2401 "␁"), and U+FFFE / U+FFFF become U+FFFD; each such
-/// substitution is logged as a warning with the count, never silent.
-pub(crate) fn xml_escape(s: &str) -> String {
+/// control pictures (U+0001 → U+2401 "␁"), and U+FFFE / U+FFFF become U+FFFD; such
+/// substitutions are counted in `replaced`, and the export warns once with the total.
+pub(crate) fn xml_escape(s: &str, replaced: &std::cell::Cell<usize>) -> String {
     let mut o = String::with_capacity(s.len());
-    let mut replaced = 0usize;
     for c in s.chars() {
         match c {
             '&' => o.push_str("&amp;"),
@@ -191,20 +190,15 @@ pub(crate) fn xml_escape(s: &str) -> String {
             '\n' => o.push_str("&#10;"),
             '\r' => o.push_str("&#13;"),
             c if (c as u32) < 0x20 => {
-                replaced += 1;
+                replaced.set(replaced.get() + 1);
                 o.push(char::from_u32(0x2400 + c as u32).unwrap_or('\u{FFFD}'));
             }
             '\u{FFFE}' | '\u{FFFF}' => {
-                replaced += 1;
+                replaced.set(replaced.get() + 1);
                 o.push('\u{FFFD}');
             }
             c => o.push(c),
         }
-    }
-    if replaced > 0 {
-        tracing::warn!(
-            "GraphML: {replaced} character(s) XML 1.0 cannot carry written as control pictures (U+2400..U+241F) or U+FFFD"
-        );
     }
     o
 }
@@ -240,6 +234,8 @@ fn graphml<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u6
         }
     }
     let w = |out: &mut dyn Write, s: &str| out.write_all(s.as_bytes()).map_err(io);
+    let replaced = std::cell::Cell::new(0usize);
+    let xml_escape = |s: &str| xml_escape(s, &replaced);
     w(out, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n")?;
     w(
         out,
@@ -327,6 +323,12 @@ fn graphml<R: GraphRead + ?Sized>(r: &R, out: &mut dyn Write) -> Result<(u64, u6
         n_rels += 1;
     }
     w(out, "  </graph>\n</graphml>\n")?;
+    if replaced.get() > 0 {
+        tracing::warn!(
+            "GraphML export: {} control character(s) that XML 1.0 cannot carry were written as Unicode control pictures (U+2400-U+241F) or U+FFFD",
+            replaced.get()
+        );
+    }
     Ok((n_nodes, n_rels))
 }
 
@@ -336,13 +338,15 @@ mod tests {
 
     #[test]
     fn escapes_markup_and_drops_control_chars() {
+        let n = std::cell::Cell::new(0);
         assert_eq!(
-            xml_escape("a<b & \"c\"\u{1}"),
+            xml_escape("a<b & \"c\"\u{1}", &n),
             "a&lt;b &amp; &quot;c&quot;\u{2401}"
         );
         // line ends survive a parser's normalisation
-        assert_eq!(xml_escape("a\r\nb\tc"), "a&#13;&#10;b&#9;c");
-        assert_eq!(xml_escape("\u{FFFF}"), "\u{FFFD}");
+        assert_eq!(xml_escape("a\r\nb\tc", &n), "a&#13;&#10;b&#9;c");
+        assert_eq!(xml_escape("\u{FFFF}", &n), "\u{FFFD}");
+        assert_eq!(n.get(), 2);
     }
 
     #[test]

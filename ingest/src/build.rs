@@ -290,6 +290,9 @@ pub struct BuildReport {
     pub frames_total: usize,
     /// Key frames integrated by this run.
     pub frames_run: usize,
+    /// Scans of the sequence (in `--frames`, when given) that were not mapped because they
+    /// have no detections file or labels.
+    pub scans_without_input: usize,
     /// Where this run started, when it resumed.
     pub resumed_at: Option<u32>,
     /// Detections read by this run.
@@ -981,9 +984,20 @@ pub fn build(
     };
     // frames are ascending: the ones still to do are a suffix
     let first = frames.partition_point(|f| i64::from(*f) < start_frame);
+    let considered = seq
+        .scans
+        .iter()
+        .filter(|i| args.frames.as_ref().is_none_or(|r| r.contains(i)))
+        .count();
     let mut report = BuildReport {
         source: args.source.kind().into(),
         frames_total: frames.len(),
+        // with a stride, the skipped scans are chosen, not missing
+        scans_without_input: if args.stride <= 1 {
+            considered.saturating_sub(frames.len())
+        } else {
+            0
+        },
         resumed_at: (resume && first > 0)
             .then(|| frames.get(first).copied())
             .flatten(),

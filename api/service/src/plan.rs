@@ -104,6 +104,12 @@ pub fn plan_on_av2(
 ) -> planner::Result<PlanAnswer> {
     let t0 = Instant::now();
     let (g, _) = planner::RoadGraph::from_av2(map)?;
+    if g.edges.is_empty() {
+        return Err(planner::Error::Map {
+            path: map.to_path_buf(),
+            detail: "the Argoverse 2 map has no lane segments to route on".into(),
+        });
+    }
     let point = |text: &str| -> planner::Result<planner::Target> {
         match text.parse::<Spec>()? {
             Spec::Point(xy) => Ok(planner::Target {

@@ -346,9 +346,23 @@ pub(crate) fn llm_input_error(e: &llm_tools::Error) -> bool {
     )
 }
 
-/// Shortens a rendered cell for the table view.
+/// Shortens a rendered cell for the table view; line breaks, tabs and other control
+/// characters are shown escaped (`\r`, `\n`, `\t`, `\u{1}`) so that a row stays one line.
 pub(crate) fn cell(text: String) -> String {
     const MAX: usize = 60;
+    let text = if text.chars().any(char::is_control) {
+        text.chars()
+            .map(|c| match c {
+                '\r' => "\\r".to_string(),
+                '\n' => "\\n".to_string(),
+                '\t' => "\\t".to_string(),
+                c if c.is_control() => c.escape_unicode().to_string(),
+                c => c.to_string(),
+            })
+            .collect()
+    } else {
+        text
+    };
     if text.chars().count() <= MAX {
         text
     } else {
@@ -417,6 +431,18 @@ pub(crate) fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>
         r.detections_dropped,
         r.nonfinite_points
     );
+    if r.scans_without_input > 0 {
+        let _ = writeln!(
+            s,
+            "note: {} scan(s) have no {} and were not mapped",
+            r.scans_without_input,
+            if r.source == "oracle" {
+                "labels"
+            } else {
+                "detections file"
+            }
+        );
+    }
     let total: usize = r.instances_per_class.values().sum();
     let _ = writeln!(s, "instances: {total}");
     for (c, n) in &r.instances_per_class {

@@ -52,12 +52,20 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
             "{} poses -> {} lane nodes ({}), {} lane edges ({:.0} m), {} segments, in {:.1} ms",
             full.len(),
             g.nodes.len(),
-            kinds.join(", "),
+            if kinds.is_empty() {
+                "none".to_string()
+            } else {
+                kinds.join(", ")
+            },
             g.edges.len(),
-            g.edges.iter().map(|e| e.length_m).sum::<f64>(),
+            // + 0.0 turns an empty sum's -0 into 0
+            g.edges.iter().map(|e| e.length_m).sum::<f64>() + 0.0,
             segs.segments.len(),
             took.as_secs_f64() * 1e3
         );
+        if g.edges.is_empty() {
+            outln!("no lane edges: the trajectory does not move far enough to drive a road");
+        }
         for gap in &g.gaps {
             outln!(
                 "gap in the recording: {:.0} m after pose {}; the trajectory is split there",

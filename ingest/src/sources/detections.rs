@@ -124,12 +124,23 @@ impl DetectionFrame {
                     "detections format version {other}; this build reads version {VERSION}"
                 )));
             }
+            None if v.get("version").is_some() => {
+                return Err(b(format!(
+                    "\"version\" must be the integer {VERSION}, got {}",
+                    v["version"]
+                )));
+            }
             None => return Err(b("missing \"version\"".into())),
         }
         let u32_of = |x: Option<&Json>, what: &str| -> Result<u32> {
             x.and_then(whole)
                 .and_then(|n| u32::try_from(n).ok())
-                .ok_or_else(|| b(format!("{what} must be a non-negative integer")))
+                .ok_or_else(|| {
+                    b(format!(
+                        "{what} must be a whole number from 0 to {}",
+                        u32::MAX
+                    ))
+                })
         };
         let frame = u32_of(v.get("frame"), "\"frame\"")?;
         let image = v
@@ -191,7 +202,10 @@ impl DetectionFrame {
                     "mask.counts must be a string or a list".into(),
                 )),
             }
-            .map_err(|err| e(format!("invalid RLE: {err}")))?;
+            .map_err(|err| match err {
+                Error::Invalid(m) => e(format!("invalid RLE: {m}")),
+                other => e(format!("invalid RLE: {other}")),
+            })?;
             let bbox: Vec<f64> = d
                 .get("bbox")
                 .and_then(Json::as_array)
@@ -237,6 +251,19 @@ impl DetectionFrame {
                 }
                 Some(_) => return Err(e("feature must be a list of numbers".into())),
             };
+            if let (Some(f), Some(first)) = (
+                &feature,
+                detections
+                    .iter()
+                    .find_map(|d: &Detection| d.feature.as_ref()),
+            ) && f.len() != first.len()
+            {
+                return Err(e(format!(
+                    "feature has {} numbers but an earlier detection's has {}: one length per file",
+                    f.len(),
+                    first.len()
+                )));
+            }
             detections.push(Detection {
                 mask: rle,
                 bbox: [bbox[0], bbox[1], bbox[2], bbox[3]],
@@ -269,10 +296,18 @@ fn whole(v: &Json) -> Option<u64> {
 /// Reads a detections file; bad JSON is reported with its line and column.
 pub fn read_detections(path: &Path) -> Result<DetectionFrame> {
     let text = crate::error::read_text(path)?;
-    let v: Json = serde_json::from_str(&text).map_err(|e| Error::Parse {
-        path: path.to_path_buf(),
-        line: e.line(),
-        detail: format!("column {}: {e}", e.column()),
+    let v: Json = serde_json::from_str(&text).map_err(|e| {
+        // serde's message ends with its own "at line L column C": say it once
+        let msg = e.to_string();
+        let msg = msg
+            .rfind(" at line ")
+            .map_or(msg.as_str(), |i| &msg[..i])
+            .to_string();
+        Error::Parse {
+            path: path.to_path_buf(),
+            line: e.line(),
+            detail: format!("column {}: {msg}", e.column()),
+        }
     })?;
     DetectionFrame::from_json(path, &v)
 }
@@ -371,5 +406,43 @@ mod tests {
             3,
             "uncompressed counts are accepted"
         );
+    }
+
+    /// What a new user's trial got wrong, each with a message that names the real problem.
+    #[test]
+    fn messages_name_the_real_problem() {
+        let p = Path::new("f.json");
+        let msg = |v: &Json| DetectionFrame::from_json(p, v).unwrap_err().to_string();
+        let mut v = frame().to_json();
+        v["version"] = json!("1");
+        assert!(
+            msg(&v).contains("\"version\" must be the integer 1, got \"1\""),
+            "{}",
+            msg(&v)
+        );
+        let mut v = frame().to_json();
+        v["image"]["width"] = json!(4_294_967_296u64);
+        assert!(msg(&v).contains("from 0 to 4294967295"), "{}", msg(&v));
+        let mut v = frame().to_json();
+        v["detections"][0]["mask"]["counts"] = json!([1.5]);
+        let m = msg(&v);
+        assert!(
+            m.contains("invalid RLE: counts") && !m.contains("invalid input"),
+            "{m}"
+        );
+        // features of two lengths in one file
+        let mut v = frame().to_json();
+        let mut second = v["detections"][0].clone();
+        second["feature"] = json!([0.1, 0.2, 0.3]);
+        v["detections"].as_array_mut().unwrap().push(second);
+        assert!(
+            msg(&v).contains("detection 1: feature has 3 numbers but an earlier detection's has 2")
+        );
+        // a JSON syntax error says its place once
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("f.json");
+        std::fs::write(&f, "{\"format\": ").unwrap();
+        let e = read_detections(&f).unwrap_err().to_string();
+        assert_eq!(e.matches("column").count(), 1, "{e}");
     }
 }
