@@ -693,6 +693,16 @@ fn integers_and_floats_compare_by_exact_value() {
         ("RETURN 9007199254740992 = 9007199254740992.0", true),
         ("RETURN 3 < 3.5 AND 3 > 2.5 AND -3 < -2.5", true),
         ("RETURN 1 < 1.0e300 AND -1 > -1.0e300", true),
+        ("RETURN toInteger(-2^63) = -9223372036854775808", true),
+        ("RETURN toInteger(2^63) IS NULL", true),
+        (
+            "RETURN toInteger(9.2233720368547748e18) = 9223372036854774784",
+            true,
+        ),
+        (
+            "RETURN toInteger('-9.223372036854775808e18') = -9223372036854775808",
+            true,
+        ),
     ] {
         assert_eq!(b(&row(text)[0]), want, "{text}");
     }

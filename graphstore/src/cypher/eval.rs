@@ -995,24 +995,14 @@ impl Ctx<'_, '_> {
                 Ok(match &a[0] {
                     Null => Null,
                     Int(i) => Int(*i),
-                    Float(f) => {
-                        if f.is_finite() && f.abs() < 9.2e18 {
-                            Int(f.trunc() as i64)
-                        } else {
-                            Null
-                        }
-                    }
+                    Float(f) => float_to_int(*f).map_or(Null, Int),
                     Bool(b) => Int(i64::from(*b)),
                     Str(s) => {
                         let t = s.trim();
                         if let Ok(i) = t.parse::<i64>() {
                             Int(i)
                         } else if let Ok(f) = t.parse::<f64>() {
-                            if f.is_finite() && f.abs() < 9.2e18 {
-                                Int(f.trunc() as i64)
-                            } else {
-                                Null
-                            }
+                            float_to_int(f).map_or(Null, Int)
                         } else {
                             Null
                         }
@@ -1421,4 +1411,11 @@ pub(crate) fn dir_of(d: super::ast::Dir) -> Direction {
         super::ast::Dir::In => Direction::Incoming,
         super::ast::Dir::Both => Direction::Both,
     }
+}
+
+/// A float's integer part as an INTEGER when it fits exactly: every float in [-2^63, 2^63)
+/// truncates to an i64 (-2^63 is i64::MIN); NaN, the infinities and anything beyond are None.
+fn float_to_int(f: f64) -> Option<i64> {
+    let t = f.trunc();
+    (t >= -9_223_372_036_854_775_808.0 && t < 9_223_372_036_854_775_808.0).then_some(t as i64)
 }
