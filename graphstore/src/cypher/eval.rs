@@ -1417,5 +1417,7 @@ pub(crate) fn dir_of(d: super::ast::Dir) -> Direction {
 /// truncates to an i64 (-2^63 is i64::MIN); NaN, the infinities and anything beyond are None.
 fn float_to_int(f: f64) -> Option<i64> {
     let t = f.trunc();
-    (t >= -9_223_372_036_854_775_808.0 && t < 9_223_372_036_854_775_808.0).then_some(t as i64)
+    (-9_223_372_036_854_775_808.0..9_223_372_036_854_775_808.0)
+        .contains(&t)
+        .then_some(t as i64)
 }
