@@ -117,7 +117,25 @@ pub fn write_png(
     lanes: &LaneGraph,
     segments: Option<&Segments>,
 ) -> Result<()> {
-    let all = traj.iter().copied().chain(lanes.nodes.iter().map(|n| n.xy));
+    // the segment areas are drawn whole: their extents count for the fit
+    let mut extents: Vec<[f64; 2]> = Vec::new();
+    for s in segments.map(|s| s.segments.as_slice()).unwrap_or_default() {
+        let (pts, r) = match &s.area {
+            SegmentArea::Disc { centre, radius_m } => (vec![*centre], *radius_m),
+            SegmentArea::Corridor {
+                centreline,
+                half_width_m,
+            } => (centreline.clone(), *half_width_m),
+        };
+        for p in pts {
+            extents.extend([[p[0] - r, p[1] - r], [p[0] + r, p[1] + r]]);
+        }
+    }
+    let all = traj
+        .iter()
+        .copied()
+        .chain(lanes.nodes.iter().map(|n| n.xy))
+        .chain(extents);
     let (v, w, h) = View::fit(all).ok_or_else(|| Error::Invalid("nothing to draw".into()))?;
     let mut pm =
         Pixmap::new(w, h).ok_or_else(|| Error::Render(format!("cannot allocate {w}x{h} image")))?;
@@ -163,28 +181,37 @@ pub fn write_png(
     })
 }
 
+/// A ground-plane point rounded to millimetres (no `-1.2e-16` noise, no `-0`).
+fn mm(p: [f64; 2]) -> [f64; 2] {
+    [
+        (p[0] * 1000.0).round() / 1000.0 + 0.0,
+        (p[1] * 1000.0).round() / 1000.0 + 0.0,
+    ]
+}
+
 /// The lane graph (and segments, if given) as a GeoJSON FeatureCollection in ground-plane
-/// metres (not longitude/latitude).
+/// metres (not longitude/latitude), rounded to millimetres.
 pub fn geojson(lanes: &LaneGraph, segments: Option<&Segments>) -> serde_json::Value {
     use serde_json::json;
+    let line = |ps: &[[f64; 2]]| ps.iter().map(|p| mm(*p)).collect::<Vec<_>>();
     let mut features = Vec::new();
     for n in &lanes.nodes {
         features.push(json!({
             "type": "Feature",
-            "geometry": {"type": "Point", "coordinates": n.xy},
+            "geometry": {"type": "Point", "coordinates": mm(n.xy)},
             "properties": {"layer": "lane_node", "id": n.id, "kind": n.kind.as_str(), "ways": n.ways},
         }));
     }
     for (i, e) in lanes.edges.iter().enumerate() {
         features.push(json!({
             "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": e.polyline},
+            "geometry": {"type": "LineString", "coordinates": line(&e.polyline)},
             "properties": {"layer": "lane_edge", "id": i, "from": e.from, "to": e.to, "length_m": e.length_m, "frames": e.frames.len()},
         }));
     }
     if let Some(segs) = segments {
         for s in &segs.segments {
-            let ring = s.area.outline(24);
+            let ring = line(&s.area.outline(24));
             features.push(json!({
                 "type": "Feature",
                 "geometry": {"type": "Polygon", "coordinates": [ring]},
@@ -203,4 +230,22 @@ pub fn lanes_json(lanes: &LaneGraph) -> serde_json::Value {
         "edges": lanes.edges.iter().map(|e| json!({"from": e.from, "to": e.to, "length_m": e.length_m})).collect::<Vec<_>>(),
         "gaps": lanes.gaps.iter().map(|g| json!({"after_pose": g.after_pose, "distance_m": g.distance_m})).collect::<Vec<_>>(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn geojson_coordinates_are_millimetres() {
+        let near =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12;
+        assert!(near(
+            mm([-1.224_646_799_147_353_2e-16, 3.649e-48]),
+            [0.0, 0.0]
+        ));
+        // no "-0" in the output
+        assert!(mm([-1e-9, 0.0])[0].is_sign_positive());
+        assert!(near(mm([12.345_678, -0.000_4]), [12.346, 0.0]));
+    }
 }
