@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 mod common;
-use common::{json, og, ok, s};
+use common::{export, json, og, ok, point_clouds, s};
 
 fn seq00() -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/kitti/sequences/00");
@@ -160,41 +160,6 @@ fn detections_files_give_the_same_map_as_the_oracle() {
     assert_eq!(rb["source"], "detections");
     assert_eq!(ra["instances_per_class"], rb["instances_per_class"]);
     assert_eq!(ra["detections"], rb["detections"]);
-}
-
-fn export(db: &Path, out: &Path) -> serde_json::Value {
-    ok(&og(&[
-        "export",
-        "--db",
-        s(db),
-        "--format",
-        "node-link",
-        "--out",
-        s(out),
-    ]));
-    serde_json::from_slice(&std::fs::read(out).unwrap()).unwrap()
-}
-
-fn point_clouds(db: &Path) -> Vec<(i64, Vec<[f32; 3]>)> {
-    use graphstore::GraphRead;
-    let store = graphstore::Store::open(db).unwrap();
-    let r = store.read().unwrap();
-    let mut v: Vec<(i64, Vec<[f32; 3]>)> = r
-        .nodes_with_label("Instance")
-        .unwrap()
-        .into_iter()
-        .map(|n| {
-            let id = r
-                .node_prop(n, "instance_id")
-                .unwrap()
-                .unwrap()
-                .as_int()
-                .unwrap();
-            (id, r.point_cloud(n, "points").unwrap().unwrap().xyz)
-        })
-        .collect();
-    v.sort_by_key(|x| x.0);
-    v
 }
 
 /// Builds with a commit after every key frame, SIGKILLs the process right after the commit

@@ -5,7 +5,7 @@
 //! `OG_SOAK_KILLS=100 OG_SOAK_FRAMES=300 cargo test --release -p api --test soak -- --nocapture`).
 
 mod common;
-use common::{og, ok, s};
+use common::{export, og, ok, point_clouds, s};
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -16,48 +16,6 @@ fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(d)
-}
-
-fn export(db: &Path, out: &Path) -> serde_json::Value {
-    ok(&og(&[
-        "export",
-        "--db",
-        s(db),
-        "--format",
-        "node-link",
-        "--out",
-        s(out),
-    ]));
-    serde_json::from_slice(&std::fs::read(out).unwrap()).unwrap()
-}
-
-/// Every instance's points, by instance id.
-fn point_clouds(db: &Path) -> Vec<(i64, Vec<[f32; 3]>)> {
-    use graphstore::GraphRead;
-    let store = graphstore::Store::open_read_only(db).unwrap();
-    let r = store.read().unwrap();
-    let mut v: Vec<(i64, Vec<[f32; 3]>)> = r
-        .nodes_with_label("Instance")
-        .unwrap()
-        .into_iter()
-        .map(|n| {
-            let id = r
-                .node_prop(n, "instance_id")
-                .unwrap()
-                .unwrap()
-                .as_int()
-                .unwrap();
-            (
-                id,
-                r.point_cloud(n, "points")
-                    .unwrap()
-                    .map(|p| p.xyz)
-                    .unwrap_or_default(),
-            )
-        })
-        .collect();
-    v.sort_by_key(|x| x.0);
-    v
 }
 
 #[test]

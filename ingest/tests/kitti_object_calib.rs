@@ -16,6 +16,14 @@ fn rows(v: &serde_json::Value, n_rows: usize, n_cols: usize) -> Vec<f64> {
         .collect()
 }
 
+/// A velodyne point through a row-major 3x4 projection: (u, v) in pixels and the depth.
+fn project(m: &[f64], p: &[f32; 4]) -> (f64, f64, f64) {
+    let q = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
+    let row = |r: usize| m[4 * r] * q[0] + m[4 * r + 1] * q[1] + m[4 * r + 2] * q[2] + m[4 * r + 3];
+    let depth = row(2);
+    (row(0) / depth, row(1) / depth, depth)
+}
+
 fn line(key: &str, v: &[f64]) -> String {
     let nums: Vec<String> = v.iter().map(|x| format!("{x:e}")).collect();
     format!("{key}: {}\n", nums.join(" "))
@@ -58,21 +66,16 @@ fn object_calibration_projects_like_the_devkit() {
     let cam = Camera::kitti_p2(&k, w, h);
     let want = rows(&j["lidar2img2"], 3, 4);
     let scan = read_scan(&dir.join("000008.bin")).unwrap();
+    let ours = cam.image_from_velo.to_row_major();
     let mut worst: f64 = 0.0;
     let mut n = 0;
     for p in &scan.points {
-        let q = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
-        let row = |m: &[f64], r: usize| {
-            m[4 * r] * q[0] + m[4 * r + 1] * q[1] + m[4 * r + 2] * q[2] + m[4 * r + 3]
-        };
-        let (zd, zo) = (row(&want, 2), row(&cam.image_from_velo.to_row_major(), 2));
-        if zd < 0.5 {
+        let (u0, v0, depth) = project(&want, p);
+        if depth < 0.5 {
             continue;
         }
-        let ours = cam.image_from_velo.to_row_major();
-        let du = row(&ours, 0) / zo - row(&want, 0) / zd;
-        let dv = row(&ours, 1) / zo - row(&want, 1) / zd;
-        worst = worst.max(du.hypot(dv));
+        let (u, v, _) = project(&ours, p);
+        worst = worst.max((u - u0).hypot(v - v0));
         n += 1;
     }
     assert!(n > 17_000, "{n} points in front of the camera");
@@ -93,13 +96,11 @@ fn object_calibration_projects_like_the_devkit() {
     )
     .unwrap();
     let wrong = Camera::kitti_p2(&read_calib(&odometry_like).unwrap(), w, h);
-    let m = wrong.image_from_velo.to_row_major();
-    let p = scan.points[scan.points.len() / 2];
-    let q = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
-    let row = |m: &[f64], r: usize| {
-        m[4 * r] * q[0] + m[4 * r + 1] * q[1] + m[4 * r + 2] * q[2] + m[4 * r + 3]
-    };
-    let off = (row(&m, 0) / row(&m, 2) - row(&want, 0) / row(&want, 2))
-        .hypot(row(&m, 1) / row(&m, 2) - row(&want, 1) / row(&want, 2));
+    let p = &scan.points[scan.points.len() / 2];
+    let ((u, v, _), (u0, v0, _)) = (
+        project(&wrong.image_from_velo.to_row_major(), p),
+        project(&want, p),
+    );
+    let off = (u - u0).hypot(v - v0);
     assert!(off > 1.0, "without R0_rect a point is {off} px off");
 }

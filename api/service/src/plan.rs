@@ -29,6 +29,18 @@ pub struct PlanOptions {
     pub png: Option<PathBuf>,
 }
 
+impl PlanOptions {
+    /// The OMPL refinement's settings from these options.
+    fn motion(&self) -> planner::MotionConfig {
+        planner::MotionConfig {
+            turning_radius_m: self.turning_radius_m,
+            budget_ms: self.budget_ms,
+            corridor_half_width_m: self.corridor_m,
+            ..planner::MotionConfig::default()
+        }
+    }
+}
+
 /// A planned route.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PlanAnswer {
@@ -66,12 +78,7 @@ pub fn plan(
     );
     let route = planner::astar(&g, a, b)?;
     let t_route = t0.elapsed().as_secs_f64() * 1e3;
-    let cfg = planner::MotionConfig {
-        turning_radius_m: opts.turning_radius_m,
-        budget_ms: opts.budget_ms,
-        corridor_half_width_m: opts.corridor_m,
-        ..planner::MotionConfig::default()
-    };
+    let cfg = opts.motion();
     let obstacles = planner::motion::blocking_instances(r, ground, &route, opts.corridor_m)?;
     let path = planner::plan_path(&route, &obstacles, &cfg)?;
     if let Some(p) = &opts.png {
@@ -130,12 +137,7 @@ pub fn plan_on_av2(
     let b = planner::snap(&g, to_t.xy, opts.snap_m)?;
     let route = planner::astar(&g, a, b)?;
     let t_route = t0.elapsed().as_secs_f64() * 1e3;
-    let cfg = planner::MotionConfig {
-        turning_radius_m: opts.turning_radius_m,
-        budget_ms: opts.budget_ms,
-        corridor_half_width_m: opts.corridor_m,
-        ..planner::MotionConfig::default()
-    };
+    let cfg = opts.motion();
     let path = planner::plan_path(&route, &[], &cfg)?;
     if let Some(p) = &opts.png {
         let markers = [(from_t.xy, (20, 170, 40)), (to_t.xy, (220, 30, 30))];

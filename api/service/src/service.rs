@@ -225,18 +225,7 @@ impl Service {
         self.run(move |tb| {
             let failed = |e: graphstore::Error| ToolError::Failed(e.to_string());
             let r = tb.store().read().map_err(failed)?;
-            let node = r
-                .node(id)
-                .map_err(failed)?
-                .ok_or_else(|| ToolError::NotFound(format!("no node {id}")))?;
-            if !r
-                .label("Instance")
-                .is_some_and(|l| node.labels.contains(&l))
-            {
-                return Err(ToolError::BadArguments(format!(
-                    "node {id} is not an Instance"
-                )));
-            }
+            crate::tools::instance_node(&r, id)?;
             let pc = r
                 .point_cloud(id, "points")
                 .map_err(failed)?

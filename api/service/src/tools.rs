@@ -393,6 +393,24 @@ fn failed(e: impl std::fmt::Display) -> ToolError {
     ToolError::Failed(e.to_string())
 }
 
+/// The `Instance` node with this node id: [`ToolError::NotFound`] when no node has it,
+/// [`ToolError::BadArguments`] when it is another kind of node.
+pub(crate) fn instance_node(r: &impl GraphRead, id: u64) -> ToolResult<graphstore::Node> {
+    let node = r
+        .node(id)
+        .map_err(failed)?
+        .ok_or_else(|| ToolError::NotFound(format!("no node {id}")))?;
+    if !r
+        .label("Instance")
+        .is_some_and(|l| node.labels.contains(&l))
+    {
+        return Err(ToolError::BadArguments(format!(
+            "node {id} is not an Instance"
+        )));
+    }
+    Ok(node)
+}
+
 /// An error of the language layer: the caller's input (empty text, an unknown class, a map
 /// built with another embedder) or a failure of ours (a model, the store).
 impl From<llm_tools::Error> for ToolError {
@@ -793,18 +811,7 @@ impl Toolbox {
 
     fn get_instance(&self, id: u64) -> ToolResult<Json> {
         let r = self.store.read().map_err(failed)?;
-        let node = r
-            .node(id)
-            .map_err(failed)?
-            .ok_or_else(|| ToolError::NotFound(format!("no node {id}")))?;
-        if !r
-            .label("Instance")
-            .is_some_and(|l| node.labels.contains(&l))
-        {
-            return Err(ToolError::BadArguments(format!(
-                "node {id} is not an Instance"
-            )));
-        }
+        let node = instance_node(&r, id)?;
         let mut props = serde_json::Map::new();
         for (k, v) in &node.props {
             let name = r.name_of(k.0).unwrap_or_default();

@@ -198,3 +198,44 @@ pub fn json_of_run(mut cmd: Command, secs: u64) -> serde_json::Value {
     let text = String::from_utf8_lossy(&out.stdout);
     serde_json::from_str(text.lines().last().unwrap_or_default()).unwrap()
 }
+
+/// Exports a map as node-link JSON to `out` and reads it back.
+pub fn export(db: &Path, out: &Path) -> serde_json::Value {
+    ok(&og(&[
+        "export",
+        "--db",
+        s(db),
+        "--format",
+        "node-link",
+        "--out",
+        s(out),
+    ]));
+    serde_json::from_slice(&std::fs::read(out).unwrap()).unwrap()
+}
+
+/// Every instance's points by `Instance.instance_id`, sorted; each instance must have them.
+pub fn point_clouds(db: &Path) -> Vec<(i64, Vec<[f32; 3]>)> {
+    use graphstore::GraphRead;
+    let store = graphstore::Store::open_read_only(db).unwrap();
+    let r = store.read().unwrap();
+    let mut v: Vec<(i64, Vec<[f32; 3]>)> = r
+        .nodes_with_label("Instance")
+        .unwrap()
+        .into_iter()
+        .map(|n| {
+            let id = r
+                .node_prop(n, "instance_id")
+                .unwrap()
+                .unwrap()
+                .as_int()
+                .unwrap();
+            let points = r
+                .point_cloud(n, "points")
+                .unwrap()
+                .unwrap_or_else(|| panic!("instance {id} has no points"));
+            (id, points.xyz)
+        })
+        .collect();
+    v.sort_by_key(|x| x.0);
+    v
+}

@@ -704,6 +704,31 @@ fn laps(pts: &[[f64; 2]], idx: &[usize], cfg: &LaneConfig) -> Vec<Vec<usize>> {
     out
 }
 
+/// The driven path from node `a` to node `b` over samples `idx`: one path, or its laps when
+/// it starts and ends at the same node ([`laps`]).
+fn driven_paths(
+    pts: &[[f64; 2]],
+    a: usize,
+    b: usize,
+    idx: Vec<usize>,
+    cfg: &LaneConfig,
+) -> Vec<DrivenPath> {
+    let pieces = if a == b {
+        laps(pts, &idx, cfg)
+    } else {
+        vec![idx]
+    };
+    pieces
+        .into_iter()
+        .map(|idx| DrivenPath {
+            a,
+            b,
+            idx,
+            extra: Vec::new(),
+        })
+        .collect()
+}
+
 /// The paths between node visits along one piece of the drive (sample range `piece`).
 fn piece_paths(
     samples: &[Sample],
@@ -734,15 +759,7 @@ fn piece_paths(
             // a loop with no junction: one node where the drive starts, the laps between
             nodes.push(breakpoint(pts[p0]));
             let n = nodes.len() - 1;
-            for lap in laps(pts, &(p0..=last).collect::<Vec<_>>(), cfg) {
-                paths.push(DrivenPath {
-                    a: n,
-                    b: n,
-                    idx: lap,
-                    extra: Vec::new(),
-                });
-            }
-            return paths;
+            return driven_paths(pts, n, n, (p0..=last).collect(), cfg);
         }
         if last == p0 {
             return paths;
@@ -762,19 +779,7 @@ fn piece_paths(
         // a closed drive: the stretch across the start joins the last visit to the first
         let (a, b) = (&vs[vs.len() - 1], &vs[0]);
         let idx: Vec<usize> = (a.at..=last).chain(p0..=b.at).collect();
-        let pieces = if a.node == b.node {
-            laps(pts, &idx, cfg)
-        } else {
-            vec![idx]
-        };
-        for idx in pieces {
-            paths.push(DrivenPath {
-                a: a.node,
-                b: b.node,
-                idx,
-                extra: Vec::new(),
-            });
-        }
+        paths.extend(driven_paths(pts, a.node, b.node, idx, cfg));
     } else {
         if head_gap > cfg.association_m / 2.0 {
             nodes.push(breakpoint(pts[p0]));
@@ -801,19 +806,7 @@ fn piece_paths(
         if a.node == b.node && len < 2.0 * cfg.association_m {
             continue;
         }
-        let pieces = if a.node == b.node {
-            laps(pts, &idx, cfg)
-        } else {
-            vec![idx]
-        };
-        for idx in pieces {
-            paths.push(DrivenPath {
-                a: a.node,
-                b: b.node,
-                idx,
-                extra: Vec::new(),
-            });
-        }
+        paths.extend(driven_paths(pts, a.node, b.node, idx, cfg));
     }
     // poses before the first visit and after the last one (a few metres at the ends of the
     // piece) belong to the first and last paths
