@@ -368,9 +368,15 @@ pub fn recaption(caption: &str, attribute: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::chat::scripted::{Reply, Scripted};
 
     fn p(t: &str) -> EditRequest {
         parse_edit_rules(t).unwrap()
+    }
+
+    /// A scripted model that answers `v` (as JSON text) once.
+    fn answering(v: serde_json::Value) -> Scripted {
+        Scripted::new("s", vec![Reply::Text(serde_json::to_string(&v).unwrap())])
     }
 
     #[test]
@@ -446,60 +452,35 @@ mod tests {
 
     #[test]
     fn the_llm_parser_keeps_what_the_report_says() {
-        use crate::chat::scripted::{Reply, Scripted};
         // a good answer
-        let mut m = Scripted::new(
-            "s",
-            vec![Reply::Text(
-                serde_json::to_string(
-                    &serde_json::json!({"kind": "remove", "new_description": null,
+        let mut m = answering(
+            serde_json::json!({"kind": "remove", "new_description": null,
                 "place_phrase": null, "place_relation": null, "replaced": false,
                 "target": "the hedge behind the bakery"}),
-                )
-                .unwrap(),
-            )],
         );
         let r = parse_edit_llm(&mut m, "Sadly the hedge behind the bakery was ripped out").unwrap();
         assert_eq!(r.kind, EditKind::Remove);
         assert_eq!(r.target.as_deref(), Some("the hedge behind the bakery"));
         // an invented target is dropped, and the rules fill it from the text
-        let mut m = Scripted::new(
-            "s",
-            vec![Reply::Text(
-                serde_json::to_string(
-                    &serde_json::json!({"kind": "remove", "new_description": null,
+        let mut m = answering(
+            serde_json::json!({"kind": "remove", "new_description": null,
                 "place_phrase": null, "place_relation": null, "replaced": false,
                 "target": "the red car"}),
-                )
-                .unwrap(),
-            )],
         );
         let r = parse_edit_llm(&mut m, "the bench near the bus stop is gone").unwrap();
         assert_eq!(r.target.as_deref(), Some("the bench near the bus stop"));
         // a target that carries the change is cut to the object
-        let mut m = Scripted::new(
-            "s",
-            vec![Reply::Text(
-                serde_json::to_string(
-                    &serde_json::json!({"kind": "remove", "new_description": null,
+        let mut m = answering(
+            serde_json::json!({"kind": "remove", "new_description": null,
                 "place_phrase": null, "place_relation": null, "replaced": false,
                 "target": "the sedan is gone."}),
-                )
-                .unwrap(),
-            )],
         );
         let r = parse_edit_llm(&mut m, "the blue sedan is gone.").unwrap();
         assert_eq!(r.target.as_deref(), Some("the sedan"));
         // an add without a place is not whole
-        let mut m = Scripted::new(
-            "s",
-            vec![Reply::Text(
-                serde_json::to_string(
-                    &serde_json::json!({"kind": "add", "new_description": "a bin",
+        let mut m = answering(
+            serde_json::json!({"kind": "add", "new_description": "a bin",
                 "place_phrase": null, "place_relation": null, "replaced": false, "target": null}),
-                )
-                .unwrap(),
-            )],
         );
         assert!(parse_edit_llm(&mut m, "a bin appeared somewhere").is_err());
         // the schema is valid JSON Schema
