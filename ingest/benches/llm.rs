@@ -6,12 +6,12 @@
 
 use std::time::Instant;
 
-use ingest::hierarchy::frame::GroundFrame;
 use ingest::hierarchy::relations::InstanceBox;
 use ingest::llm::{merge_input, relation_input};
 use llm_tools::chat::local::LocalGguf;
 use llm_tools::prompts;
 use llm_tools::{ChatModel, ChatRequest, Message};
+use scene::GroundFrame;
 
 const MODELS: [&str; 3] = [
     "SmolLM2-135M-Instruct.Q4_1.gguf",

@@ -10,12 +10,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use ingest::build::Sequence;
-use ingest::hierarchy::frame::GroundFrame;
 use ingest::mapping::project::Camera;
 use ingest::mapping::{FrameInput, Mapper, MappingConfig, StageTimes};
 use ingest::sources::kitti::{read_labels, read_scan};
 use ingest::sources::oracle::{OracleConfig, oracle_detections};
 use llm_tools::{Embedder, HashEmbedder, MiniLm};
+use scene::GroundFrame;
 
 fn pct(v: &mut [f64], p: f64) -> f64 {
     v.sort_by(f64::total_cmp);

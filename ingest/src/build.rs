@@ -13,15 +13,15 @@ use llm_tools::Embedder;
 
 use crate::classes;
 use crate::error::{Error, Result};
-use crate::hierarchy::frame::GroundFrame;
 use crate::hierarchy::{HierarchyConfig, HierarchyReport, build_hierarchy};
 use crate::mapping::project::Camera;
 use crate::mapping::{
     CaptionMerger, FrameInput, MapObject, Mapper, MappingConfig, PostReport, StageTimes,
 };
 use crate::sources::detections::{DetectionFrame, read_detections};
-use crate::sources::kitti::{self, Calib, Mat34, Scan};
+use crate::sources::kitti::{self, Calib, Rigid3, Scan};
 use crate::sources::oracle::{OracleConfig, oracle_detections};
+use scene::GroundFrame;
 
 /// All build parameters: the `[mapping]`, `[oracle]` and `[hierarchy]` tables of a TOML file.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -97,7 +97,7 @@ pub struct Sequence {
     /// Frame numbers that have a scan, ascending.
     pub scans: Vec<u32>,
     /// cam0-to-world poses.
-    pub poses: Vec<Mat34>,
+    pub poses: Vec<Rigid3>,
     /// Where the poses came from.
     pub poses_path: PathBuf,
     /// Calibration.
@@ -228,8 +228,8 @@ impl Sequence {
     }
 
     /// `world_from_velo = pose × Tr`.
-    pub fn world_from_velo(&self, i: u32) -> Mat34 {
-        self.poses[i as usize].compose(&self.calib.cam0_from_velo)
+    pub fn world_from_velo(&self, i: u32) -> Rigid3 {
+        self.poses[i as usize] * self.calib.cam0_from_velo
     }
 
     /// The velodyne's world position at every pose (the whole trajectory).
@@ -655,7 +655,7 @@ fn instance_props(o: &MapObject, d: &Description, source: &str) -> Vec<(&'static
 
 struct FrameRecord {
     index: u32,
-    world_from_velo: Mat34,
+    world_from_velo: Rigid3,
     timestamp_secs: Option<f64>,
 }
 
@@ -749,8 +749,7 @@ impl Run<'_> {
                     (
                         "world_from_velo",
                         Value::List(
-                            f.world_from_velo
-                                .to_row_major()
+                            scene::pose::row_major(&f.world_from_velo)
                                 .into_iter()
                                 .map(Value::Float)
                                 .collect(),
@@ -838,15 +837,15 @@ fn load_points(
 ) -> Result<Vec<[f32; 4]>> {
     let mut pts = scan.points.clone();
     if accumulate > 1 {
-        let velo_from_world = seq.world_from_velo(i).inverse_rigid();
+        let velo_from_world = seq.world_from_velo(i).inverse();
         for j in (i.saturating_sub(accumulate as u32 - 1)..i).rev() {
             let p = seq.scan_path(j);
             if !p.exists() {
                 continue;
             }
-            let m = velo_from_world.compose(&seq.world_from_velo(j));
+            let m = velo_from_world * seq.world_from_velo(j);
             for q in kitti::read_scan(&p)?.points {
-                let w = m.apply([f64::from(q[0]), f64::from(q[1]), f64::from(q[2])]);
+                let w = scene::pose::apply(&m, [f64::from(q[0]), f64::from(q[1]), f64::from(q[2])]);
                 pts.push([w[0] as f32, w[1] as f32, w[2] as f32, q[3]]);
             }
         }

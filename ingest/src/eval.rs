@@ -201,8 +201,7 @@ pub fn eval_semseg(
             if gt == 0 || !p[..3].iter().all(|c| c.is_finite()) {
                 continue;
             }
-            let w = m
-                .apply([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
+            let w = scene::pose::apply(&m, [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
                 .map(|c| c as f32);
             let pred = index.nearest_class(w, max_dist_m);
             if pred == 0 {

@@ -25,10 +25,10 @@ use llm_tools::{ChatModel, ChatRequest, Embedder, Message};
 use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
-use crate::hierarchy::frame::GroundFrame;
 use crate::hierarchy::relations::{
     InstanceBox, RelationConfig, box_distance, candidate_pairs, spanning_tree,
 };
+use scene::GroundFrame;
 
 /// Classes that are surfaces, never one side of an LLM relation.
 pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
@@ -394,8 +394,8 @@ pub fn instance_feature(e: &[f32], d: &[f32]) -> Vec<f32> {
 
 fn ground_frame_of(r: &impl GraphRead) -> Result<GroundFrame> {
     match planner::graph::ground_of_store(r) {
-        Ok(planner::Ground::XZ) => Ok(GroundFrame::KittiCam),
-        Ok(planner::Ground::XY) => Ok(GroundFrame::Enu),
+        Ok(planner::GroundFrame::KittiCam) => Ok(GroundFrame::KittiCam),
+        Ok(planner::GroundFrame::Enu) => Ok(GroundFrame::Enu),
         Err(e) => Err(Error::Invalid(e.to_string())),
     }
 }

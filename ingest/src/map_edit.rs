@@ -17,9 +17,9 @@ use std::collections::BTreeMap;
 
 use graphstore::{Direction, GraphRead, PointCloud, Store, Value, WriteTxn};
 
-use crate::hierarchy::frame::GroundFrame;
 use crate::hierarchy::relations::{InstanceBox, RelationConfig, label_pair};
 use crate::{Error, Result};
+use scene::GroundFrame;
 
 /// The label of an edit record.
 pub const MAP_EDIT: &str = "MapEdit";
@@ -371,8 +371,8 @@ fn now_unix_s() -> f64 {
 pub fn ground_frame(r: &impl GraphRead) -> Result<GroundFrame> {
     Ok(
         match planner::graph::ground_of_store(r).map_err(|e| Error::Invalid(e.to_string()))? {
-            planner::Ground::XZ => GroundFrame::KittiCam,
-            planner::Ground::XY => GroundFrame::Enu,
+            planner::GroundFrame::KittiCam => GroundFrame::KittiCam,
+            planner::GroundFrame::Enu => GroundFrame::Enu,
         },
     )
 }

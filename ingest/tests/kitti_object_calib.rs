@@ -66,7 +66,7 @@ fn object_calibration_projects_like_the_devkit() {
     let cam = Camera::kitti_p2(&k, w, h);
     let want = rows(&j["lidar2img2"], 3, 4);
     let scan = read_scan(&dir.join("000008.bin")).unwrap();
-    let ours = cam.image_from_velo.to_row_major();
+    let ours = scene::pose::matrix_row_major(&cam.image_from_velo);
     let mut worst: f64 = 0.0;
     let mut n = 0;
     for p in &scan.points {
@@ -98,7 +98,7 @@ fn object_calibration_projects_like_the_devkit() {
     let wrong = Camera::kitti_p2(&read_calib(&odometry_like).unwrap(), w, h);
     let p = &scan.points[scan.points.len() / 2];
     let ((u, v, _), (u0, v0, _)) = (
-        project(&wrong.image_from_velo.to_row_major(), p),
+        project(&scene::pose::matrix_row_major(&wrong.image_from_velo), p),
         project(&want, p),
     );
     let off = (u - u0).hypot(v - v0);

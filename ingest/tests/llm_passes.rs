@@ -4,12 +4,12 @@
 //! surfaces are never related, and that a model failure leaves the store as it was.
 
 use graphstore::{GraphRead, Store, Value, opengraph_schema};
-use ingest::hierarchy::frame::GroundFrame;
 use ingest::hierarchy::relations::RelationConfig;
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
 use ingest::llm::{PassOptions, infer_relations, merge_captions};
 use llm_tools::chat::scripted::{Reply, Scripted};
 use llm_tools::{Embedder, HashEmbedder};
+use scene::GroundFrame;
 
 fn object(
     tx: &mut graphstore::WriteTxn<'_>,

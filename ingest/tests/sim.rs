@@ -159,7 +159,10 @@ fn lidar_scans_look_like_an_hdl64_and_labels_match_what_each_ray_hit() {
         let world_from_velo = seq.world_from_velo(f);
         let (mut ground, mut ground_ok, mut obj, mut obj_ok) = (0, 0, 0, 0);
         for (p, l) in scan.points.iter().zip(&labels) {
-            let w = world_from_velo.apply([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]);
+            let w = scene::pose::apply(
+                &world_from_velo,
+                [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])],
+            );
             if l.instance == 0 {
                 assert!(matches!(l.semantic, 40 | 44 | 48 | 72), "{}", l.semantic);
                 ground += 1;

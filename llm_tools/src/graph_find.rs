@@ -20,7 +20,7 @@
 use std::collections::{BTreeMap, HashMap};
 
 use graphstore::{Direction, GraphRead, Value};
-use planner::Ground;
+use scene::GroundFrame;
 
 use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::embed::{Embedder, cosine};
@@ -63,19 +63,11 @@ pub struct SceneObject {
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// The ground frame.
-    pub ground: Ground,
+    pub ground: GroundFrame,
     /// Instances, ascending id.
     pub objects: Vec<SceneObject>,
     /// Road segments with their areas.
     pub segments: Vec<crate::locate::SegmentInfo>,
-}
-
-fn height_of(ground: Ground, p: [f64; 3]) -> f64 {
-    match ground {
-        // KITTI cam world: y points down
-        Ground::XZ => -p[1],
-        Ground::XY => p[2],
-    }
 }
 
 impl Scene {
@@ -105,8 +97,8 @@ impl Scene {
             let (lo, hi) = get("bbox")
                 .and_then(Value::as_box3d)
                 .unwrap_or((centroid, centroid));
-            let (g0, g1) = (ground.of(lo), ground.of(hi));
-            let (h0, h1) = (height_of(ground, lo), height_of(ground, hi));
+            let (g0, g1) = (ground.ground(lo), ground.ground(hi));
+            let (h0, h1) = (ground.height(lo), ground.height(hi));
             let class = get("class")
                 .and_then(Value::as_str)
                 .unwrap_or_default()
@@ -468,7 +460,7 @@ pub fn find_graph(
         o.surface == wants_surface
             && opts.class.as_ref().is_none_or(|c| *c == o.class)
             && opts.near.is_none_or(|(g, radius_m)| {
-                let p = ground.of(o.centroid);
+                let p = ground.ground(o.centroid);
                 (p[0] - g[0]).hypot(p[1] - g[1]) <= radius_m
             })
     })?;
@@ -572,7 +564,7 @@ pub fn find_graph(
         // outside a segment of the asked kind: how far from the nearest one
         let seg = match (req.segment, segment_match) {
             (Some(c), Some(false)) => {
-                let p = scene.ground.of(t.centroid);
+                let p = scene.ground.ground(t.centroid);
                 let d = scene
                     .segments
                     .iter()

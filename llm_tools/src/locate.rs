@@ -50,7 +50,7 @@ pub struct SegmentInfo {
 ///
 /// # Errors
 /// The store fails or has no ground frame.
-pub fn load_segments(r: &impl GraphRead, g: planner::Ground) -> Result<Vec<SegmentInfo>> {
+pub fn load_segments(r: &impl GraphRead, g: scene::GroundFrame) -> Result<Vec<SegmentInfo>> {
     let mut out = Vec::new();
     for id in r.nodes_with_label("Segment")? {
         let kind = r
@@ -60,7 +60,7 @@ pub fn load_segments(r: &impl GraphRead, g: planner::Ground) -> Result<Vec<Segme
         let Some(c) = r.node_prop(id, "centroid")?.and_then(|v| v.as_point3()) else {
             continue;
         };
-        let centroid = g.of(c);
+        let centroid = g.ground(c);
         let area = match (
             r.node_prop(id, "radius_m")?,
             r.node_prop(id, "centerline")?,
@@ -75,7 +75,7 @@ pub fn load_segments(r: &impl GraphRead, g: planner::Ground) -> Result<Vec<Segme
                     centreline: line
                         .iter()
                         .filter_map(Value::as_point3)
-                        .map(|p| g.of(p))
+                        .map(|p| g.ground(p))
                         .collect(),
                     half_width_m,
                 }
@@ -366,7 +366,7 @@ pub fn locate_with_floor(
     let ground: Vec<[f64; 2]> = scene
         .objects
         .iter()
-        .map(|o| scene.ground.of(o.centroid))
+        .map(|o| scene.ground.ground(o.centroid))
         .collect();
     let spots: Vec<Vec<[f64; 2]>> = segments
         .iter()
@@ -577,7 +577,7 @@ mod tests {
             })
             .collect();
         let scene = Scene {
-            ground: planner::Ground::XY,
+            ground: planner::GroundFrame::Enu,
             objects,
             segments: Vec::new(),
         };

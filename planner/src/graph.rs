@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use graphstore::{Direction, GraphRead, Value};
+use scene::GroundFrame;
 
 use crate::error::{Error, Result};
 
@@ -31,34 +32,6 @@ pub struct RoadEdge {
     pub length_m: f64,
     /// Whether it may only be driven from `from` to `to`.
     pub directed: bool,
-}
-
-/// Which world axes are the ground plane.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Ground {
-    /// KITTI cam0 world: (x, z).
-    XZ,
-    /// ENU-like: (x, y).
-    XY,
-}
-
-impl Ground {
-    /// From the Environment node's `ground_frame` (`kitti_cam` or `enu`).
-    pub fn from_name(s: &str) -> Option<Ground> {
-        match s {
-            "kitti_cam" => Some(Ground::XZ),
-            "enu" => Some(Ground::XY),
-            _ => None,
-        }
-    }
-
-    /// Ground coordinates of a world point.
-    pub fn of(self, p: [f64; 3]) -> [f64; 2] {
-        match self {
-            Ground::XZ => [p[0], p[2]],
-            Ground::XY => [p[0], p[1]],
-        }
-    }
 }
 
 /// A road graph with adjacency.
@@ -140,7 +113,7 @@ impl RoadGraph {
             index.insert(*id, nodes.len());
             nodes.push(RoadNode {
                 key: format!("lane:{id}"),
-                xy: ground.of(p),
+                xy: ground.ground(p),
             });
         }
         let lane = r.rel_type("LANE").ok_or(Error::NoLaneGraph)?;
@@ -155,7 +128,7 @@ impl RoadGraph {
                     Some(Value::List(pts)) => pts
                         .iter()
                         .filter_map(|p| p.as_point3())
-                        .map(|p| ground.of(p))
+                        .map(|p| ground.ground(p))
                         .collect(),
                     _ => Vec::new(),
                 };
@@ -355,7 +328,7 @@ pub(crate) fn point_at(p: &[[f64; 2]], s: f64) -> [f64; 2] {
 ///
 /// Errors: [`Error::NoGroundFrame`] when there is no Environment node, or its `ground_frame` is
 /// missing or unknown; no frame is guessed.
-pub fn ground_of_store(r: &impl GraphRead) -> Result<Ground> {
+pub fn ground_of_store(r: &impl GraphRead) -> Result<GroundFrame> {
     let env = r.nodes_with_label("Environment")?;
     let Some(id) = env.first() else {
         return Err(Error::NoGroundFrame(
@@ -366,7 +339,7 @@ pub fn ground_of_store(r: &impl GraphRead) -> Result<Ground> {
         .node_prop(*id, "ground_frame")?
         .and_then(|v| v.as_str().map(str::to_string));
     match name.as_deref() {
-        Some(n) => Ground::from_name(n).ok_or_else(|| {
+        Some(n) => GroundFrame::from_name(n).ok_or_else(|| {
             Error::NoGroundFrame(format!(
                 "Environment node {id} has ground_frame {n:?}; known: \"kitti_cam\" (x, z) and \"enu\" (x, y)"
             ))

@@ -9,8 +9,9 @@ pub mod render;
 pub mod route;
 
 pub use error::{Error, Result};
-pub use graph::{Ground, RoadEdge, RoadGraph, RoadNode};
+pub use graph::{RoadEdge, RoadGraph, RoadNode};
 pub use motion::{MotionConfig, MotionPath, Obstacle, Validity, plan_path};
 pub use route::{
     Anchor, Route, Spec, Target, astar, closest_on_segment, resolve, snap, target, unit_cost_route,
 };
+pub use scene::GroundFrame;

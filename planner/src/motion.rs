@@ -380,7 +380,7 @@ pub const GROUND_CLASSES: [&str; 5] = ["road", "parking", "sidewalk", "other-gro
 /// `half_width_m` around the route (they block the road), sorted by position.
 pub fn blocking_instances(
     r: &impl graphstore::GraphRead,
-    ground: crate::Ground,
+    ground: scene::GroundFrame,
     route: &Route,
     half_width_m: f64,
 ) -> Result<Vec<Obstacle>> {
@@ -400,7 +400,7 @@ pub fn blocking_instances(
         let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
             continue;
         };
-        let (a, b) = (ground.of(lo), ground.of(hi));
+        let (a, b) = (ground.ground(lo), ground.ground(hi));
         let o = Obstacle {
             min: [a[0].min(b[0]), a[1].min(b[1])],
             max: [a[0].max(b[0]), a[1].max(b[1])],

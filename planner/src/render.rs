@@ -58,7 +58,7 @@ pub fn class_colour(class: &str) -> (u8, u8, u8) {
 /// Every instance of the store that is not a ground surface, as footprints, by id.
 pub fn instance_footprints(
     r: &impl graphstore::GraphRead,
-    ground: crate::Ground,
+    ground: scene::GroundFrame,
 ) -> Result<Vec<Footprint>> {
     let mut out = Vec::new();
     for id in r.nodes_with_label("Instance")? {
@@ -70,7 +70,7 @@ pub fn instance_footprints(
         let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
             continue;
         };
-        let (a, b) = (ground.of(lo), ground.of(hi));
+        let (a, b) = (ground.ground(lo), ground.ground(hi));
         let max_points = if surface {
             2 * POINTS_PER_INSTANCE
         } else {
@@ -82,7 +82,7 @@ pub fn instance_footprints(
                 pc.xyz
                     .iter()
                     .step_by(step)
-                    .map(|p| ground.of([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]))
+                    .map(|p| ground.ground([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]))
                     .collect()
             }
             _ => Vec::new(),

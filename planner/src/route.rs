@@ -7,7 +7,8 @@ use std::collections::BinaryHeap;
 use graphstore::GraphRead;
 
 use crate::error::{Error, Result};
-use crate::graph::{Ground, RoadGraph, dist, point_at};
+use crate::graph::{RoadGraph, dist, point_at};
+use scene::GroundFrame;
 
 /// A start or goal as the user gives it.
 ///
@@ -182,7 +183,7 @@ pub fn snap(g: &RoadGraph, p: [f64; 2], limit_m: f64) -> Result<Anchor> {
 ///
 /// Errors: [`Error::UnknownId`] when no node has the id, [`Error::WrongKind`] when the node has
 /// none of the labels the spec's kind accepts, [`Error::Invalid`] when it has no position.
-pub fn target(r: &impl GraphRead, ground: Ground, spec: &Spec) -> Result<Target> {
+pub fn target(r: &impl GraphRead, ground: GroundFrame, spec: &Spec) -> Result<Target> {
     let (kind, id) = match spec {
         Spec::Point(p) => {
             return Ok(Target {
@@ -230,7 +231,7 @@ pub fn target(r: &impl GraphRead, ground: Ground, spec: &Spec) -> Result<Target>
         spec: format!("{kind}:{id}"),
         node: Some(id),
         kind: (*label).to_string(),
-        xy: ground.of(p),
+        xy: ground.ground(p),
     })
 }
 
@@ -240,7 +241,7 @@ pub fn target(r: &impl GraphRead, ground: Ground, spec: &Spec) -> Result<Target>
 pub fn resolve(
     g: &RoadGraph,
     r: &impl GraphRead,
-    ground: Ground,
+    ground: GroundFrame,
     spec: &Spec,
     snap_limit_m: f64,
 ) -> Result<(Anchor, Target)> {

@@ -6,9 +6,9 @@
 use std::time::Instant;
 
 use graphstore::{Store, opengraph_schema};
-use ingest::hierarchy::frame::GroundFrame;
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
 use planner::{Anchor, MotionConfig, RoadGraph, astar, plan_path, unit_cost_route};
+use scene::GroundFrame;
 
 fn p(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(f64::total_cmp);

@@ -2,8 +2,8 @@
 //! real seq 00 trajectory.
 
 use graphstore::{GraphRead, Store, Value, opengraph_schema};
-use ingest::hierarchy::frame::GroundFrame;
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
+use scene::GroundFrame;
 
 /// A drive in ENU at 1 m per pose, 1.7 m above ground.
 fn drive(waypoints: &[[f64; 2]]) -> Vec<[f64; 3]> {

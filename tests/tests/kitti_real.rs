@@ -54,21 +54,21 @@ fn scans_labels_and_world_from_velo() {
             .map(|p| [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
             .collect()
     };
-    let world_from_velo = |f: usize| poses[f].compose(&calib.cam0_from_velo);
+    let world_from_velo = |f: usize| poses[f] * calib.cam0_from_velo;
     let a: Vec<[f64; 3]> = points(0)
         .iter()
-        .map(|p| world_from_velo(0).apply(*p))
+        .map(|p| scene::pose::apply(&world_from_velo(0), *p))
         .collect();
     let a2: Vec<[f64; 2]> = a.iter().map(|p| [p[0], p[2]]).collect();
     let grid = Grid2::new(&a2, 2.0);
     let scan1 = points(1);
     // median distance from scan 1 (moved by `t`) to scan 0; 2 m when nothing is near
-    let median_under = |t: &ingest::sources::kitti::Mat34| -> f64 {
+    let median_under = |t: &ingest::sources::kitti::Rigid3| -> f64 {
         let mut d: Vec<f64> = scan1
             .iter()
             .step_by(50)
             .map(|p| {
-                let q = t.apply(*p);
+                let q = scene::pose::apply(t, *p);
                 grid.within(&a2, [q[0], q[2]], 2.0)
                     .into_iter()
                     .map(|j| {
@@ -84,7 +84,7 @@ fn scans_labels_and_world_from_velo() {
         d[d.len() / 2]
     };
     let right = median_under(&world_from_velo(1));
-    let wrong = median_under(&calib.cam0_from_velo.compose(&poses[1]));
+    let wrong = median_under(&(calib.cam0_from_velo * poses[1]));
     eprintln!(
         "scan 1 -> scan 0 in the world frame: median nearest distance {right:.3} m (pose x Tr), {wrong:.3} m (Tr x pose)"
     );

@@ -3,9 +3,9 @@
 //! reference unit-cost route, and OMPL refines them into valid paths.
 
 use graphstore::{Store, opengraph_schema};
-use ingest::hierarchy::frame::GroundFrame;
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
 use planner::{Anchor, MotionConfig, RoadGraph, Validity, astar, plan_path, unit_cost_route};
+use scene::GroundFrame;
 
 #[test]
 fn real_lane_graph_routes_and_paths() {
@@ -35,7 +35,7 @@ fn real_lane_graph_routes_and_paths() {
         let g = RoadGraph::from_store(&r).unwrap();
         assert_eq!(
             planner::graph::ground_of_store(&r).unwrap(),
-            planner::Ground::XZ
+            planner::GroundFrame::KittiCam
         );
         // every pair of lane nodes is connected (one continuous drive), and A* is never longer
         // than the fewest-hops route

@@ -115,7 +115,7 @@ fn failed(e: impl std::fmt::Display) -> ToolError {
 /// Ground box (min, max) and base height of an instance.
 fn ground_box(
     r: &impl GraphRead,
-    frame: ingest::hierarchy::frame::GroundFrame,
+    frame: scene::GroundFrame,
     id: u64,
 ) -> ToolResult<([f64; 2], [f64; 2], f64, f64)> {
     let (min, max) = r

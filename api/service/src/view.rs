@@ -63,7 +63,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
                 },
             )
             .into_iter()
-            .map(|p| g.of([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]))
+            .map(|p| g.ground([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]))
             .collect(),
             _ => Vec::new(),
         };
@@ -74,7 +74,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
                 .map_err(err)?
                 .and_then(|v| v.as_box3d())
             {
-                let (a, b) = (g.of(a), g.of(b));
+                let (a, b) = (g.ground(a), g.ground(b));
                 pts = vec![a, [a[0], b[1]], b, [b[0], a[1]]];
             }
         }
@@ -109,7 +109,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
                     .iter()
                     .filter_map(Value::as_point3)
                     .flat_map(|p| {
-                        let q = g.of(p);
+                        let q = g.ground(p);
                         grow(q);
                         [r2(q[0]), r2(q[1])]
                     })
@@ -142,7 +142,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
         hi = [1.0, 1.0];
     }
     Ok(json!({
-        "ground": match g { planner::Ground::XZ => "xz", planner::Ground::XY => "xy" },
+        "ground": match g { planner::GroundFrame::KittiCam => "xz", planner::GroundFrame::Enu => "xy" },
         "bounds": [r2(lo[0]), r2(lo[1]), r2(hi[0]), r2(hi[1])],
         "instances": instances,
         "lanes": lanes,

@@ -25,7 +25,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let (_, _, report) = ingest::hierarchy::build_hierarchy(
         &store,
         &traj,
-        ingest::hierarchy::frame::GroundFrame::KittiCam,
+        scene::GroundFrame::KittiCam,
         &name,
         &ingest::hierarchy::HierarchyConfig::default(),
     )?;

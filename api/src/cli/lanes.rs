@@ -19,7 +19,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     };
     use ingest::hierarchy::{lanes, render, segments};
     let world = ingest::sources::kitti::load_trajectory(&poses, calib.as_deref())?;
-    let frame = ingest::hierarchy::frame::GroundFrame::KittiCam;
+    let frame = scene::GroundFrame::KittiCam;
     let full: Vec<[f64; 2]> = world.iter().map(|p| frame.ground(*p)).collect();
     let traj: Vec<[f64; 2]> = full.iter().step_by(stride as usize).copied().collect();
     let t0 = std::time::Instant::now();

@@ -1,6 +1,5 @@
 //! The paper's third module: lane graph, segments, environment and instance relations.
 
-pub mod frame;
 pub mod lanes;
 pub mod relations;
 pub mod render;

@@ -5,7 +5,7 @@
 use parry3d::math::{Pose, Vector};
 use parry3d::shape::Cuboid;
 
-use super::frame::GroundFrame;
+use scene::GroundFrame;
 
 /// Relation parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -5,12 +5,12 @@ use std::collections::BTreeMap;
 
 use graphstore::{GraphRead, Store, Value, WriteTxn};
 
-use super::frame::GroundFrame;
 use super::lanes::{LaneConfig, LaneGraph, LaneNodeKind, extract_lanes};
 use super::relations::{InstanceBox, RelationConfig, infer_relations};
 use super::segments::{SegmentArea, SegmentConfig, Segments, build_segments};
 use crate::cluster::Grid2;
 use crate::error::{Error, Result};
+use scene::GroundFrame;
 
 /// All hierarchy parameters.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]

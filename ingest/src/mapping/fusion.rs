@@ -9,9 +9,9 @@ use super::associate::{TfIdf, Weights, cosine, greedy_assign, phi, words};
 use super::geometry::{Aabb, VoxelKey, clusters, largest_cluster, voxel_downsample, voxel_key};
 use super::project::{Camera, points_in_mask};
 use crate::classes;
-use crate::hierarchy::frame::GroundFrame;
 use crate::sources::detections::DetectionFrame;
-use crate::sources::kitti::Mat34;
+use crate::sources::kitti::Rigid3;
+use scene::GroundFrame;
 
 /// One object of the map.
 #[derive(Debug, Clone, PartialEq)]
@@ -173,7 +173,7 @@ pub struct FrameInput<'a> {
     /// Key frame index.
     pub index: u32,
     /// Pose of the key frame's velodyne.
-    pub world_from_velo: Mat34,
+    pub world_from_velo: Rigid3,
     /// Points in the key frame's velodyne frame (accumulated scans included); non-finite ones
     /// never project.
     pub points: &'a [[f32; 4]],
@@ -425,9 +425,11 @@ impl Mapper {
             let world: Vec<[f32; 3]> = pts
                 .iter()
                 .map(|p| {
-                    f.world_from_velo
-                        .apply([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
-                        .map(|c| c as f32)
+                    scene::pose::apply(
+                        &f.world_from_velo,
+                        [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])],
+                    )
+                    .map(|c| c as f32)
                 })
                 .collect();
             st.times.transform_ms += elapsed_ms(t);
@@ -868,8 +870,8 @@ mod tests {
         let dets = frame_of(vec![full_mask_detection("a red car")]);
         let feats = vec![vec![1.0, 0.0, 0.0]];
         for (k, shift) in [0.0f64, 0.05].iter().enumerate() {
-            let mut pose = Mat34::IDENTITY;
-            pose.0[0][3] = *shift;
+            let mut pose = Rigid3::identity();
+            pose.translation.x = *shift;
             let s = m.integrate(&FrameInput {
                 index: k as u32,
                 world_from_velo: pose,
@@ -893,7 +895,7 @@ mod tests {
         let far = cube(30.0);
         let s = m.integrate(&FrameInput {
             index: 2,
-            world_from_velo: Mat34::IDENTITY,
+            world_from_velo: Rigid3::identity(),
             points: &far,
             camera: &cam,
             detections: &frame_of(vec![full_mask_detection("a red car")]),
@@ -925,7 +927,7 @@ mod tests {
             let dets = frame_of(vec![full_mask_detection(caption)]);
             let s = m.integrate(&FrameInput {
                 index: 0,
-                world_from_velo: Mat34::IDENTITY,
+                world_from_velo: Rigid3::identity(),
                 points: &pts,
                 camera: &cam,
                 detections: &dets,

@@ -1,6 +1,6 @@
 //! Projection of LiDAR points into the camera (`K·T·l`): `image_from_velo = P2 × Tr`.
 
-use crate::sources::kitti::{Calib, Mat34};
+use crate::sources::kitti::{Calib, Projection};
 
 /// A point that lands in the image.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,7 +17,7 @@ pub struct Projected {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     /// `P2 × Tr`: pixels (homogeneous) from velodyne coordinates.
-    pub image_from_velo: Mat34,
+    pub image_from_velo: Projection,
     /// Image width in pixels.
     pub width: u32,
     /// Image height in pixels.
@@ -31,7 +31,7 @@ impl Camera {
     /// KITTI's left colour camera (P2) of a calibration.
     pub fn kitti_p2(calib: &Calib, width: u32, height: u32) -> Camera {
         Camera {
-            image_from_velo: calib.p[2].compose(&calib.cam0_from_velo),
+            image_from_velo: calib.p[2] * calib.cam0_from_velo.to_homogeneous(),
             width,
             height,
         }
@@ -40,15 +40,14 @@ impl Camera {
     /// Projects one point: `(x, y, depth)` in pixels, or `None` behind the camera or
     /// outside the image.
     pub fn project(&self, p: [f32; 3]) -> Option<(u32, u32, f32)> {
-        let m = &self.image_from_velo.0;
-        let q = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
-        let row = |r: usize| m[r][0] * q[0] + m[r][1] * q[1] + m[r][2] * q[2] + m[r][3];
-        let w = row(2);
+        let q = nalgebra::Vector4::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]), 1.0);
+        let h = self.image_from_velo * q;
+        let w = h.z;
         // also refuses NaN
         if w.is_nan() || w < MIN_DEPTH_M {
             return None;
         }
-        let (u, v) = (row(0) / w, row(1) / w);
+        let (u, v) = (h.x / w, h.y / w);
         if !(u >= 0.0 && v >= 0.0 && u < f64::from(self.width) && v < f64::from(self.height)) {
             return None;
         }
@@ -97,11 +96,11 @@ pub fn points_in_mask(by_pixel: &[Projected], counts: &[u32]) -> Vec<u32> {
 #[cfg(test)]
 pub(crate) fn test_camera() -> Camera {
     Camera {
-        image_from_velo: Mat34([
-            [50.0, -100.0, 0.0, 0.0],
-            [25.0, 0.0, -100.0, 0.0],
-            [1.0, 0.0, 0.0, 0.0],
-        ]),
+        image_from_velo: Projection::new(
+            50.0, -100.0, 0.0, 0.0, //
+            25.0, 0.0, -100.0, 0.0, //
+            1.0, 0.0, 0.0, 0.0,
+        ),
         width: 100,
         height: 50,
     }

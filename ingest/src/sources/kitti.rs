@@ -8,81 +8,8 @@ use std::path::Path;
 
 use crate::error::{Error, Result, read_text};
 
-/// A rigid transform as a 3×4 row-major matrix `[R | t]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Mat34(pub [[f64; 4]; 3]);
-
-impl Mat34 {
-    /// The identity.
-    pub const IDENTITY: Mat34 = Mat34([
-        [1.0, 0.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0, 0.0],
-        [0.0, 0.0, 1.0, 0.0],
-    ]);
-
-    /// From 12 row-major values.
-    pub fn from_row_major(v: &[f64]) -> Option<Mat34> {
-        if v.len() != 12 {
-            return None;
-        }
-        let mut m = [[0.0; 4]; 3];
-        for (i, x) in v.iter().enumerate() {
-            m[i / 4][i % 4] = *x;
-        }
-        Some(Mat34(m))
-    }
-
-    /// `self × other` (both as 4×4 with a last row 0 0 0 1).
-    pub fn compose(&self, other: &Mat34) -> Mat34 {
-        let (a, b) = (&self.0, &other.0);
-        let mut m = [[0.0; 4]; 3];
-        for (r, row) in m.iter_mut().enumerate() {
-            for (c, cell) in row.iter_mut().enumerate() {
-                let mut s = (0..3).map(|k| a[r][k] * b[k][c]).sum::<f64>();
-                if c == 3 {
-                    s += a[r][3];
-                }
-                *cell = s;
-            }
-        }
-        Mat34(m)
-    }
-
-    /// The translation column.
-    pub fn translation(&self) -> [f64; 3] {
-        [self.0[0][3], self.0[1][3], self.0[2][3]]
-    }
-
-    /// Applies the transform to a point.
-    pub fn apply(&self, p: [f64; 3]) -> [f64; 3] {
-        let m = &self.0;
-        [0, 1, 2].map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
-    }
-
-    /// Applies the rotation part only (to a direction).
-    pub fn rotate(&self, v: [f64; 3]) -> [f64; 3] {
-        let m = &self.0;
-        [0, 1, 2].map(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])
-    }
-
-    /// The inverse of a rigid transform (`Rᵀ`, `-Rᵀ·t`).
-    pub fn inverse_rigid(&self) -> Mat34 {
-        let m = &self.0;
-        let mut out = [[0.0; 4]; 3];
-        for r in 0..3 {
-            for c in 0..3 {
-                out[r][c] = m[c][r];
-            }
-            out[r][3] = -(0..3).map(|k| m[k][r] * m[k][3]).sum::<f64>();
-        }
-        Mat34(out)
-    }
-
-    /// The 12 row-major values.
-    pub fn to_row_major(&self) -> Vec<f64> {
-        self.0.iter().flat_map(|r| r.iter().copied()).collect()
-    }
-}
+pub use scene::pose::{Projection, Rigid3};
+use scene::pose::{projection_from_row_major, rigid_from_row_major};
 
 fn parse_floats(path: &Path, line_no: usize, text: &str, want: usize) -> Result<Vec<f64>> {
     let mut out = Vec::with_capacity(want);
@@ -112,7 +39,7 @@ fn parse_floats(path: &Path, line_no: usize, text: &str, want: usize) -> Result<
 }
 
 /// Reads `poses.txt`: one 3×4 world-from-cam0 matrix per non-empty line.
-pub fn read_poses(path: &Path) -> Result<Vec<Mat34>> {
+pub fn read_poses(path: &Path) -> Result<Vec<Rigid3>> {
     let text = read_text(path)?;
     let mut poses = Vec::new();
     for (i, line) in text.lines().enumerate() {
@@ -120,7 +47,7 @@ pub fn read_poses(path: &Path) -> Result<Vec<Mat34>> {
             continue;
         }
         let v = parse_floats(path, i + 1, line, 12)?;
-        poses.push(Mat34::from_row_major(&v).expect("12 values"));
+        poses.push(rigid_from_row_major(&v).expect("12 values"));
     }
     if poses.is_empty() {
         return Err(Error::File {
@@ -169,10 +96,10 @@ pub fn png_size(path: &Path) -> Result<(u32, u32)> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Calib {
     /// Projection matrices P0..P3 (rectified cameras).
-    pub p: [Mat34; 4],
+    pub p: [Projection; 4],
     /// Rectified cam0 from velodyne: the odometry layout's `Tr`, or `R0_rect ·
     /// Tr_velo_to_cam` from the object and raw layouts.
-    pub cam0_from_velo: Mat34,
+    pub cam0_from_velo: Rigid3,
 }
 
 /// Reads a KITTI `calib.txt` in one of the two layouts it supports, each line `KEY: numbers`:
@@ -190,7 +117,7 @@ pub struct Calib {
 /// each names the file and line.
 pub fn read_calib(path: &Path) -> Result<Calib> {
     let text = read_text(path)?;
-    let mut p: [Option<Mat34>; 4] = [None; 4];
+    let mut p: [Option<Projection>; 4] = [None; 4];
     let (mut tr, mut velo_to_cam, mut r0) = (None, None, None);
     let mut tr_line = 0;
     for (i, line) in text.lines().enumerate() {
@@ -208,23 +135,21 @@ pub fn read_calib(path: &Path) -> Result<Calib> {
         match key {
             "P0" | "P1" | "P2" | "P3" => {
                 let k = usize::from(key.as_bytes()[1] - b'0');
-                p[k] = Mat34::from_row_major(&parse_floats(path, i + 1, rest, 12)?);
+                p[k] = projection_from_row_major(&parse_floats(path, i + 1, rest, 12)?);
             }
             "Tr" => {
-                tr = Mat34::from_row_major(&parse_floats(path, i + 1, rest, 12)?);
+                tr = rigid_from_row_major(&parse_floats(path, i + 1, rest, 12)?);
                 tr_line = i + 1;
             }
             "Tr_velo_to_cam" => {
-                velo_to_cam = Mat34::from_row_major(&parse_floats(path, i + 1, rest, 12)?);
+                velo_to_cam = rigid_from_row_major(&parse_floats(path, i + 1, rest, 12)?);
                 tr_line = i + 1;
             }
             "R0_rect" => {
                 let v = parse_floats(path, i + 1, rest, 9)?;
-                r0 = Some(Mat34([
-                    [v[0], v[1], v[2], 0.0],
-                    [v[3], v[4], v[5], 0.0],
-                    [v[6], v[7], v[8], 0.0],
-                ]));
+                r0 = rigid_from_row_major(&[
+                    v[0], v[1], v[2], 0.0, v[3], v[4], v[5], 0.0, v[6], v[7], v[8], 0.0,
+                ]);
             }
             // the object layout's IMU pose is not used
             "Tr_imu_to_velo" => {
@@ -252,7 +177,7 @@ pub fn read_calib(path: &Path) -> Result<Calib> {
     };
     let cam0_from_velo = match (tr, velo_to_cam, r0) {
         (Some(t), None, None) => t,
-        (None, Some(t), Some(r)) => r.compose(&t),
+        (None, Some(t), Some(r)) => r * t,
         (None, Some(_), None) => {
             return Err(layout_err(
                 "Tr_velo_to_cam maps to the unrectified camera, and the R0_rect line that rectifies it is missing",
@@ -279,18 +204,18 @@ pub fn read_calib(path: &Path) -> Result<Calib> {
 
 /// World positions of the sensor for each pose: cam0's, or the velodyne's when `calib` is
 /// given (`world_from_velo = pose × Tr`).
-pub fn positions(poses: &[Mat34], calib: Option<&Calib>) -> Vec<[f64; 3]> {
+pub fn positions(poses: &[Rigid3], calib: Option<&Calib>) -> Vec<[f64; 3]> {
     poses
         .iter()
         .map(|pose| match calib {
-            Some(c) => pose.compose(&c.cam0_from_velo).translation(),
-            None => pose.translation(),
+            Some(c) => (pose * c.cam0_from_velo).translation.vector.into(),
+            None => pose.translation.vector.into(),
         })
         .collect()
 }
 
 /// Ground-plane trajectory from KITTI poses: the (x, z) of each of [`positions`].
-pub fn ground_trajectory(poses: &[Mat34], calib: Option<&Calib>) -> Vec<[f64; 2]> {
+pub fn ground_trajectory(poses: &[Rigid3], calib: Option<&Calib>) -> Vec<[f64; 2]> {
     positions(poses, calib)
         .into_iter()
         .map(|t| [t[0], t[2]])
@@ -431,27 +356,6 @@ mod tests {
     }
 
     #[test]
-    fn compose_matches_hand_computation() {
-        let a = Mat34([
-            [0.0, -1.0, 0.0, 1.0],
-            [1.0, 0.0, 0.0, 2.0],
-            [0.0, 0.0, 1.0, 3.0],
-        ]);
-        let b = Mat34([
-            [1.0, 0.0, 0.0, 5.0],
-            [0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0, 0.0],
-        ]);
-        let c = a.compose(&b);
-        let p = c.apply([0.0, 0.0, 0.0]);
-        let q = a.apply(b.apply([0.0, 0.0, 0.0]));
-        for i in 0..3 {
-            assert!((p[i] - q[i]).abs() < 1e-12);
-        }
-        assert!((p[0] - 1.0).abs() < 1e-12 && (p[1] - 7.0).abs() < 1e-12);
-    }
-
-    #[test]
     fn bad_lines_name_file_and_line() {
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("poses.txt");
@@ -486,7 +390,7 @@ mod tests {
         .unwrap();
         let k = read_calib(&c).unwrap();
         // velodyne origin -> (1, 2, 3) unrectified -> (-2, 1, 3) rectified
-        let o = k.cam0_from_velo.apply([0.0, 0.0, 0.0]);
+        let o = scene::pose::apply(&k.cam0_from_velo, [0.0, 0.0, 0.0]);
         for (a, b) in o.iter().zip([-2.0, 1.0, 3.0]) {
             assert!((a - b).abs() < 1e-12, "{o:?}");
         }

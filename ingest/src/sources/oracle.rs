@@ -14,7 +14,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::detections::{Detection, DetectionFrame, Producer};
-use super::kitti::{Mat34, PointLabel};
+use super::kitti::{PointLabel, Rigid3};
 use super::rle::Rle;
 use crate::classes::{self, class_name};
 use crate::cluster::dbscan;
@@ -103,7 +103,7 @@ pub fn oracle_detections(
     points: &[[f32; 4]],
     labels: &[PointLabel],
     camera: &Camera,
-    world_from_velo: Option<&Mat34>,
+    world_from_velo: Option<&Rigid3>,
     cfg: &OracleConfig,
 ) -> Result<(DetectionFrame, Vec<OracleTruth>)> {
     if points.len() != labels.len() {
@@ -229,7 +229,7 @@ pub fn oracle_detections(
                 // place-based seed: the component's world position on a 4 m grid
                 let (s, n) = centroid_of[key];
                 let c = s.map(|v| v / n as f64);
-                let c = world_from_velo.map_or(c, |m| m.apply(c));
+                let c = world_from_velo.map_or(c, |m| scene::pose::apply(m, c));
                 let cell = |v: f64| ((v / 4.0).floor() as i64) as u64;
                 cell(c[0]).wrapping_mul(0x9E37_79B9) ^ cell(c[2]).wrapping_mul(0x85EB_CA6B)
             }

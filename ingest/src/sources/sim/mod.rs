@@ -188,8 +188,7 @@ pub fn generate(
     let mut ptxt = String::new();
     let mut ttxt = String::new();
     for (i, p) in poses.iter().enumerate() {
-        let row: Vec<String> = p
-            .to_row_major()
+        let row: Vec<String> = ::scene::pose::row_major(p)
             .iter()
             .map(|v| format!("{v:.9e}"))
             .collect();
@@ -314,11 +313,11 @@ fn sensor_frame(
     cfg: &SimConfig,
     scene: &Scene,
     calib: &crate::sources::kitti::Calib,
-    world_from_cam0: &crate::sources::kitti::Mat34,
+    world_from_cam0: &crate::sources::kitti::Rigid3,
     f: u32,
 ) -> Result<(u32, u64, usize, usize, String)> {
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(0x9E37_79B9) ^ u64::from(f));
-    let world_from_velo = world_from_cam0.compose(&calib.cam0_from_velo);
+    let world_from_velo = world_from_cam0 * calib.cam0_from_velo;
     let scan = sensors::lidar_scan(scene, &world_from_velo, &cfg.lidar, &mut rng);
     let mut bin = Vec::with_capacity(scan.points.len() * 16);
     for p in &scan.points {

@@ -6,7 +6,7 @@ use rand_chacha::ChaCha8Rng;
 use serde_json::{Value as Json, json};
 
 use crate::hierarchy::lanes::{dist, polyline_length};
-use crate::sources::kitti::Mat34;
+use crate::sources::kitti::Rigid3;
 
 /// How big a city to generate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -486,14 +486,24 @@ pub const CAMERA_HEIGHT_M: f64 = 1.65;
 
 /// The KITTI cam0-to-world pose of a camera at ground position `g` looking along `heading`
 /// (world y down; the ground is y = 0).
-pub fn camera_pose(g: [f64; 2], heading: [f64; 2]) -> Mat34 {
+pub fn camera_pose(g: [f64; 2], heading: [f64; 2]) -> Rigid3 {
     let (hx, hz) = (heading[0], heading[1]);
     // columns: right, down, forward
-    Mat34([
-        [hz, 0.0, hx, g[0]],
-        [0.0, 1.0, 0.0, -CAMERA_HEIGHT_M],
-        [-hx, 0.0, hz, g[1]],
+    scene::pose::rigid_from_row_major(&[
+        hz,
+        0.0,
+        hx,
+        g[0], //
+        0.0,
+        1.0,
+        0.0,
+        -CAMERA_HEIGHT_M, //
+        -hx,
+        0.0,
+        hz,
+        g[1],
     ])
+    .expect("12 values")
 }
 
 #[cfg(test)]
@@ -546,12 +556,12 @@ mod tests {
     fn poses_follow_kitti_axes() {
         let p = camera_pose([10.0, 20.0], [0.0, 1.0]);
         // forward (cam z) maps to world +z, right (cam x) to world +x
-        let f = p.apply([0.0, 0.0, 1.0]);
+        let f = scene::pose::apply(&p, [0.0, 0.0, 1.0]);
         assert!((f[0] - 10.0).abs() < 1e-12 && (f[2] - 21.0).abs() < 1e-12);
-        let r = p.apply([1.0, 0.0, 0.0]);
+        let r = scene::pose::apply(&p, [1.0, 0.0, 0.0]);
         assert!((r[0] - 11.0).abs() < 1e-12 && (r[1] + CAMERA_HEIGHT_M).abs() < 1e-12);
         let p = camera_pose([0.0, 0.0], [1.0, 0.0]);
-        let r = p.apply([1.0, 0.0, 0.0]);
+        let r = scene::pose::apply(&p, [1.0, 0.0, 0.0]);
         assert!((r[2] + 1.0).abs() < 1e-12, "driving +x, right is -z");
     }
 }

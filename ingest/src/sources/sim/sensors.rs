@@ -7,8 +7,9 @@ use rand_chacha::ChaCha8Rng;
 
 use super::scene::{Attributes, Hit, Kind, Scene, Surface};
 use crate::sources::detections::{Detection, DetectionFrame, Producer};
-use crate::sources::kitti::{Calib, Mat34};
+use crate::sources::kitti::{Calib, Projection, Rigid3};
 use crate::sources::rle::Rle;
+use scene::pose::{matrix_row_major, row_major};
 
 /// The spinning LiDAR.
 #[derive(Debug, Clone, PartialEq)]
@@ -113,7 +114,7 @@ impl Default for CameraConfig {
 pub fn kitti_calib() -> Calib {
     let (f, cx, cy) = (718.856, 607.1928, 185.2157);
     let p = |tx: f64, ty: f64, tz: f64| {
-        Mat34([[f, 0.0, cx, tx], [0.0, f, cy, ty], [0.0, 0.0, 1.0, tz]])
+        Projection::new(f, 0.0, cx, tx, 0.0, f, cy, ty, 0.0, 0.0, 1.0, tz)
     };
     Calib {
         p: [
@@ -123,30 +124,30 @@ pub fn kitti_calib() -> Calib {
             p(-337.2877, 2.369057, 0.004915215),
         ],
         // cam x = -velo y, cam y = -velo z, cam z = velo x
-        cam0_from_velo: Mat34([
-            [0.0, -1.0, 0.0, 0.0],
-            [0.0, 0.0, -1.0, -0.08],
-            [1.0, 0.0, 0.0, -0.27],
-        ]),
+        cam0_from_velo: scene::pose::rigid_from_row_major(&[
+            0.0, -1.0, 0.0, 0.0, //
+            0.0, 0.0, -1.0, -0.08, //
+            1.0, 0.0, 0.0, -0.27,
+        ])
+        .expect("12 values"),
     }
 }
 
 /// `calib.txt` text of a calibration.
 pub fn calib_text(c: &Calib) -> String {
-    let row = |m: &Mat34| {
-        m.to_row_major()
-            .iter()
+    let row = |m: &[f64; 12]| {
+        m.iter()
             .map(|v| format!("{v:.12e}"))
             .collect::<Vec<_>>()
             .join(" ")
     };
     format!(
         "P0: {}\nP1: {}\nP2: {}\nP3: {}\nTr: {}\n",
-        row(&c.p[0]),
-        row(&c.p[1]),
-        row(&c.p[2]),
-        row(&c.p[3]),
-        row(&c.cam0_from_velo)
+        row(&matrix_row_major(&c.p[0])),
+        row(&matrix_row_major(&c.p[1])),
+        row(&matrix_row_major(&c.p[2])),
+        row(&matrix_row_major(&c.p[3])),
+        row(&row_major(&c.cam0_from_velo))
     )
 }
 
@@ -189,11 +190,11 @@ pub struct LidarScan {
 /// Casts every beam at every azimuth from `world_from_velo`.
 pub fn lidar_scan(
     scene: &Scene,
-    world_from_velo: &Mat34,
+    world_from_velo: &Rigid3,
     cfg: &LidarConfig,
     rng: &mut ChaCha8Rng,
 ) -> LidarScan {
-    let origin = f32x3(world_from_velo.translation());
+    let origin = f32x3(world_from_velo.translation.vector.into());
     let columns = (360.0 / cfg.azimuth_step_deg).round() as u32;
     let mut scan = LidarScan::default();
     let beams = cfg.beams.max(1);
@@ -209,7 +210,8 @@ pub fn lidar_scan(
             let az = (f64::from(c) * cfg.azimuth_step_deg).to_radians();
             let (sa, ca) = az.sin_cos();
             let d_velo = [ce * ca, ce * sa, se];
-            let d_world = f32x3(world_from_velo.rotate(d_velo));
+            let d_world =
+                f32x3((world_from_velo.rotation * nalgebra::Vector3::from(d_velo)).into());
             let Some((t, hit)) = scene.cast(origin, d_world, cfg.max_range_m as f32) else {
                 continue;
             };
@@ -257,16 +259,16 @@ pub struct InstanceImage {
 pub fn render(
     scene: &Scene,
     calib: &Calib,
-    world_from_cam0: &Mat34,
+    world_from_cam0: &Rigid3,
     cfg: &CameraConfig,
 ) -> InstanceImage {
-    let p = &calib.p[2].0;
-    let (fx, fy, cx, cy) = (p[0][0], p[1][1], p[0][2], p[1][2]);
+    let p = &calib.p[2];
+    let (fx, fy, cx, cy) = (p[(0, 0)], p[(1, 1)], p[(0, 2)], p[(1, 2)]);
     // P2 = K [I | t]: the camera centre in cam0 is -K⁻¹ p4
-    let tz = p[2][3];
-    let k_inv_p4 = [(p[0][3] - cx * tz) / fx, (p[1][3] - cy * tz) / fy, tz];
+    let tz = p[(2, 3)];
+    let k_inv_p4 = [(p[(0, 3)] - cx * tz) / fx, (p[(1, 3)] - cy * tz) / fy, tz];
     let centre_cam0 = [-k_inv_p4[0], -k_inv_p4[1], -k_inv_p4[2]];
-    let origin = f32x3(world_from_cam0.apply(centre_cam0));
+    let origin = f32x3(scene::pose::apply(world_from_cam0, centre_cam0));
     let ds = cfg.downsample.max(1);
     let (w, h) = (cfg.width / ds, cfg.height / ds);
     let mut ids = vec![SKY; (w * h) as usize];
@@ -279,7 +281,10 @@ pub fn render(
             );
             let d = [(fu - cx) / fx, (fv - cy) / fy, 1.0];
             let n = (d[0] * d[0] + d[1] * d[1] + 1.0).sqrt();
-            let dw = f32x3(world_from_cam0.rotate([d[0] / n, d[1] / n, 1.0 / n]));
+            let dw = f32x3(
+                (world_from_cam0.rotation * nalgebra::Vector3::new(d[0] / n, d[1] / n, 1.0 / n))
+                    .into(),
+            );
             if let Some((t, hit)) = scene.cast(origin, dw, 150.0) {
                 let i = (v * w + u) as usize;
                 ids[i] = match hit {
@@ -575,10 +580,10 @@ mod tests {
         std::fs::write(&p, calib_text(&kitti_calib())).unwrap();
         let c = crate::sources::kitti::read_calib(&p).unwrap();
         let want = kitti_calib();
-        for (a, b) in c.p[2].to_row_major().iter().zip(want.p[2].to_row_major()) {
+        for (a, b) in c.p[2].iter().zip(want.p[2].iter()) {
             assert!((a - b).abs() < 1e-9);
         }
         // the velodyne sits 0.08 m above cam0: y is down
-        assert!((c.cam0_from_velo.translation()[1] + 0.08).abs() < 1e-12);
+        assert!((c.cam0_from_velo.translation.y + 0.08).abs() < 1e-12);
     }
 }

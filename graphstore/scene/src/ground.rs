@@ -11,6 +11,23 @@ pub enum GroundFrame {
 }
 
 impl GroundFrame {
+    /// From the `Environment.ground_frame` name (`kitti_cam` or `enu`).
+    pub fn from_name(s: &str) -> Option<GroundFrame> {
+        match s {
+            "kitti_cam" => Some(GroundFrame::KittiCam),
+            "enu" => Some(GroundFrame::Enu),
+            _ => None,
+        }
+    }
+
+    /// The `Environment.ground_frame` name.
+    pub fn name(self) -> &'static str {
+        match self {
+            GroundFrame::KittiCam => "kitti_cam",
+            GroundFrame::Enu => "enu",
+        }
+    }
+
     /// Ground-plane coordinates of a world point.
     pub fn ground(self, p: [f64; 3]) -> [f64; 2] {
         match self {
@@ -59,5 +76,9 @@ mod tests {
         assert!((f.height(p) - 1.5).abs() < 1e-12);
         assert!((p[1] + 1.5).abs() < 1e-12, "KITTI y points down");
         assert!(close(GroundFrame::Enu.left_of([1.0, 0.0]), [0.0, 1.0]));
+        for f in [GroundFrame::KittiCam, GroundFrame::Enu] {
+            assert_eq!(GroundFrame::from_name(f.name()), Some(f));
+        }
+        assert_eq!(GroundFrame::from_name("ned"), None);
     }
 }
