@@ -341,9 +341,10 @@ pub fn opengraph_schema() -> Schema {
                 opt("source", T::String),
                 opt("detection_feature", T::Vector),
                 opt("tile", T::List),
+                opt("obb", T::List),
             ],
             unique: vec!["instance_id".into()],
-            description: "A mapped object with caption, feature, class, box and points.".into(),
+            description: "A mapped object with caption, feature, class, box and points; obb is its oriented box on the ground plane: [center_0, center_1, half_length_m, half_width_m, yaw_rad, bottom_m, top_m] in the environment's ground frame.".into(),
         },
     );
     s.labels.insert(

@@ -44,14 +44,18 @@ fn main() -> anyhow::Result<()> {
     .map(String::from)
     .to_vec();
     let merge = merge_input(&captions, 4);
-    let shelter = InstanceBox {
-        min: [0.0, -2.6, 0.0],
-        max: [4.0, 0.0, 1.6],
-    };
-    let bench = InstanceBox {
-        min: [1.0, -0.5, 0.3],
-        max: [2.6, 0.0, 0.8],
-    };
+    let shelter = InstanceBox::new(
+        GroundFrame::KittiCam,
+        [0.0, -2.6, 0.0],
+        [4.0, 0.0, 1.6],
+        None,
+    );
+    let bench = InstanceBox::new(
+        GroundFrame::KittiCam,
+        [1.0, -0.5, 0.3],
+        [2.6, 0.0, 0.8],
+        None,
+    );
     let relation = relation_input(
         GroundFrame::KittiCam,
         ("a wooden bench with a metal frame", &bench),

@@ -612,7 +612,12 @@ fn describe(
     })
 }
 
-fn instance_props(o: &MapObject, d: &Description, source: &str) -> Vec<(&'static str, Value)> {
+fn instance_props(
+    o: &MapObject,
+    d: &Description,
+    source: &str,
+    ground: GroundFrame,
+) -> Vec<(&'static str, Value)> {
     let c = o.bbox.center();
     let mut props = vec![
         ("instance_id", Value::Int(o.instance_id as i64)),
@@ -640,6 +645,9 @@ fn instance_props(o: &MapObject, d: &Description, source: &str) -> Vec<(&'static
     if !o.feature.is_empty() {
         props.push(("detection_feature", Value::Vector(o.feature.clone())));
     }
+    if let Some(b) = o.obb(ground) {
+        props.push(("obb", obb_value(&b)));
+    }
     if let Some((class, [x, z])) = o.tile {
         props.push((
             "tile",
@@ -651,6 +659,11 @@ fn instance_props(o: &MapObject, d: &Description, source: &str) -> Vec<(&'static
         ));
     }
     props
+}
+
+/// The `Instance.obb` property of a box ([`OrientedBox::to_values`]).
+pub fn obb_value(b: &scene::OrientedBox) -> Value {
+    Value::List(b.to_values().into_iter().map(Value::Float).collect())
 }
 
 struct FrameRecord {
@@ -692,7 +705,7 @@ impl Run<'_> {
             }
             .encode()?;
             let decoded = PointCloud::decode(&bytes)?.xyz;
-            let props = instance_props(o, &d, &self.producer);
+            let props = instance_props(o, &d, &self.producer, self.mapper.ground());
             let obs: Vec<(u32, u32)> = o.observations.iter().map(|(f, n)| (*f, *n)).collect();
             writes.push((o.instance_id, props, bytes, decoded, obs));
         }

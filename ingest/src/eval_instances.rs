@@ -5,17 +5,17 @@
 //! per true class (the simulator's class, e.g. `building` or `bench`), precision per map class
 //! (one of the 19 SemanticKITTI classes).
 //!
-//! An instance's footprint is its axis-aligned box projected on the ground plane (KITTI world
-//! x, z); a true footprint is the simulator's oriented box. Both are widened to at least
+//! An instance's footprint is its oriented box (`obb`; maps built before oriented boxes: the
+//! axis-aligned box) on the ground plane (KITTI world x, z); a true footprint is the
+//! simulator's oriented box. Both are widened to at least
 //! [`MIN_SIDE_M`] per side, so that thin objects (a 0.1 m fence, a pole) can match at all.
 //! Polygon overlap is parry2d's convex-polygon intersection.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use graphstore::{GraphRead, Value};
-use parry2d::math::Vector;
-use parry2d::transformation::convex_polygons_intersection_points;
+use graphstore::GraphRead;
+use scene::{GroundFrame, OrientedBox};
 
 use crate::error::Result;
 use crate::eval_llm::{TruthObject, read_truth};
@@ -26,39 +26,12 @@ pub const MATCH_IOU: f64 = 0.5;
 /// Footprint sides shorter than this (metres) are widened to it, about their centre.
 pub const MIN_SIDE_M: f64 = 1.0;
 
-/// A rectangle (corners in order) with each side widened to at least `min_side_m`.
+/// A rectangle (corners in order) with each side widened to at least `min_side_m`, about
+/// its centre.
 fn widen(r: &[[f64; 2]; 4], min_side_m: f64) -> [[f64; 2]; 4] {
-    let c = [(r[0][0] + r[2][0]) / 2.0, (r[0][1] + r[2][1]) / 2.0];
-    // half-edge vectors along the two sides
-    let half = |a: [f64; 2], b: [f64; 2]| {
-        let v = [(b[0] - a[0]) / 2.0, (b[1] - a[1]) / 2.0];
-        let n = v[0].hypot(v[1]);
-        if n * 2.0 >= min_side_m {
-            v
-        } else if n > 1e-9 {
-            let k = min_side_m / 2.0 / n;
-            [v[0] * k, v[1] * k]
-        } else {
-            // degenerate side: any direction perpendicular to the other works; pick x
-            [min_side_m / 2.0, 0.0]
-        }
-    };
-    let mut u = half(r[0], r[1]);
-    let mut v = half(r[1], r[2]);
-    // a degenerate side next to a proper one: make it perpendicular to that one
-    if (r[1][0] - r[2][0]).hypot(r[1][1] - r[2][1]) <= 1e-9 {
-        let n = u[0].hypot(u[1]).max(1e-12);
-        v = [-u[1] / n * min_side_m / 2.0, u[0] / n * min_side_m / 2.0];
-    } else if (r[0][0] - r[1][0]).hypot(r[0][1] - r[1][1]) <= 1e-9 {
-        let n = v[0].hypot(v[1]).max(1e-12);
-        u = [v[1] / n * min_side_m / 2.0, -v[0] / n * min_side_m / 2.0];
-    }
-    [
-        [c[0] - u[0] - v[0], c[1] - u[1] - v[1]],
-        [c[0] + u[0] - v[0], c[1] + u[1] - v[1]],
-        [c[0] + u[0] + v[0], c[1] + u[1] + v[1]],
-        [c[0] - u[0] + v[0], c[1] - u[1] + v[1]],
-    ]
+    OrientedBox::from_rectangle(r, [0.0, 0.0])
+        .widened(min_side_m)
+        .corners()
 }
 
 /// Counts and shares of one class.
@@ -93,66 +66,24 @@ pub struct InstanceEval {
     pub surface_tiles: usize,
 }
 
-/// Area of a simple polygon (shoelace), m².
-fn area(poly: &[[f64; 2]]) -> f64 {
-    let n = poly.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (poly[i], poly[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum::<f64>()
-        .abs()
-        / 2.0
+/// IoU of two rectangles (corners in order, either winding) on the ground plane; 0 for
+/// degenerate ones.
+pub fn footprint_iou(a: &[[f64; 2]; 4], b: &[[f64; 2]; 4]) -> f64 {
+    let r = |c: &[[f64; 2]; 4]| OrientedBox::from_rectangle(c, [0.0, 0.0]);
+    r(a).footprint_iou(&r(b))
 }
 
-/// Counter-clockwise copy of a convex polygon (parry's clipping wants one winding).
-fn ccw(poly: &[[f64; 2]]) -> Vec<Vector> {
-    let n = poly.len();
-    let signed: f64 = (0..n)
-        .map(|i| {
-            let (a, b) = (poly[i], poly[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum();
-    let mut v: Vec<Vector> = poly
-        .iter()
-        .map(|p| Vector::new(p[0] as f32, p[1] as f32))
-        .collect();
-    if signed < 0.0 {
-        v.reverse();
-    }
-    v
-}
-
-/// IoU of two convex polygons on the ground plane; 0 for degenerate ones.
-pub fn footprint_iou(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
-    let (aa, ab) = (area(a), area(b));
-    if aa <= 0.0 || ab <= 0.0 {
-        return 0.0;
-    }
-    let mut out = Vec::new();
-    convex_polygons_intersection_points(&ccw(a), &ccw(b), &mut out);
-    let inter: Vec<[f64; 2]> = out
-        .iter()
-        .map(|p| [f64::from(p.x), f64::from(p.y)])
-        .collect();
-    let i = if inter.len() >= 3 { area(&inter) } else { 0.0 };
-    (i / (aa + ab - i)).clamp(0.0, 1.0)
-}
-
-/// Footprint (x, z) of an instance's `bbox` property.
-fn instance_footprint(bbox: &Value) -> Option<[[f64; 2]; 4]> {
-    let (min, max) = bbox.as_box3d()?;
-    Some(widen(
-        &[
-            [min[0], min[2]],
-            [max[0], min[2]],
-            [max[0], max[2]],
-            [min[0], max[2]],
-        ],
-        MIN_SIDE_M,
-    ))
+/// Footprint of an instance: its oriented box (`obb`) or, without one, its axis-aligned
+/// `bbox`, widened to [`MIN_SIDE_M`].
+fn instance_footprint(
+    r: &impl GraphRead,
+    id: u64,
+    frame: GroundFrame,
+) -> Result<Option<[[f64; 2]; 4]>> {
+    Ok(
+        crate::hierarchy::relations::read_instance_box(r, id, frame)?
+            .map(|b| b.obb.widened(MIN_SIDE_M).corners()),
+    )
 }
 
 /// Greedy one-to-one matching by IoU: pairs `(instance index, truth index)`.
@@ -209,6 +140,8 @@ fn share(c: &mut ClassCounts) {
 /// # Errors
 /// The truth file is missing or malformed; the store cannot be read.
 pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval> {
+    // the simulator writes KITTI-style sequences
+    let frame = GroundFrame::KittiCam;
     let mut truth = read_truth(sim_dir)?;
     for t in &mut truth {
         t.footprint = widen(&t.footprint, MIN_SIDE_M);
@@ -224,11 +157,7 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
             out.surface_tiles += 1;
             continue;
         }
-        let Some(f) = r
-            .node_prop(id, "bbox")?
-            .as_ref()
-            .and_then(instance_footprint)
-        else {
+        let Some(f) = instance_footprint(r, id, frame)? else {
             continue;
         };
         feet.push(f);
@@ -296,6 +225,10 @@ mod tests {
         assert!((footprint_iou(&diamond, &bbox) - 0.5).abs() < 1e-4);
     }
 
+    fn area(c: &[[f64; 2]; 4]) -> f64 {
+        OrientedBox::from_rectangle(c, [0.0, 0.0]).footprint_area()
+    }
+
     #[test]
     fn thin_footprints_are_widened_about_their_centre() {
         // a 0.1 m x 4 m fence turned 90° and a point-like pole
@@ -312,7 +245,8 @@ mod tests {
         assert!((area(&line) - 2.0).abs() < 1e-9);
         // large sides stay
         let big = rect(0.0, 0.0, 3.0, 2.0);
-        assert_eq!(widen(&big, 1.0), big);
+        assert!((footprint_iou(&widen(&big, 1.0), &big) - 1.0).abs() < 1e-9);
+        assert!((area(&widen(&big, 1.0)) - 6.0).abs() < 1e-9);
     }
 
     #[test]

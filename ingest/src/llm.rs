@@ -26,7 +26,7 @@ use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
 use crate::hierarchy::relations::{
-    InstanceBox, RelationConfig, box_distance, candidate_pairs, spanning_tree,
+    InstanceBox, RelationConfig, box_distance, candidate_pairs, read_instance_box, spanning_tree,
 };
 use scene::GroundFrame;
 
@@ -466,10 +466,9 @@ pub fn relation_pairs(r: &impl GraphRead, cfg: &RelationConfig) -> Result<Relati
         if !is_object(r, id)? {
             continue;
         }
-        let Some((min, max)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
+        let Some(b) = read_instance_box(r, id, frame)? else {
             continue;
         };
-        let b = InstanceBox { min, max };
         ids.push(id);
         boxes.push(b);
         info.insert(id, (str_prop(r, id, "caption")?.unwrap_or_default(), b));

@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 
 use graphstore::{Direction, GraphRead, PointCloud, Store, Value, WriteTxn};
 
-use crate::hierarchy::relations::{InstanceBox, RelationConfig, label_pair};
+use crate::hierarchy::relations::{RelationConfig, label_pair, read_instance_box};
 use crate::{Error, Result};
 use scene::GroundFrame;
 
@@ -255,15 +255,6 @@ impl Diff {
     }
 }
 
-/// An instance's box from its properties.
-fn instance_box(tx: &WriteTxn<'_>, id: u64) -> graphstore::Result<Option<InstanceBox>> {
-    let bbox = tx.node_prop(id, "bbox")?.and_then(|v| v.as_box3d());
-    let centroid = tx.node_prop(id, "centroid")?.and_then(|v| v.as_point3());
-    Ok(bbox
-        .or_else(|| centroid.map(|c| (c, c)))
-        .map(|(min, max)| InstanceBox { min, max }))
-}
-
 /// Re-derives the instance's segment and geometric relations after it moved or appeared:
 /// deletes its `IN_SEGMENT` and `RELATED` edges, links it to the nearest segment, and labels it
 /// against every instance within `near_m` as the hierarchy does.
@@ -288,7 +279,7 @@ fn relink(
             diff.delete_rel(tx, r)?;
         }
     }
-    let Some(me) = instance_box(tx, id)? else {
+    let Some(me) = read_instance_box(tx, id, frame)? else {
         return Ok(());
     };
     let centre = frame.ground(me.centre());
@@ -310,7 +301,7 @@ fn relink(
         if other == id {
             continue;
         }
-        if let Some(b) = instance_box(tx, other)?
+        if let Some(b) = read_instance_box(tx, other, frame)?
             && crate::hierarchy::relations::box_distance(&me, &b) <= cfg.near_m
         {
             others.push((other, b));
@@ -369,12 +360,7 @@ fn now_unix_s() -> f64 {
 /// # Errors
 /// No Environment node or no `ground_frame`.
 pub fn ground_frame(r: &impl GraphRead) -> Result<GroundFrame> {
-    Ok(
-        match planner::graph::ground_of_store(r).map_err(|e| Error::Invalid(e.to_string()))? {
-            planner::GroundFrame::KittiCam => GroundFrame::KittiCam,
-            planner::GroundFrame::Enu => GroundFrame::Enu,
-        },
-    )
+    planner::graph::ground_of_store(r).map_err(|e| Error::Invalid(e.to_string()))
 }
 
 /// Applies a change as one transaction and records it as a `MapEdit` node. `text` is what the
@@ -419,7 +405,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
             Change::Move { id, to_ground } => {
                 is_instance(tx, *id)?;
                 diff.record_change(tx, *id)?;
-                let b = instance_box(tx, *id)?
+                let b = read_instance_box(tx, *id, frame)?
                     .ok_or_else(|| invalid(format!("instance {id} has no box")))?;
                 let from = frame.ground(b.centre());
                 let dg = [to_ground[0] - from[0], to_ground[1] - from[1]];
@@ -436,6 +422,12 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 if let Some(c) = tx.node_prop(*id, "centroid")?.and_then(|v| v.as_point3()) {
                     let k = tx.prop_key_id("centroid")?;
                     tx.set_node_prop(*id, k, Value::Point3D(shift(c)))?;
+                }
+                if tx.node_prop(*id, "obb")?.is_some() {
+                    let mut o = b.obb;
+                    o.center = [o.center[0] + dg[0], o.center[1] + dg[1]];
+                    let k = tx.prop_key_id("obb")?;
+                    tx.set_node_prop(*id, k, crate::build::obb_value(&o))?;
                 }
                 if let Some(bytes) = tx.payload(*id, "points")? {
                     let mut pc = PointCloud::decode(&bytes)?;

@@ -16,6 +16,7 @@ use crate::error::{Error, Result};
 use crate::ffi::{Checker, bridge};
 use crate::graph::{dist, point_at, polyline_length};
 use crate::route::Route;
+use scene::OrientedBox;
 
 /// Motion-planning parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -58,13 +59,53 @@ impl Default for MotionConfig {
     }
 }
 
-/// An axis-aligned box on the ground plane that the path must avoid.
+/// A box on the ground plane that the path must avoid: an instance's oriented footprint.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Obstacle {
-    /// Min corner.
+    /// Min corner of the footprint's bounds, ground coordinates.
     pub min: [f64; 2],
-    /// Max corner.
+    /// Max corner of the footprint's bounds.
     pub max: [f64; 2],
+    /// The footprint.
+    pub footprint: OrientedBox,
+}
+
+impl Obstacle {
+    /// The obstacle of an oriented footprint.
+    pub fn oriented(footprint: OrientedBox) -> Obstacle {
+        let (mut min, mut max) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for c in footprint.corners() {
+            for k in 0..2 {
+                min[k] = min[k].min(c[k]);
+                max[k] = max[k].max(c[k]);
+            }
+        }
+        Obstacle {
+            min,
+            max,
+            footprint,
+        }
+    }
+
+    /// An axis-aligned obstacle `min`..`max` (ground coordinates).
+    pub fn axis_aligned(min: [f64; 2], max: [f64; 2]) -> Obstacle {
+        let he = [(max[0] - min[0]) / 2.0, (max[1] - min[1]) / 2.0];
+        let (half_extents, yaw_rad) = if he[0] >= he[1] {
+            (he, 0.0)
+        } else {
+            ([he[1], he[0]], std::f64::consts::FRAC_PI_2)
+        };
+        Obstacle {
+            min,
+            max,
+            footprint: OrientedBox {
+                center: [(min[0] + max[0]) / 2.0, (min[1] + max[1]) / 2.0],
+                half_extents,
+                yaw_rad,
+                height_m: [0.0, 0.0],
+            },
+        }
+    }
 }
 
 /// A planned path.
@@ -120,12 +161,9 @@ impl Validity {
         let boxes = obstacles
             .iter()
             .map(|o| {
-                let h = [
-                    (o.max[0] - o.min[0]) / 2.0 + margin_m,
-                    (o.max[1] - o.min[1]) / 2.0 + margin_m,
-                ];
-                let c = [(o.max[0] + o.min[0]) / 2.0, (o.max[1] + o.min[1]) / 2.0];
-                (Cuboid::new(v(h)), Pose::from_translation(v(c)))
+                let f = &o.footprint;
+                let h = [f.half_extents[0] + margin_m, f.half_extents[1] + margin_m];
+                (Cuboid::new(v(h)), Pose::new(v(f.center), f.yaw_rad as f32))
             })
             .collect();
         Validity {
@@ -400,18 +438,33 @@ pub fn blocking_instances(
         let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
             continue;
         };
-        let (a, b) = (ground.ground(lo), ground.ground(hi));
-        let o = Obstacle {
-            min: [a[0].min(b[0]), a[1].min(b[1])],
-            max: [a[0].max(b[0]), a[1].max(b[1])],
+        let obb = match r.node_prop(id, "obb")? {
+            Some(graphstore::Value::List(v)) => v
+                .iter()
+                .map(|x| x.as_f64())
+                .collect::<Option<Vec<f64>>>()
+                .and_then(|f| OrientedBox::from_values(&f)),
+            _ => None,
+        };
+        let o = match obb {
+            Some(b) => Obstacle::oriented(b),
+            None => {
+                let (a, b) = (ground.ground(lo), ground.ground(hi));
+                Obstacle::axis_aligned(
+                    [a[0].min(b[0]), a[1].min(b[1])],
+                    [a[0].max(b[0]), a[1].max(b[1])],
+                )
+            }
         };
         // a box reaches into the corridor if its nearest point to the route is inside it
-        let c = [(o.min[0] + o.max[0]) / 2.0, (o.min[1] + o.max[1]) / 2.0];
-        let half_diag = dist(o.min, o.max) / 2.0;
+        let f = &o.footprint;
+        let c = f.center;
+        let half_diag = f.half_extents[0].hypot(f.half_extents[1]);
         if corridor.corridor_distance(c) - half_diag <= half_width_m {
-            let corners = [o.min, [o.max[0], o.min[1]], o.max, [o.min[0], o.max[1]], c];
+            let corners = f.corners();
             if corners
                 .iter()
+                .chain([&c])
                 .any(|p| corridor.corridor_distance(*p) <= half_width_m)
             {
                 out.push(o);

@@ -217,13 +217,8 @@ pub fn write_map_png(
     let driven: Vec<[f64; 2]> = motion.poses.iter().map(|p| [p[0], p[1]]).collect();
     line(&driven, 1.5, (220, 30, 30, 255));
     for o in obstacles {
-        let c = [
-            [o.min[0], o.min[1]],
-            [o.max[0], o.min[1]],
-            [o.max[0], o.max[1]],
-            [o.min[0], o.max[1]],
-            [o.min[0], o.min[1]],
-        ];
+        let k = o.footprint.corners();
+        let c = [k[0], k[1], k[2], k[3], k[0]];
         line(&c, 2.0, (0, 0, 0, 255));
     }
     for (p, (r, gr, b)) in markers {

@@ -128,10 +128,7 @@ fn ompl_path_avoids_a_blocking_box() {
     )
     .unwrap();
     // a parked truck over the right half of the road at x = 40..48
-    let truck = Obstacle {
-        min: [40.0, -3.0],
-        max: [48.0, 1.0],
-    };
+    let truck = Obstacle::axis_aligned([40.0, -3.0], [48.0, 1.0]);
     let cfg = MotionConfig {
         budget_ms: 3000.0,
         ..MotionConfig::default()
@@ -187,10 +184,7 @@ fn zero_budget_and_blocked_goal_fall_back_to_the_route() {
     assert!(path.warning.as_deref().unwrap().contains("budget"));
     assert!((path.length_m - 170.0).abs() < 1e-6);
     // a wall across the whole corridor: OMPL cannot pass, so the route comes back with a warning
-    let wall = Obstacle {
-        min: [50.0, -10.0],
-        max: [52.0, 10.0],
-    };
+    let wall = Obstacle::axis_aligned([50.0, -10.0], [52.0, 10.0]);
     let cfg = MotionConfig {
         budget_ms: 150.0,
         ..MotionConfig::default()
@@ -268,4 +262,23 @@ fn argoverse2_route_follows_successor_links() {
             .to_string()
             .contains("og_bad_av2.json")
     );
+}
+
+#[test]
+fn an_oriented_obstacle_blocks_only_its_footprint() {
+    // a 10 m × 1 m fence turned 45° in a straight 4 m-wide corridor along x
+    let fence = Obstacle::oriented(scene::OrientedBox {
+        center: [20.0, 0.0],
+        half_extents: [5.0, 0.5],
+        yaw_rad: std::f64::consts::FRAC_PI_4,
+        height_m: [0.0, 1.5],
+    });
+    let route = [[0.0, 0.0], [40.0, 0.0]];
+    let v = Validity::new(&route, 4.0, &[fence], 0.0);
+    assert!(!v.is_valid([20.0, 0.0]), "on the fence");
+    assert!(!v.is_valid([22.0, 2.0]), "on the fence, further along it");
+    // inside the fence's axis-aligned bounds (16.1..23.9) but off the fence itself
+    assert!(v.is_valid([22.0, -2.0]));
+    assert!(v.is_valid([17.0, 2.5]));
+    assert!(fence.min[0] < 17.0 && fence.max[1] > 2.5);
 }

@@ -85,6 +85,49 @@ impl OrientedBox {
         })
     }
 
+    /// The box of a ground-plane rectangle given by its corners in order (either winding;
+    /// only the first three are read) and a height range.
+    pub fn from_rectangle(corners: &[[f64; 2]; 4], height_m: [f64; 2]) -> OrientedBox {
+        let p = corners.map(|c| Vector2::new(c[0], c[1]));
+        let (u, v) = ((p[1] - p[0]) / 2.0, (p[2] - p[1]) / 2.0);
+        let c = (p[0] + p[2]) / 2.0;
+        let (long, short) = if u.norm() >= v.norm() { (u, v) } else { (v, u) };
+        OrientedBox {
+            center: [c.x, c.y],
+            half_extents: [long.norm(), short.norm()],
+            yaw_rad: normal_yaw(long.y.atan2(long.x)),
+            height_m,
+        }
+    }
+
+    /// The axis-aligned box `min`..`max` (world frame) as an oriented box with yaw 0.
+    pub fn from_aabb(ground: GroundFrame, min: [f64; 3], max: [f64; 3]) -> OrientedBox {
+        let (a, b) = (ground.ground(min), ground.ground(max));
+        let (ha, hb) = (ground.height(min), ground.height(max));
+        let he = [(a[0] - b[0]).abs() / 2.0, (a[1] - b[1]).abs() / 2.0];
+        let mut o = OrientedBox {
+            center: [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0],
+            half_extents: he,
+            yaw_rad: 0.0,
+            height_m: [ha.min(hb), ha.max(hb)],
+        };
+        if he[1] > he[0] {
+            o.half_extents = [he[1], he[0]];
+            o.yaw_rad = std::f64::consts::FRAC_PI_2;
+        }
+        o
+    }
+
+    /// The same box with each footprint side at least `min_side_m` long (about its centre),
+    /// so that thin objects (a fence, a pole) keep an area.
+    pub fn widened(&self, min_side_m: f64) -> OrientedBox {
+        let h = min_side_m / 2.0;
+        OrientedBox {
+            half_extents: [self.half_extents[0].max(h), self.half_extents[1].max(h)],
+            ..*self
+        }
+    }
+
     /// The unit first and second axes in ground coordinates.
     pub fn axes(&self) -> [Vector2<f64>; 2] {
         let r = Rotation2::new(self.yaw_rad);
@@ -375,6 +418,15 @@ mod tests {
         assert_eq!(line.iou(&line), 0.0, "no volume, no IoU");
     }
 
+    fn line_box() -> OrientedBox {
+        OrientedBox {
+            center: [0.0, 0.0],
+            half_extents: [2.0, 0.0],
+            yaw_rad: 0.3,
+            height_m: [0.0, 1.0],
+        }
+    }
+
     #[test]
     fn known_overlaps() {
         let a = OrientedBox {
@@ -409,6 +461,18 @@ mod tests {
         };
         assert_eq!(a.iou(&above), 0.0);
         assert_eq!(OrientedBox::from_values(&a.to_values()), Some(a));
+        // from corners, in either winding; from an axis-aligned box in both frames
+        let r = OrientedBox::from_rectangle(&c.corners(), [0.0, 1.0]);
+        assert!((r.half_extents[0] - 0.5).abs() < EPS && yaw_gap(r.yaw_rad, PI / 4.0) < EPS);
+        let mut rev = c.corners();
+        rev.reverse();
+        assert!((OrientedBox::from_rectangle(&rev, [0.0, 1.0]).iou(&c) - 1.0).abs() < EPS);
+        let k = OrientedBox::from_aabb(GroundFrame::KittiCam, [0.0, -2.0, 0.0], [1.0, 0.0, 3.0]);
+        assert!((k.half_extents[0] - 1.5).abs() < EPS && (k.half_extents[1] - 0.5).abs() < EPS);
+        assert!((k.yaw_rad - PI / 2.0).abs() < EPS && k.height_m == [0.0, 2.0]);
+        assert!(k.contains_ground([0.9, 2.9]) && !k.contains_ground([1.1, 2.9]));
+        let w = line_box().widened(1.0);
+        assert!((w.half_extents[1] - 0.5).abs() < EPS && w.footprint_area() > 0.0);
         assert_eq!(OrientedBox::from_values(&[0.0; 6]), None);
         assert_eq!(
             OrientedBox::from_values(&[0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0]),

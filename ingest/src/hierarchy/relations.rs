@@ -1,11 +1,12 @@
 //! Instance layer: a minimum spanning tree over instance boxes (close or overlapping pairs
 //! preferred) plus every pair within `near_m`, each labelled with geometric relations from
-//! the boxes (distances through parry3d) and the local road direction.
+//! the oriented boxes (distances between parry3d cuboids turned about the up axis,
+//! overlaps of the footprints) and the local road direction.
 
 use parry3d::math::{Pose, Vector};
 use parry3d::shape::Cuboid;
 
-use scene::GroundFrame;
+use scene::{GroundFrame, OrientedBox};
 
 /// Relation parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -35,29 +36,74 @@ impl Default for RelationConfig {
     }
 }
 
-/// An instance's axis-aligned box in the world frame.
+/// An instance's box: its axis-aligned bounds in the world frame and its oriented box on
+/// the ground plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InstanceBox {
-    /// Min corner.
+    /// Min corner, world frame.
     pub min: [f64; 3],
-    /// Max corner.
+    /// Max corner, world frame.
     pub max: [f64; 3],
+    /// The oriented box (the axis-aligned one, turned by nothing, when the instance has
+    /// none).
+    pub obb: OrientedBox,
 }
 
 impl InstanceBox {
+    /// The box of an instance with bounds `min`..`max` and, if it has one, oriented box
+    /// `obb` (the `Instance.obb` property).
+    pub fn new(
+        frame: GroundFrame,
+        min: [f64; 3],
+        max: [f64; 3],
+        obb: Option<OrientedBox>,
+    ) -> InstanceBox {
+        InstanceBox {
+            min,
+            max,
+            obb: obb.unwrap_or_else(|| OrientedBox::from_aabb(frame, min, max)),
+        }
+    }
+
     pub(crate) fn centre(&self) -> [f64; 3] {
         [0, 1, 2].map(|i| (self.min[i] + self.max[i]) / 2.0)
     }
     fn volume(&self) -> f64 {
-        (0..3)
-            .map(|i| (self.max[i] - self.min[i]).max(0.0))
-            .product()
+        self.obb.volume()
     }
     fn overlap_volume(&self, o: &InstanceBox) -> f64 {
-        (0..3)
-            .map(|i| (self.max[i].min(o.max[i]) - self.min[i].max(o.min[i])).max(0.0))
-            .product()
+        let (a, b) = (&self.obb, &o.obb);
+        let dh = (a.height_m[1].min(b.height_m[1]) - a.height_m[0].max(b.height_m[0])).max(0.0);
+        if dh <= 0.0 {
+            return 0.0;
+        }
+        a.footprint_intersection_area(b) * dh
     }
+}
+
+/// The box of instance node `id` from its properties: `bbox` (or, without one, a point at
+/// `centroid`) and `obb` when present. `None` when it has neither `bbox` nor `centroid`.
+///
+/// # Errors
+/// The store fails.
+pub fn read_instance_box(
+    r: &impl graphstore::GraphRead,
+    id: u64,
+    frame: GroundFrame,
+) -> graphstore::Result<Option<InstanceBox>> {
+    let bbox = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d());
+    let centroid = r.node_prop(id, "centroid")?.and_then(|v| v.as_point3());
+    let Some((min, max)) = bbox.or_else(|| centroid.map(|c| (c, c))) else {
+        return Ok(None);
+    };
+    let obb = match r.node_prop(id, "obb")? {
+        Some(graphstore::Value::List(v)) => {
+            let f: Option<Vec<f64>> = v.iter().map(|x| x.as_f64()).collect();
+            f.and_then(|f| OrientedBox::from_values(&f))
+        }
+        _ => None,
+    };
+    Ok(Some(InstanceBox::new(frame, min, max, obb)))
 }
 
 /// One labelled relation: `a <relation> b`.
@@ -75,14 +121,30 @@ pub struct Relation {
     pub confidence: f64,
 }
 
-/// Distance between two boxes, computed by parry3d.
+/// Distance between two oriented boxes, metres, computed by parry3d. The boxes are placed
+/// in (ground 0, ground 1, height) coordinates, an isometry of the world (up to a
+/// reflection), so the distance is the world one; each is a cuboid turned by its yaw about
+/// the height axis, relative to `a`'s centre to keep f32 precise.
 pub fn box_distance(a: &InstanceBox, b: &InstanceBox) -> f64 {
+    let origin = a.obb.center;
     let shape = |x: &InstanceBox| {
-        let h = [0, 1, 2].map(|i| ((x.max[i] - x.min[i]) / 2.0).max(1e-3) as f32);
-        let c = x.centre();
+        let o = &x.obb;
+        let h = [
+            o.half_extents[0].max(1e-3) as f32,
+            o.half_extents[1].max(1e-3) as f32,
+            (o.height_span_m() / 2.0).max(1e-3) as f32,
+        ];
+        let c = [
+            (o.center[0] - origin[0]) as f32,
+            (o.center[1] - origin[1]) as f32,
+            ((o.height_m[0] + o.height_m[1]) / 2.0) as f32,
+        ];
         (
             Cuboid::new(Vector::new(h[0], h[1], h[2])),
-            Pose::from_translation(Vector::new(c[0] as f32, c[1] as f32, c[2] as f32)),
+            Pose::new(
+                Vector::new(c[0], c[1], c[2]),
+                Vector::new(0.0, 0.0, o.yaw_rad as f32),
+            ),
         )
     };
     let (sa, pa) = shape(a);
@@ -193,12 +255,11 @@ pub fn label_pair(
         return out;
     }
     // vertical stacking: ground footprints overlap and one rests on the other
-    let (ga0, ga1) = (frame.ground(ba.min), frame.ground(ba.max));
-    let (gb0, gb1) = (frame.ground(bb.min), frame.ground(bb.max));
-    let foot = (0..2).all(|i| {
-        ga0[i].min(ga1[i]).max(gb0[i].min(gb1[i])) < ga0[i].max(ga1[i]).min(gb0[i].max(gb1[i]))
-    });
-    let (ha, hb) = (height_range(frame, ba), height_range(frame, bb));
+    let foot = ba.obb.footprint_intersection_area(&bb.obb) > 0.0;
+    let (ha, hb) = (
+        (ba.obb.height_m[0], ba.obb.height_m[1]),
+        (bb.obb.height_m[0], bb.obb.height_m[1]),
+    );
     if foot {
         let gap_ab = (ha.0 - hb.1).abs(); // a's bottom on b's top
         let gap_ba = (hb.0 - ha.1).abs();
@@ -255,11 +316,6 @@ pub fn label_pair(
     out
 }
 
-fn height_range(frame: GroundFrame, b: &InstanceBox) -> (f64, f64) {
-    let (h0, h1) = (frame.height(b.min), frame.height(b.max));
-    (h0.min(h1), h0.max(h1))
-}
-
 /// All relations: spanning-tree edges plus every pair within `near_m`, labelled.
 pub fn infer_relations(
     boxes: &[InstanceBox],
@@ -295,7 +351,7 @@ mod tests {
     use super::*;
 
     fn bx(min: [f64; 3], max: [f64; 3]) -> InstanceBox {
-        InstanceBox { min, max }
+        InstanceBox::new(F, min, max, None)
     }
 
     const F: GroundFrame = GroundFrame::Enu;
@@ -304,6 +360,33 @@ mod tests {
         let mut v: Vec<_> = r.iter().map(|r| (r.a, r.b, r.relation)).collect();
         v.sort();
         v
+    }
+
+    #[test]
+    fn oriented_boxes_measure_what_axis_aligned_ones_hide() {
+        // two parallel 10 m × 0.2 m walls along the diagonal, 2 m apart: their
+        // axis-aligned boxes overlap, their oriented boxes do not
+        let wall = |offset: f64| {
+            let o = OrientedBox {
+                center: [offset / 2f64.sqrt(), -offset / 2f64.sqrt()],
+                half_extents: [5.0, 0.1],
+                yaw_rad: std::f64::consts::FRAC_PI_4,
+                height_m: [0.0, 2.0],
+            };
+            let k = o.corners();
+            let lo = [0, 1].map(|i| k.iter().map(|c| c[i]).fold(f64::INFINITY, f64::min));
+            let hi = [0, 1].map(|i| k.iter().map(|c| c[i]).fold(f64::NEG_INFINITY, f64::max));
+            InstanceBox::new(F, [lo[0], lo[1], 0.0], [hi[0], hi[1], 2.0], Some(o))
+        };
+        let (a, b) = (wall(0.0), wall(2.0));
+        assert!(
+            (box_distance(&a, &b) - 1.8).abs() < 1e-3,
+            "{}",
+            box_distance(&a, &b)
+        );
+        assert!(a.overlap_volume(&b) < 1e-9);
+        let (aa, ab) = (bx(a.min, a.max), bx(b.min, b.max));
+        assert!(box_distance(&aa, &ab) < 1e-6 && aa.overlap_volume(&ab) > 1.0);
     }
 
     #[test]

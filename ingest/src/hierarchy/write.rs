@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use graphstore::{GraphRead, Store, Value, WriteTxn};
 
 use super::lanes::{LaneConfig, LaneGraph, LaneNodeKind, extract_lanes};
-use super::relations::{InstanceBox, RelationConfig, infer_relations};
+use super::relations::{RelationConfig, infer_relations, read_instance_box};
 use super::segments::{SegmentArea, SegmentConfig, Segments, build_segments};
 use crate::cluster::Grid2;
 use crate::error::{Error, Result};
@@ -347,15 +347,13 @@ fn write_all(
     let instances = tx.nodes_with_label("Instance")?;
     let mut boxes = Vec::with_capacity(instances.len());
     for &id in &instances {
-        let bbox = tx.node_prop(id, "bbox")?.and_then(|v| v.as_box3d());
-        let centroid = tx.node_prop(id, "centroid")?.and_then(|v| v.as_point3());
-        let Some((min, max)) = bbox.or_else(|| centroid.map(|c| (c, c))) else {
+        let Some(b) = read_instance_box(&*tx, id, frame)? else {
             return Err(Error::Invalid(format!(
                 "instance node {id} has neither bbox nor centroid"
             )));
         };
-        boxes.push(InstanceBox { min, max });
-        let c = frame.ground([0, 1, 2].map(|i| (min[i] + max[i]) / 2.0));
+        boxes.push(b);
+        let c = frame.ground(b.centre());
         if let Some((sid, d)) = segs.nearest(c) {
             tx.create_rel_named(
                 id,

@@ -12,6 +12,7 @@ use crate::classes;
 use crate::sources::detections::DetectionFrame;
 use crate::sources::kitti::Rigid3;
 use scene::GroundFrame;
+use scene::OrientedBox;
 
 /// One object of the map.
 #[derive(Debug, Clone, PartialEq)]
@@ -25,6 +26,9 @@ pub struct MapObject {
     voxels: HashSet<VoxelKey>,
     /// Bounds of `points`.
     pub bbox: Aabb,
+    /// The oriented box of `points` in the mapper's ground frame, fitted when first asked
+    /// for after the points change ([`MapObject::obb`]).
+    obb: std::cell::OnceCell<Option<OrientedBox>>,
     /// Running mean of the detection features, weighted by detection count.
     pub feature: Vec<f32>,
     /// Every caption, in the order seen.
@@ -64,6 +68,7 @@ impl MapObject {
                 min: [0.0; 3],
                 max: [0.0; 3],
             },
+            obb: std::cell::OnceCell::new(),
             feature,
             captions,
             detection_count,
@@ -84,6 +89,15 @@ impl MapObject {
             max: [0.0; 3],
         });
         self.points = points;
+        self.obb = std::cell::OnceCell::new();
+    }
+
+    /// The minimum-area oriented box of the points in `ground` ([`OrientedBox::fit`]);
+    /// `None` without points. Cached until the points change: pass the mapper's frame.
+    pub fn obb(&self, ground: GroundFrame) -> Option<OrientedBox> {
+        *self
+            .obb
+            .get_or_init(|| OrientedBox::fit(ground, &self.points))
     }
 
     /// The latest `n` captions joined, for caption comparison.
@@ -94,6 +108,7 @@ impl MapObject {
     fn absorb_points(&mut self, pts: &[[f32; 3]], voxel_m: f32) {
         for p in pts {
             if self.voxels.insert(voxel_key(*p, voxel_m)) {
+                self.obb.take();
                 if self.points.is_empty() {
                     // an empty object's box is a placeholder at the origin: start afresh
                     self.bbox = Aabb { min: *p, max: *p };
@@ -357,6 +372,11 @@ impl Mapper {
         m
     }
 
+    /// The ground frame of the world the objects live in.
+    pub fn ground(&self) -> GroundFrame {
+        self.ground
+    }
+
     /// The configuration.
     pub fn config(&self) -> &MappingConfig {
         &self.cfg
@@ -456,6 +476,7 @@ impl Mapper {
             let (Some(b), false) = (Aabb::of(pts), classes::is_surface(f.classes[i])) else {
                 continue;
             };
+            let det_obb = OrientedBox::fit(self.ground, pts);
             let caption = self.tfidf.vector(&f.detections.detections[i].caption);
             let candidates = if need_overlap {
                 self.grid.candidates(&b)
@@ -466,8 +487,14 @@ impl Mapper {
                 let Some(o) = self.objects.get(id) else {
                     continue;
                 };
+                // the axis-aligned boxes reject far pairs cheaply; the oriented boxes measure
                 let iou = if o.bbox.intersects(&b) {
-                    o.bbox.iou(&b)
+                    match (det_obb, o.obb(self.ground)) {
+                        (Some(d), Some(ob)) => d
+                            .widened(cfg.iou_min_side_m)
+                            .iou(&ob.widened(cfg.iou_min_side_m)),
+                        _ => o.bbox.iou(&b),
+                    }
                 } else {
                     0.0
                 };
@@ -990,6 +1017,29 @@ mod tests {
         let id = m.new_object(None, 0);
         m.fuse(id, pts, &[1.0, 0.0], caption, 0);
         id
+    }
+
+    #[test]
+    fn the_oriented_box_follows_the_points() {
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        // a 4 m wall along the KITTI world diagonal (x = z), 1 m high (y down)
+        let wall: Vec<[f32; 3]> = (0..40)
+            .flat_map(|i| [0.0f32, -0.5, -1.0].map(|y| [i as f32 * 0.0707, y, i as f32 * 0.0707]))
+            .collect();
+        let id = object_with(&mut m, &wall, "a brick wall");
+        let b = m.objects()[&id].obb(GroundFrame::KittiCam).unwrap();
+        assert!(
+            (b.yaw_rad - std::f64::consts::FRAC_PI_4).abs() < 1e-3,
+            "{b:?}"
+        );
+        assert!(b.half_extents[1] < 1e-3 && (b.height_m[1] - 1.0).abs() < 1e-6);
+        // the cached box is replaced when points are added
+        let more: Vec<[f32; 3]> = (0..40)
+            .map(|i| [i as f32 * 0.0707 + 1.0, 0.0, i as f32 * 0.0707])
+            .collect();
+        m.fuse(id, &more, &[1.0, 0.0], "a brick wall", 1);
+        let c = m.objects()[&id].obb(GroundFrame::KittiCam).unwrap();
+        assert!(c.half_extents[1] > 0.3, "{c:?}");
     }
 
     #[test]

@@ -24,6 +24,10 @@ pub struct MappingConfig {
     pub dbscan_min_points: usize,
     /// Weight of the 3D IoU in φ.
     pub w_geo: f64,
+    /// The 3D IoU of φ is that of the detection's and the object's oriented boxes, each
+    /// footprint side widened to at least this (metres): a partial view of a small or thin
+    /// object gives a box too tight to overlap its next view.
+    pub iou_min_side_m: f64,
     /// Weight of the caption TF-IDF cosine in φ.
     pub w_cap: f64,
     /// Weight of the feature cosine in φ.
@@ -65,6 +69,7 @@ impl Default for MappingConfig {
             dbscan_eps_m: 0.5,
             dbscan_min_points: 20,
             w_geo: 1.0,
+            iou_min_side_m: 0.5,
             w_cap: 0.2,
             w_fea: 0.4,
             sim_threshold: 0.6,
@@ -96,6 +101,9 @@ impl MappingConfig {
         }
         if !pos(f64::from(self.join_eps_m)) {
             return bad("join_eps_m must be a positive number below 1e6");
+        }
+        if !(self.iou_min_side_m.is_finite() && (0.0..1e6).contains(&self.iou_min_side_m)) {
+            return bad("iou_min_side_m must be a non-negative number below 1e6");
         }
         if !pos(self.background_tile_m) {
             return bad("background_tile_m must be a positive number below 1e6");
