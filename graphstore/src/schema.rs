@@ -302,10 +302,12 @@ pub fn opengraph_schema() -> Schema {
                 opt("centerline", T::List),
                 opt("half_width_m", T::Float),
                 opt("bbox", T::Box3D),
+                opt("polygon", T::List),
+                opt("drivable_area_m2", T::Float),
             ],
             unique: vec!["segment_id".into()],
             description:
-                "Road segment: intersection, t_intersection, l_intersection or straight_roadway."
+                "Road segment: intersection, t_intersection, l_intersection or straight_roadway; polygon is its drivable area measured from the map (rings of points, even-odd)."
                     .into(),
         },
     );

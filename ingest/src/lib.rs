@@ -9,6 +9,7 @@ pub mod eval_instances;
 pub mod eval_llm;
 pub mod eval_locate;
 pub mod eval_retrieval;
+pub mod eval_roads;
 pub mod hierarchy;
 pub mod llm;
 pub mod map_edit;

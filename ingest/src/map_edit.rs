@@ -285,7 +285,7 @@ fn relink(
     let centre = frame.ground(me.centre());
     if let Some((seg, d)) = segments
         .iter()
-        .map(|s| (s.id, s.area.distance(centre)))
+        .map(|s| (s.id, s.distance(centre)))
         .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
     {
         diff.create_rel(

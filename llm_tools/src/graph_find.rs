@@ -569,7 +569,7 @@ pub fn find_graph(
                     .segments
                     .iter()
                     .filter(|s| c.admits(&s.kind))
-                    .map(|s| s.area.distance(p))
+                    .map(|s| s.distance(p))
                     .fold(f64::INFINITY, f64::min);
                 let near = if d <= 10.0 {
                     1.0

@@ -42,8 +42,18 @@ pub struct SegmentInfo {
     pub kind: String,
     /// Ground-plane centroid.
     pub centroid: [f64; 2],
-    /// Its area.
+    /// Its area from the trajectory.
     pub area: SegmentArea,
+    /// Its drivable area measured from the map (`Segment.polygon`), when it has one.
+    pub drivable: Option<planner::area::Drivable>,
+}
+
+impl SegmentInfo {
+    /// Distance from `p` to the segment for membership
+    /// ([`planner::area::membership_distance`]): its drivable polygon when it has one.
+    pub fn distance(&self, p: [f64; 2]) -> f64 {
+        planner::area::membership_distance(&self.area, self.drivable.as_ref(), p)
+    }
 }
 
 /// Reads the map's segments with their areas.
@@ -85,11 +95,16 @@ pub fn load_segments(r: &impl GraphRead, g: scene::GroundFrame) -> Result<Vec<Se
                 radius_m: 12.0,
             },
         };
+        let drivable = r
+            .node_prop(id, "polygon")?
+            .and_then(|v| planner::area::Drivable::from_property(&v, g))
+            .filter(|d| !d.is_empty());
         out.push(SegmentInfo {
             id,
             kind,
             centroid,
             area,
+            drivable,
         });
     }
     Ok(out)
@@ -593,6 +608,7 @@ mod tests {
                 centre,
                 radius_m: 12.0,
             },
+            drivable: None,
         }
     }
 

@@ -142,9 +142,286 @@ impl SegmentArea {
     }
 }
 
+/// How far `p` is from a segment, for membership (`IN_SEGMENT`): from its drivable area
+/// measured from the map when it has one, else from its trajectory `area`. Metres, 0 inside.
+pub fn membership_distance(area: &SegmentArea, drivable: Option<&Drivable>, p: [f64; 2]) -> f64 {
+    match drivable {
+        Some(d) if !d.is_empty() => d.distance(p),
+        _ => area.distance(p),
+    }
+}
+
+/// A segment's drivable area measured from the map: closed rings on the ground plane whose
+/// even-odd interior is the area (outer boundaries counter-clockwise, holes clockwise), as
+/// [`Drivable::from_triangles`] traces them around a set of triangles.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct Drivable {
+    /// The rings, each closed implicitly (last vertex joins the first), ground metres.
+    pub rings: Vec<Vec<[f64; 2]>>,
+}
+
+impl Drivable {
+    /// The outline of the union of `triangles` (each given counter-clockwise, sharing exact
+    /// vertex coordinates where they touch, as a triangulation's faces do): every directed
+    /// edge whose reverse is not an edge of another triangle is on the boundary, and the
+    /// boundary edges are chained into rings. Where rings touch at a vertex the chaining
+    /// may split or join them differently; the even-odd interior is the same.
+    pub fn from_triangles(triangles: &[[[f64; 2]; 3]]) -> Drivable {
+        use std::collections::{BTreeMap, BTreeSet};
+        let key = |p: [f64; 2]| (p[0].to_bits(), p[1].to_bits());
+        let mut edges: BTreeSet<((u64, u64), (u64, u64))> = BTreeSet::new();
+        let mut pos: BTreeMap<(u64, u64), [f64; 2]> = BTreeMap::new();
+        for t in triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                pos.insert(key(a), a);
+                edges.insert((key(a), key(b)));
+            }
+        }
+        // boundary: no twin
+        let mut next: BTreeMap<(u64, u64), Vec<(u64, u64)>> = BTreeMap::new();
+        for (a, b) in &edges {
+            if !edges.contains(&(*b, *a)) {
+                next.entry(*a).or_default().push(*b);
+            }
+        }
+        let mut rings = Vec::new();
+        let starts: Vec<(u64, u64)> = next.keys().copied().collect();
+        for start in starts {
+            while next.get(&start).is_some_and(|v| !v.is_empty()) {
+                let mut ring = vec![pos[&start]];
+                let mut at = start;
+                while let Some(b) = next.get_mut(&at).and_then(Vec::pop) {
+                    if b == start {
+                        break;
+                    }
+                    ring.push(pos[&b]);
+                    at = b;
+                }
+                if ring.len() >= 3 {
+                    rings.push(ring);
+                }
+            }
+        }
+        Drivable { rings }
+    }
+
+    /// Area in square metres (the signed ring areas summed: holes subtract).
+    pub fn area_m2(&self) -> f64 {
+        self.rings
+            .iter()
+            .map(|r| {
+                (0..r.len())
+                    .map(|i| {
+                        let (a, b) = (r[i], r[(i + 1) % r.len()]);
+                        a[0] * b[1] - b[0] * a[1]
+                    })
+                    .sum::<f64>()
+                    / 2.0
+            })
+            .sum::<f64>()
+            .max(0.0)
+    }
+
+    /// Whether `p` lies inside (even-odd rule over all rings).
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        let mut inside = false;
+        for r in &self.rings {
+            for i in 0..r.len() {
+                let (a, b) = (r[i], r[(i + 1) % r.len()]);
+                if (a[1] > p[1]) != (b[1] > p[1]) {
+                    let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+                    if p[0] < x {
+                        inside = !inside;
+                    }
+                }
+            }
+        }
+        inside
+    }
+
+    /// Distance from `p` to the area, metres (0 inside; infinite for an empty area).
+    pub fn distance(&self, p: [f64; 2]) -> f64 {
+        if self.contains(p) {
+            return 0.0;
+        }
+        self.rings
+            .iter()
+            .flat_map(|r| (0..r.len()).map(move |i| (r[i], r[(i + 1) % r.len()])))
+            .map(|(a, b)| {
+                let (_, q) = closest_on_segment(p, a, b);
+                (p[0] - q[0]).hypot(p[1] - q[1])
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The area of a `Segment.polygon` property (a list of rings, each a list of world
+    /// points); `None` for anything else.
+    pub fn from_property(v: &graphstore::Value, frame: scene::GroundFrame) -> Option<Drivable> {
+        use graphstore::Value;
+        let Value::List(rings) = v else { return None };
+        let rings: Option<Vec<Vec<[f64; 2]>>> = rings
+            .iter()
+            .map(|r| match r {
+                Value::List(pts) => pts
+                    .iter()
+                    .map(|p| p.as_point3().map(|w| frame.ground(w)))
+                    .collect(),
+                _ => None,
+            })
+            .collect();
+        rings.map(|rings| Drivable { rings })
+    }
+
+    /// Whether there is no ring.
+    pub fn is_empty(&self) -> bool {
+        self.rings.is_empty()
+    }
+}
+
+/// Several drivable areas with disjoint interiors (the segments' polygons) behind one
+/// index for many point queries: every ring edge is filed under the 1 m bands of the second
+/// ground axis it spans, so a query reads only the edges of its band. Even-odd over all the
+/// rings is their union, as the interiors do not overlap (an edge two areas share is crossed
+/// twice).
+#[derive(Debug, Clone, Default)]
+pub struct DrivableIndex {
+    y0: f64,
+    bands: Vec<Vec<([f64; 2], [f64; 2])>>,
+}
+
+const BAND_M: f64 = 1.0;
+
+impl DrivableIndex {
+    /// The index of `areas`.
+    pub fn new(areas: &[Drivable]) -> DrivableIndex {
+        let edges: Vec<([f64; 2], [f64; 2])> = areas
+            .iter()
+            .flat_map(|d| &d.rings)
+            .flat_map(|r| (0..r.len()).map(move |i| (r[i], r[(i + 1) % r.len()])))
+            .filter(|(a, b)| a.iter().chain(b).all(|c| c.is_finite()))
+            .collect();
+        let y0 = edges
+            .iter()
+            .map(|(a, b)| a[1].min(b[1]))
+            .fold(f64::INFINITY, f64::min);
+        if !y0.is_finite() {
+            return DrivableIndex::default();
+        }
+        let band = |y: f64| ((y - y0) / BAND_M).floor().max(0.0) as usize;
+        let n = edges
+            .iter()
+            .map(|(a, b)| band(a[1].max(b[1])) + 1)
+            .max()
+            .unwrap_or(0);
+        let mut bands = vec![Vec::new(); n];
+        for (a, b) in edges {
+            let (lo, hi) = (band(a[1].min(b[1])), band(a[1].max(b[1])));
+            for edges in &mut bands[lo..=hi] {
+                edges.push((a, b));
+            }
+        }
+        DrivableIndex { y0, bands }
+    }
+
+    fn band(&self, y: f64) -> Option<&Vec<([f64; 2], [f64; 2])>> {
+        let k = (y - self.y0) / BAND_M;
+        (k >= 0.0)
+            .then(|| self.bands.get(k.floor() as usize))
+            .flatten()
+    }
+
+    /// Whether there is no area.
+    pub fn is_empty(&self) -> bool {
+        self.bands.is_empty()
+    }
+
+    /// Whether `p` lies in one of the areas.
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        let Some(edges) = self.band(p[1]) else {
+            return false;
+        };
+        let mut inside = false;
+        for (a, b) in edges {
+            if (a[1] > p[1]) != (b[1] > p[1]) {
+                let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+                if p[0] < x {
+                    inside = !inside;
+                }
+            }
+        }
+        inside
+    }
+
+    /// Whether `p` lies in one of the areas or within `tolerance_m` of one.
+    pub fn within(&self, p: [f64; 2], tolerance_m: f64) -> bool {
+        if self.contains(p) {
+            return true;
+        }
+        let lo = ((p[1] - tolerance_m - self.y0) / BAND_M).floor().max(0.0) as usize;
+        let hi = ((p[1] + tolerance_m - self.y0) / BAND_M).floor();
+        if hi < 0.0 {
+            return false;
+        }
+        let hi = (hi as usize).min(self.bands.len().saturating_sub(1));
+        (lo..=hi).any(|k| {
+            self.bands.get(k).is_some_and(|edges| {
+                edges.iter().any(|(a, b)| {
+                    let (_, q) = closest_on_segment(p, *a, *b);
+                    (p[0] - q[0]).hypot(p[1] - q[1]) <= tolerance_m
+                })
+            })
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn drivable_outline_of_triangles_with_a_hole() {
+        // a 3 × 3 grid of unit squares, two triangles each, without the middle square
+        let mut tris = Vec::new();
+        for i in 0..3 {
+            for j in 0..3 {
+                if (i, j) == (1, 1) {
+                    continue;
+                }
+                let (x, y) = (f64::from(i), f64::from(j));
+                tris.push([[x, y], [x + 1.0, y], [x + 1.0, y + 1.0]]);
+                tris.push([[x, y], [x + 1.0, y + 1.0], [x, y + 1.0]]);
+            }
+        }
+        let d = Drivable::from_triangles(&tris);
+        assert_eq!(d.rings.len(), 2, "{:?}", d.rings);
+        assert!((d.area_m2() - 8.0).abs() < 1e-9);
+        assert!(d.contains([0.5, 0.5]) && d.contains([2.5, 1.5]));
+        assert!(!d.contains([1.5, 1.5]), "the hole");
+        assert!(!d.contains([3.5, 1.5]));
+        assert!((d.distance([1.5, 1.5]) - 0.5).abs() < 1e-9);
+        assert!((d.distance([5.0, 1.5]) - 2.0).abs() < 1e-9);
+        assert!(d.distance([2.0, 2.0]).abs() < 1e-12);
+        assert!(Drivable::default().distance([0.0, 0.0]).is_infinite());
+        // the index agrees, also over two areas that share an edge
+        let right: Vec<[[f64; 2]; 3]> =
+            tris.iter().map(|t| t.map(|p| [p[0] + 3.0, p[1]])).collect();
+        let both = [d.clone(), Drivable::from_triangles(&right)];
+        let idx = DrivableIndex::new(&both);
+        for k in 0..600 {
+            let p = [
+                f64::from(k % 30) * 0.23 - 0.4,
+                f64::from(k / 30) * 0.19 - 0.3,
+            ];
+            let want = both.iter().any(|a| a.contains(p));
+            assert_eq!(idx.contains(p), want, "{p:?}");
+            let near = both.iter().any(|a| a.distance(p) <= 0.3);
+            assert_eq!(idx.within(p, 0.3), near, "{p:?}");
+        }
+        assert!(
+            DrivableIndex::new(&[]).is_empty() && !DrivableIndex::new(&[]).within([0.0, 0.0], 1.0)
+        );
+    }
 
     #[test]
     fn standing_spots_lie_on_the_area() {

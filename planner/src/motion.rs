@@ -12,11 +12,34 @@ use parry2d::math::{Pose, Vector};
 use parry2d::query::PointQuery;
 use parry2d::shape::{Cuboid, Polyline};
 
+use crate::area::{Drivable, DrivableIndex};
 use crate::error::{Error, Result};
 use crate::ffi::{Checker, bridge};
 use crate::graph::{dist, point_at, polyline_length};
 use crate::route::Route;
 use scene::OrientedBox;
+
+/// The drivable areas of the store's segments (`Segment.polygon`), in node order; segments
+/// without one are left out.
+///
+/// # Errors
+/// The store fails.
+pub fn drivable_of_store(
+    r: &impl graphstore::GraphRead,
+    ground: scene::GroundFrame,
+) -> Result<Vec<Drivable>> {
+    let mut out = Vec::new();
+    for id in r.nodes_with_label("Segment")? {
+        if let Some(d) = r
+            .node_prop(id, "polygon")?
+            .and_then(|v| Drivable::from_property(&v, ground))
+            .filter(|d| !d.is_empty())
+        {
+            out.push(d);
+        }
+    }
+    Ok(out)
+}
 
 /// Motion-planning parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -41,6 +64,9 @@ pub struct MotionConfig {
     pub good_enough_ratio: f64,
     /// OMPL's random seed (set once per process).
     pub seed: u32,
+    /// With drivable areas given ([`plan_path_on`]), a state may be this far outside them
+    /// (the measured areas have small gaps where the LiDAR saw no road).
+    pub drivable_tolerance_m: f64,
 }
 
 impl Default for MotionConfig {
@@ -55,6 +81,7 @@ impl Default for MotionConfig {
             sample_step_m: 0.5,
             good_enough_ratio: 1.25,
             seed: 42,
+            drivable_tolerance_m: 0.5,
         }
     }
 }
@@ -133,6 +160,8 @@ pub struct Validity {
     half_width_m: f64,
     boxes: Vec<(Cuboid, Pose)>,
     bounds: ([f64; 2], [f64; 2]),
+    drivable: DrivableIndex,
+    drivable_tolerance_m: f64,
 }
 
 impl std::fmt::Debug for Validity {
@@ -174,7 +203,18 @@ impl Validity {
                 [lo[0] - half_width_m, lo[1] - half_width_m],
                 [hi[0] + half_width_m, hi[1] + half_width_m],
             ),
+            drivable: DrivableIndex::default(),
+            drivable_tolerance_m: 0.0,
         }
+    }
+
+    /// The same test, also requiring a state to lie within `tolerance_m` of one of the
+    /// `drivable` areas (the segments' road areas measured from the map, their interiors
+    /// disjoint).
+    pub fn within(mut self, drivable: &[Drivable], tolerance_m: f64) -> Validity {
+        self.drivable = DrivableIndex::new(drivable);
+        self.drivable_tolerance_m = tolerance_m;
+        self
     }
 
     /// Distance from `p` to the route's centreline.
@@ -194,6 +234,9 @@ impl Validity {
             return false;
         }
         if self.corridor_distance(p) > self.half_width_m {
+            return false;
+        }
+        if !self.drivable.is_empty() && !self.drivable.within(p, self.drivable_tolerance_m) {
             return false;
         }
         !self
@@ -238,6 +281,17 @@ fn fallback(route: &Route, reason: String) -> MotionPath {
 
 /// Plans a drivable path along `route`, avoiding `obstacles`.
 pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> Result<MotionPath> {
+    plan_path_on(route, obstacles, &[], cfg)
+}
+
+/// [`plan_path`], keeping every state on the `drivable` areas (within
+/// `cfg.drivable_tolerance_m`); none given: the corridor alone.
+pub fn plan_path_on(
+    route: &Route,
+    obstacles: &[Obstacle],
+    drivable: &[Drivable],
+    cfg: &MotionConfig,
+) -> Result<MotionPath> {
     if !(cfg.turning_radius_m > 0.0
         && cfg.corridor_half_width_m > 0.0
         && cfg.chunk_m > 0.0
@@ -280,12 +334,22 @@ pub fn plan_path(route: &Route, obstacles: &[Obstacle], cfg: &MotionConfig) -> R
             "the corridor half-width must exceed {slack} m"
         )));
     }
-    let validity = std::rc::Rc::new(Validity::new(
-        poly,
-        cfg.corridor_half_width_m - slack,
-        obstacles,
-        cfg.obstacle_margin_m + slack,
-    ));
+    if !(cfg.drivable_tolerance_m.is_finite() && cfg.drivable_tolerance_m >= 0.0) {
+        return Err(Error::Invalid(format!(
+            "drivable tolerance {} m must be a non-negative number",
+            cfg.drivable_tolerance_m
+        )));
+    }
+    let validity = std::rc::Rc::new(
+        Validity::new(
+            poly,
+            cfg.corridor_half_width_m - slack,
+            obstacles,
+            cfg.obstacle_margin_m + slack,
+        )
+        // the tolerance shrinks by the same slack, as far as it goes
+        .within(drivable, (cfg.drivable_tolerance_m - slack).max(0.0)),
+    );
     // waypoints every chunk_m, moved forward along the route while they are not valid states
     let n_chunks = (total / cfg.chunk_m).ceil().max(1.0) as usize;
     let mut marks = vec![0.0];

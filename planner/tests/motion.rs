@@ -282,3 +282,51 @@ fn an_oriented_obstacle_blocks_only_its_footprint() {
     assert!(v.is_valid([17.0, 2.5]));
     assert!(fence.min[0] < 17.0 && fence.max[1] > 2.5);
 }
+
+#[test]
+fn a_path_keeps_to_the_drivable_area() {
+    // a 100 m road along x whose drivable area is only its upper half (y in 0..4) with a
+    // 1 m-wide gap at x = 50: the corridor alone would allow y < 0 and the gap
+    let half = |x0: f64, x1: f64| {
+        vec![
+            [[x0, 0.0], [x1, 0.0], [x1, 4.0]],
+            [[x0, 0.0], [x1, 4.0], [x0, 4.0]],
+        ]
+    };
+    let mut tris = half(-5.0, 49.5);
+    tris.extend(half(50.5, 105.0));
+    let area = planner::area::Drivable::from_triangles(&tris);
+    let v = Validity::new(&[[0.0, 2.0], [100.0, 2.0]], 6.0, &[], 0.0).within(&[area], 0.2);
+    assert!(v.is_valid([20.0, 2.0]) && v.is_valid([20.0, -0.1]));
+    assert!(
+        !v.is_valid([20.0, -1.0]),
+        "outside the area, inside the corridor"
+    );
+    assert!(!v.is_valid([50.0, 2.0]), "in the gap");
+    assert!(Validity::new(&[[0.0, 2.0], [100.0, 2.0]], 6.0, &[], 0.0).is_valid([20.0, -1.0]));
+    // planned over the whole area: every pose stays on it; across the gap: the fallback
+    let g = l_graph();
+    let route = astar(
+        &g,
+        snap(&g, [5.0, 0.0], 5.0).unwrap(),
+        snap(&g, [95.0, 0.0], 5.0).unwrap(),
+    )
+    .unwrap();
+    let cfg = MotionConfig {
+        budget_ms: 3000.0,
+        ..MotionConfig::default()
+    };
+    let whole = planner::area::Drivable::from_triangles(&[
+        [[-5.0, -3.0], [105.0, -3.0], [105.0, 1.5]],
+        [[-5.0, -3.0], [105.0, 1.5], [-5.0, 1.5]],
+    ]);
+    let path =
+        planner::motion::plan_path_on(&route, &[], std::slice::from_ref(&whole), &cfg).unwrap();
+    assert!(!path.fallback, "{:?}", path.warning);
+    for p in &path.poses {
+        assert!(
+            whole.distance([p[0], p[1]]) <= cfg.drivable_tolerance_m + 1e-6,
+            "{p:?}"
+        );
+    }
+}

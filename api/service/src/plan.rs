@@ -54,6 +54,9 @@ pub struct PlanAnswer {
     pub path: MotionPath,
     /// Instances whose boxes block the corridor.
     pub blocking: usize,
+    /// Segments whose drivable area (measured from the map) the path was kept on; 0 when
+    /// the map has none and the corridor alone bounded it.
+    pub drivable_segments: usize,
     /// Milliseconds: routing, and everything.
     pub timings_ms: [f64; 2],
 }
@@ -80,7 +83,8 @@ pub fn plan(
     let t_route = t0.elapsed().as_secs_f64() * 1e3;
     let cfg = opts.motion();
     let obstacles = planner::motion::blocking_instances(r, ground, &route, opts.corridor_m)?;
-    let path = planner::plan_path(&route, &obstacles, &cfg)?;
+    let drivable = planner::motion::drivable_of_store(r, ground)?;
+    let path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &cfg)?;
     if let Some(p) = &opts.png {
         let all = planner::render::instance_footprints(r, ground)?;
         let markers = [(from_t.xy, (20, 170, 40)), (to_t.xy, (220, 30, 30))];
@@ -92,6 +96,7 @@ pub fn plan(
         route,
         path,
         blocking: obstacles.len(),
+        drivable_segments: drivable.len(),
         timings_ms: [t_route, t0.elapsed().as_secs_f64() * 1e3],
     })
 }
@@ -149,6 +154,7 @@ pub fn plan_on_av2(
         route,
         path,
         blocking: 0,
+        drivable_segments: 0,
         timings_ms: [t_route, t0.elapsed().as_secs_f64() * 1e3],
     })
 }

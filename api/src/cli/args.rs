@@ -599,6 +599,20 @@ pub(crate) enum EvalCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Road areas against the simulator's roads (carriageways and parking lanes): per segment,
+    /// the area IoU of its trajectory disc or corridor ("before") and of its drivable polygon
+    /// measured from the map ("after") with the true drivable ground that belongs to it.
+    Roads {
+        /// The store file (built from the simulator's detections).
+        #[arg(long)]
+        db: PathBuf,
+        /// The simulator's output folder (with ground_truth/roads.json).
+        #[arg(long)]
+        sim: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Per-class IoU, mean IoU and macro F1 of the map against SemanticKITTI labels.
     Semseg {
         /// The store file.

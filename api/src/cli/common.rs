@@ -92,7 +92,7 @@ pub(crate) fn print_plan(
         how(resolved.map(|r| r.1))
     );
     outln!(
-        "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes)",
+        "route: {} nodes, {:.1} m ({:.1} ms)\npath: {} poses, {:.1} m by {} ({:.1} ms in all, {} blocking boxes, {})",
         p.route.nodes.len(),
         p.route.length_m,
         p.timings_ms[0],
@@ -100,7 +100,12 @@ pub(crate) fn print_plan(
         p.path.length_m,
         p.path.planner,
         p.timings_ms[1],
-        p.blocking
+        p.blocking,
+        if p.drivable_segments > 0 {
+            format!("on the drivable areas of {} segments", p.drivable_segments)
+        } else {
+            "corridor only: the map has no drivable areas".to_string()
+        }
     );
     Ok(())
 }

@@ -329,6 +329,51 @@ pub(crate) fn instances(cmd: Command) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `opengraph eval roads`.
+pub(crate) fn roads(cmd: Command) -> anyhow::Result<()> {
+    let Command::Eval {
+        what: EvalCommand::Roads { db, sim, json },
+    } = cmd
+    else {
+        unreachable!("run dispatches only Command::Eval here")
+    };
+    let store = open_read(&db)?;
+    let gap = ingest::hierarchy::drivable::DrivableConfig::default().max_gap_m;
+    let r = ingest::eval_roads::eval_roads(&store.read()?, &sim, gap)?;
+    if json {
+        outln!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        outln!(
+            "road areas of {} segments against the simulator's roads ({} m raster)",
+            r.segments.len(),
+            ingest::eval_roads::CELL_M
+        );
+        outln!("segment  kind               truth m²  IoU before  IoU after  polygon m²");
+        for s in &r.segments {
+            outln!(
+                "{:>7}  {:<17} {:>9.0}  {:>10.3}  {:>9.3}  {:>10.0}",
+                s.segment_id,
+                s.kind,
+                s.truth_m2,
+                s.iou_before,
+                s.iou_after,
+                s.polygon_m2
+            );
+        }
+        outln!(
+            "mean IoU over segments with true area: before {:.3}, after {:.3}",
+            r.mean_iou_before,
+            r.mean_iou_after
+        );
+        outln!(
+            "IoU of all segments together: before {:.3}, after {:.3}",
+            r.total_iou_before,
+            r.total_iou_after
+        );
+    }
+    Ok(())
+}
+
 /// `opengraph eval captions`.
 pub(crate) fn captions(cmd: Command) -> anyhow::Result<()> {
     let Command::Eval {

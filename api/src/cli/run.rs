@@ -46,6 +46,9 @@ pub(crate) fn run(cli: Cli) -> anyhow::Result<()> {
         cmd @ Command::Eval {
             what: EvalCommand::Captions { .. },
         } => eval::captions(cmd)?,
+        cmd @ Command::Eval {
+            what: EvalCommand::Roads { .. },
+        } => eval::roads(cmd)?,
         cmd @ Command::Init { .. } => init::run(cmd)?,
         cmd @ Command::Demo { .. } => demo::run(cmd)?,
     }

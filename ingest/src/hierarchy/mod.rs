@@ -1,5 +1,6 @@
 //! The paper's third module: lane graph, segments, environment and instance relations.
 
+pub mod drivable;
 pub mod lanes;
 pub mod relations;
 pub mod render;

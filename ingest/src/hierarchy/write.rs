@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use graphstore::{GraphRead, Store, Value, WriteTxn};
 
+use super::drivable::{Drivable, DrivableConfig};
 use super::lanes::{LaneConfig, LaneGraph, LaneNodeKind, extract_lanes};
 use super::relations::{RelationConfig, infer_relations, read_instance_box};
 use super::segments::{SegmentArea, SegmentConfig, Segments, build_segments};
@@ -22,6 +23,8 @@ pub struct HierarchyConfig {
     pub segments: SegmentConfig,
     /// Instance relations.
     pub relations: RelationConfig,
+    /// Road areas measured from the map.
+    pub drivable: DrivableConfig,
 }
 
 impl HierarchyConfig {
@@ -46,6 +49,8 @@ impl HierarchyConfig {
             ("relations.candidate_m", r.candidate_m),
             ("relations.near_m", r.near_m),
             ("relations.inside_fraction", r.inside_fraction),
+            ("drivable.cell_m", self.drivable.cell_m),
+            ("drivable.alpha_m", self.drivable.alpha_m),
         ];
         for (k, v) in positive {
             if !(v.is_finite() && v > 0.0 && v < 1e6) {
@@ -57,6 +62,7 @@ impl HierarchyConfig {
         for (k, v) in [
             ("relations.next_to_m", r.next_to_m),
             ("relations.on_tolerance_m", r.on_tolerance_m),
+            ("drivable.max_gap_m", self.drivable.max_gap_m),
         ] {
             if !(v.is_finite() && (0.0..1e6).contains(&v)) {
                 return Err(Error::Invalid(format!(
@@ -122,6 +128,8 @@ pub struct HierarchyReport {
     pub segments: BTreeMap<String, usize>,
     /// Instances linked to a segment.
     pub instances_linked: usize,
+    /// Drivable area measured over all segments, square metres.
+    pub drivable_m2: f64,
     /// Geometric relations per label.
     pub relations: BTreeMap<String, usize>,
 }
@@ -198,6 +206,17 @@ pub fn build_hierarchy(
     Ok((lanes, segs, report))
 }
 
+/// The `Segment.polygon` property of a drivable area: a list of rings, each a list of
+/// points (`world(g)` of each ground vertex).
+pub fn polygon_value(area: &Drivable, world: impl Fn([f64; 2]) -> Value) -> Value {
+    Value::List(
+        area.rings
+            .iter()
+            .map(|r| Value::List(r.iter().map(|g| world(*g)).collect()))
+            .collect(),
+    )
+}
+
 fn into_store(e: Error) -> graphstore::Error {
     match e {
         Error::Store(s) => s,
@@ -246,8 +265,9 @@ fn write_all(
             ("ground_frame", frame_name.into()),
         ],
     )?;
+    let drivable = super::drivable::measure(&*tx, frame, segs, &cfg.drivable)?;
     let mut seg_ids = Vec::with_capacity(segs.segments.len());
-    for s in &segs.segments {
+    for (s, area) in segs.segments.iter().zip(&drivable) {
         let h = heights.at(s.centroid);
         let mut props: Vec<(&str, Value)> = vec![
             ("segment_id", Value::Int(s.id as i64)),
@@ -276,6 +296,11 @@ fn write_all(
                 let (lo, hi) = bounds(centreline, *half_width_m);
                 props.push(("bbox", world_box(frame, lo, hi, h - 3.0, h + 3.0)));
             }
+        }
+        if !area.is_empty() {
+            props.push(("polygon", polygon_value(area, p3)));
+            props.push(("drivable_area_m2", Value::Float(area.area_m2())));
+            report.drivable_m2 += area.area_m2();
         }
         let id = tx.create_node_named(&["Segment"], &props)?;
         tx.create_rel_named(env, "CONTAINS", id, &[])?;
@@ -354,7 +379,15 @@ fn write_all(
         };
         boxes.push(b);
         let c = frame.ground(b.centre());
-        if let Some((sid, d)) = segs.nearest(c) {
+        let nearest = segs
+            .segments
+            .iter()
+            .map(|s| {
+                let d = planner::area::membership_distance(&s.area, Some(&drivable[s.id]), c);
+                (s.id, d)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        if let Some((sid, d)) = nearest {
             tx.create_rel_named(
                 id,
                 "IN_SEGMENT",

@@ -204,7 +204,7 @@ pub fn generate(
     )?;
     write(
         &out.join("ground_truth/roads.json"),
-        &json_bytes(&scene.net.to_json())?,
+        &json_bytes(&scene.roads_json())?,
     )?;
 
     let n = cfg

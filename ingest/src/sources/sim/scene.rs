@@ -1259,6 +1259,21 @@ fn surface_at(grid: &SegmentGrid, net: &RoadNetwork, sides: &[RoadSides], p: [f6
 }
 
 impl Scene {
+    /// `ground_truth/roads.json`: the network's junctions and roads
+    /// ([`RoadNetwork::to_json`]), each road with its parking lanes, `parking`
+    /// `[right, left]` of its `from → to` direction (right of a direction `d` in KITTI's
+    /// ground plane is `(d.z, -d.x)`), each `parking_width_m` wide beyond the carriageway.
+    pub fn roads_json(&self) -> serde_json::Value {
+        let mut v = self.net.to_json();
+        if let Some(roads) = v["roads"].as_array_mut() {
+            for (r, s) in roads.iter_mut().zip(&self.sides) {
+                r["parking"] = serde_json::json!(s.parking);
+                r["parking_width_m"] = serde_json::json!(PARKING_M);
+            }
+        }
+        v
+    }
+
     /// Places objects along every road of `net`. Deterministic for a seed.
     pub fn generate(net: RoadNetwork, seed: u64, cfg: &SceneConfig) -> Scene {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x00B1_EC75);
