@@ -225,3 +225,70 @@ fn build_frames_take_the_scans_in_the_range() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn moving_objects_are_filtered_and_leave_fewer_ghosts() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    json(&og(&[
+        "sim",
+        "--out",
+        s(&sim),
+        "--frames",
+        "80",
+        "--moving-cars",
+        "15",
+        "--walkers",
+        "25",
+        "--no-noise",
+        "--json",
+    ]));
+    let movers = std::fs::read_to_string(sim.join("ground_truth/movers.json")).unwrap();
+    let movers: serde_json::Value = serde_json::from_str(&movers).unwrap();
+    assert_eq!(movers["movers"].as_array().unwrap().len(), 40);
+    let off_cfg = dir.path().join("off.toml");
+    std::fs::write(&off_cfg, "[dynamic]\nenabled = false\n").unwrap();
+    let dets = sim.join("detections");
+    let build = |db: &std::path::Path, extra: &[&str]| {
+        let mut a = vec![
+            "build",
+            "--kitti",
+            s(&sim),
+            "--detections",
+            s(&dets),
+            "--db",
+            s(db),
+            "--embedder",
+            "hash",
+            "--json",
+        ];
+        a.extend_from_slice(extra);
+        json(&og(&a))
+    };
+    let (on, off) = (dir.path().join("on.og"), dir.path().join("off.og"));
+    let r_off = build(&off, &["--config", s(&off_cfg)]);
+    assert_eq!(r_off["dynamic"]["filter"], "off", "{}", r_off["dynamic"]);
+    let r = build(&on, &[]);
+    let d = &r["dynamic"];
+    let share = |a: &str, b: &str| d[a].as_f64().unwrap() / d[b].as_f64().unwrap().max(1.0);
+    assert!(d["moving_points"].as_u64().unwrap() > 1000, "{d}");
+    assert!(share("moving_removed", "moving_points") >= 0.25, "{d}");
+    assert!(share("static_removed", "static_points") <= 0.002, "{d}");
+    let ghosts = |db: &std::path::Path| {
+        let e = json(&og(&[
+            "eval",
+            "instances",
+            "--db",
+            s(db),
+            "--sim",
+            s(&sim),
+            "--json",
+        ]));
+        e["ghosts"].as_u64().unwrap()
+    };
+    let (g_on, g_off) = (ghosts(&on), ghosts(&off));
+    assert!(
+        g_on * 2 <= g_off,
+        "ghosts with the filter {g_on}, without {g_off}"
+    );
+}

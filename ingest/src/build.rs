@@ -33,6 +33,8 @@ pub struct BuildConfig {
     pub oracle: OracleConfig,
     /// Hierarchy (lanes, segments, relations).
     pub hierarchy: HierarchyConfig,
+    /// The dynamic-point filter before projection.
+    pub dynamic: crate::mapping::dynamic::DynamicConfig,
     /// The language model for the caption merge after mapping (`[llm]`: backend `local`,
     /// `openai` or `none`, the default). Not part of the build's resume arguments: the merge
     /// is its own resumable pass ([`crate::llm::merge_captions`]).
@@ -62,6 +64,7 @@ impl BuildConfig {
             .validate()
             .and_then(|()| cfg.hierarchy.validate())
             .and_then(|()| cfg.oracle.validate())
+            .and_then(|()| cfg.dynamic.validate())
             .map_err(|e| Error::File {
                 path: path.to_path_buf(),
                 detail: e.to_string(),
@@ -301,6 +304,8 @@ pub struct BuildReport {
     pub detections_dropped: usize,
     /// NaN/inf points dropped from scans by this run.
     pub nonfinite_points: u64,
+    /// The dynamic-point filter of this run.
+    pub dynamic: crate::mapping::dynamic::DynamicReport,
     /// Instances per class in the final map.
     pub instances_per_class: BTreeMap<String, usize>,
     /// Mean milliseconds per key frame for each stage of this run.
@@ -666,6 +671,82 @@ pub fn obb_value(b: &scene::OrientedBox) -> Value {
     Value::List(b.to_values().into_iter().map(Value::Float).collect())
 }
 
+/// The scans nearest to `i` in the sequence, up to `window` on each side within 50 poses
+/// (a simulator's sequence has scans at its sensor frames only).
+fn neighbour_scans(seq: &Sequence, i: u32, window: u32) -> Vec<u32> {
+    const REACH: u32 = 50;
+    let mut out = Vec::new();
+    let before = (i.saturating_sub(REACH)..i)
+        .rev()
+        .filter(|j| seq.scan_path(*j).exists())
+        .take(window as usize);
+    out.extend(before);
+    let last = (seq.poses.len() as u32).saturating_sub(1);
+    let after = (i + 1..=(i + REACH).min(last))
+        .filter(|j| seq.scan_path(*j).exists())
+        .take(window as usize);
+    out.extend(after);
+    out.sort_unstable();
+    out
+}
+
+/// The key scan `i` without its dynamic points ([`crate::mapping::dynamic`]); range images
+/// of the neighbours are kept in `images` for the next key frames. Counts go to `rep`, and,
+/// where the scan has SemanticKITTI labels, against its moving classes.
+fn remove_dynamic(
+    seq: &Sequence,
+    i: u32,
+    scan: &Scan,
+    cfg: &crate::mapping::dynamic::DynamicConfig,
+    images: &mut BTreeMap<u32, crate::mapping::dynamic::RangeImage>,
+    rep: &mut crate::mapping::dynamic::DynamicReport,
+) -> Result<Scan> {
+    use crate::mapping::dynamic::{RangeImage, dynamic_mask, is_moving_label};
+    let near = neighbour_scans(seq, i, cfg.window);
+    images.retain(|j, _| near.contains(j));
+    for &j in &near {
+        if let std::collections::btree_map::Entry::Vacant(e) = images.entry(j) {
+            let s = kitti::read_scan(&seq.scan_path(j))?;
+            e.insert(RangeImage::new(
+                &s.points,
+                &seq.world_from_velo(j),
+                cfg.bin_deg,
+                cfg.spread_bins,
+            ));
+        }
+    }
+    let refs: Vec<&RangeImage> = near.iter().filter_map(|j| images.get(j)).collect();
+    let mask = dynamic_mask(&scan.points, &seq.world_from_velo(i), &refs, cfg);
+    rep.points += scan.points.len() as u64;
+    rep.removed += mask.iter().filter(|m| **m).count() as u64;
+    let lp = seq.label_path(i);
+    if lp.exists()
+        && let Ok(labels) = kitti::read_labels(&lp, scan.points.len())
+    {
+        for (l, m) in labels.iter().zip(&mask) {
+            if l.semantic == 0 {
+                continue;
+            }
+            if is_moving_label(l.semantic) {
+                rep.moving_points += 1;
+                rep.moving_removed += u64::from(*m);
+            } else {
+                rep.static_points += 1;
+                rep.static_removed += u64::from(*m);
+            }
+        }
+    }
+    Ok(Scan {
+        points: scan
+            .points
+            .iter()
+            .zip(&mask)
+            .filter(|(_, m)| !**m)
+            .map(|(p, _)| *p)
+            .collect(),
+    })
+}
+
 struct FrameRecord {
     index: u32,
     world_from_velo: Rigid3,
@@ -890,6 +971,7 @@ pub fn build(
 ) -> Result<BuildReport> {
     let cfg = &args.config;
     cfg.mapping.validate()?;
+    cfg.dynamic.validate()?;
     let seq = Sequence::open(&args.sequence, args.poses.as_deref())?;
     let frames = key_frames(&seq, &args.source, args.frames.as_ref(), args.stride)?;
     let args_json = serde_json::json!({
@@ -1021,16 +1103,40 @@ pub fn build(
     });
     let mut times = StageTimes::default();
     let (mut t_load, mut t_oracle, mut t_embed, mut t_commit) = (0.0, 0.0, 0.0, 0.0);
+    let mut t_dynamic = 0.0;
+    let mut images: BTreeMap<u32, crate::mapping::dynamic::RangeImage> = BTreeMap::new();
+    report.dynamic.filter = if cfg.dynamic.enabled {
+        format!(
+            "free-space carving (window {}, votes {})",
+            cfg.dynamic.window, cfg.dynamic.min_votes
+        )
+    } else {
+        "off".into()
+    };
     let mut pending: Vec<FrameRecord> = Vec::new();
     let since = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
     // commits fall on the same frames whether or not the build was interrupted
     for (pos, &i) in frames.iter().enumerate().skip(first) {
         let t = Instant::now();
         let scan = kitti::read_scan(&seq.scan_path(i))?;
+        let t_dyn = Instant::now();
+        let kept = if cfg.dynamic.enabled {
+            remove_dynamic(
+                &seq,
+                i,
+                &scan,
+                &cfg.dynamic,
+                &mut images,
+                &mut report.dynamic,
+            )?
+        } else {
+            scan.clone()
+        };
+        t_dynamic += since(t_dyn);
         let points = load_points(
             &seq,
             i,
-            &scan,
+            &kept,
             cfg.mapping.accumulate,
             &mut report.nonfinite_points,
         )?;
@@ -1167,6 +1273,7 @@ pub fn build(
     for (k, v) in [
         ("load", t_load),
         ("oracle", t_oracle),
+        ("dynamic", t_dynamic),
         ("embed", t_embed),
         ("project", times.project_ms),
         ("denoise", times.denoise_ms),

@@ -64,6 +64,64 @@ pub struct InstanceEval {
     pub precision_per_class: BTreeMap<String, ClassCounts>,
     /// Surface tiles in the map (not evaluated).
     pub surface_tiles: usize,
+    /// With moving objects in the simulation (`ground_truth/movers.json`): unmatched
+    /// instances whose footprint centre lies within [`GHOST_M`] of a line a mover drives or
+    /// walks: the trails moving objects leave in a map. `None` without movers.
+    pub ghosts: Option<usize>,
+}
+
+/// How near a mover's line an unmatched instance counts as its ghost, metres.
+pub const GHOST_M: f64 = 1.5;
+
+/// The lines the simulator's movers keep to (ground plane), from `movers.json`: a car's
+/// two lanes (it keeps right both ways), a walker's sidewalk. Empty without the file.
+fn mover_lines(sim_dir: &Path) -> Result<Option<Vec<Vec<[f64; 2]>>>> {
+    let path = sim_dir.join("ground_truth/movers.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text = crate::error::read_text(&path)?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| crate::Error::File {
+        path: path.clone(),
+        detail: format!("invalid JSON: {e}"),
+    })?;
+    let Some(movers) = v["movers"].as_array() else {
+        return Ok(None);
+    };
+    let mut out = Vec::new();
+    for m in movers {
+        let line: Vec<[f64; 2]> = m["path"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|p| Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?]))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let off = m["offset_m"].as_f64().unwrap_or(0.0) * m["side"].as_f64().unwrap_or(1.0);
+        let sides: &[f64] = if m["class"] == "car" {
+            &[1.0, -1.0]
+        } else {
+            &[1.0]
+        };
+        for s in sides {
+            out.push(offset_line(&line, off * s));
+        }
+    }
+    Ok((!out.is_empty()).then_some(out))
+}
+
+/// `line` moved sideways by `d` metres (to the right of its direction in KITTI's ground
+/// plane, `(d.z, -d.x)`, for positive `d`), vertex by vertex.
+fn offset_line(line: &[[f64; 2]], d: f64) -> Vec<[f64; 2]> {
+    (0..line.len())
+        .map(|i| {
+            let (a, b) = (line[i.saturating_sub(1)], line[(i + 1).min(line.len() - 1)]);
+            let (dx, dz) = (b[0] - a[0], b[1] - a[1]);
+            let n = dx.hypot(dz).max(1e-9);
+            [line[i][0] + dz / n * d, line[i][1] - dx / n * d]
+        })
+        .collect()
 }
 
 /// IoU of two rectangles (corners in order, either winding) on the ground plane; 0 for
@@ -166,6 +224,29 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
     out.instances = feet.len();
     let matches = match_greedy(&feet, &truth);
     out.matched = matches.len();
+    if let Some(lines) = mover_lines(sim_dir)? {
+        let mut matched = vec![false; feet.len()];
+        for (i, _) in &matches {
+            matched[*i] = true;
+        }
+        let near_line = |c: [f64; 2]| {
+            lines.iter().any(|l| {
+                l.windows(2).any(|w| {
+                    let (_, q) = planner::closest_on_segment(c, w[0], w[1]);
+                    (c[0] - q[0]).hypot(c[1] - q[1]) <= GHOST_M
+                })
+            })
+        };
+        out.ghosts = Some(
+            feet.iter()
+                .zip(&matched)
+                .filter(|(f, m)| {
+                    let c = [(f[0][0] + f[2][0]) / 2.0, (f[0][1] + f[2][1]) / 2.0];
+                    !**m && near_line(c)
+                })
+                .count(),
+        );
+    }
     for t in &truth {
         out.recall_per_class
             .entry(t.class.clone())
@@ -247,6 +328,16 @@ mod tests {
         let big = rect(0.0, 0.0, 3.0, 2.0);
         assert!((footprint_iou(&widen(&big, 1.0), &big) - 1.0).abs() < 1e-9);
         assert!((area(&widen(&big, 1.0)) - 6.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn mover_lines_are_offset_to_the_right() {
+        // going +z, right is +x in KITTI's ground plane
+        let l = offset_line(&[[0.0, 0.0], [0.0, 10.0]], 2.0);
+        assert!((l[0][0] - 2.0).abs() < 1e-12 && (l[1][0] - 2.0).abs() < 1e-12);
+        assert!((l[1][1] - 10.0).abs() < 1e-12);
+        let l = offset_line(&[[0.0, 0.0], [0.0, 10.0]], -2.0);
+        assert!((l[0][0] + 2.0).abs() < 1e-12);
     }
 
     #[test]

@@ -232,6 +232,13 @@ pub(crate) enum Command {
         /// No detection noise at all (overrides the five options above).
         #[arg(long)]
         no_noise: bool,
+        /// Cars driving to and fro along the roads (their LiDAR points are labelled
+        /// moving-car, 252), 0..5000.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=5000))]
+        moving_cars: u32,
+        /// People walking to and fro along the sidewalks (moving-person, 254), 0..5000.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=5000))]
+        walkers: u32,
         /// Worker threads (the output does not depend on it); default: all cores.
         #[arg(long)]
         threads: Option<usize>,

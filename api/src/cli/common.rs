@@ -460,6 +460,26 @@ pub(crate) fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>
         r.post.merged.len(),
         r.post.denoised_points
     );
+    let d = &r.dynamic;
+    let mut line = format!("dynamic points: {}", d.filter);
+    if d.points > 0 {
+        line.push_str(&format!(
+            ": removed {} of {} key-scan points ({:.2} %)",
+            d.removed,
+            d.points,
+            100.0 * d.removed as f64 / d.points as f64
+        ));
+    }
+    if d.moving_points + d.static_points > 0 {
+        line.push_str(&format!(
+            "; against the labels: {:.1} % of {} moving points and {:.2} % of {} static points removed",
+            100.0 * d.moving_share(),
+            d.moving_points,
+            100.0 * d.static_share(),
+            d.static_points
+        ));
+    }
+    let _ = writeln!(s, "{line}");
     let stages: Vec<String> = r
         .ms_per_frame
         .iter()

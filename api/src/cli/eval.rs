@@ -317,6 +317,12 @@ pub(crate) fn instances(cmd: Command) -> anyhow::Result<()> {
             r.precision,
             r.recall
         );
+        if let Some(g) = r.ghosts {
+            outln!(
+                "ghost instances (unmatched, within {} m of a mover's line): {g}",
+                ingest::eval_instances::GHOST_M
+            );
+        }
         outln!("recall per true class:");
         for (c, k) in &r.recall_per_class {
             outln!("  {c:<18} {:>4}/{:<4} {:.3}", k.matched, k.total, k.share);

@@ -18,6 +18,8 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         wrong_attribute_rate,
         mask_noise_px,
         no_noise,
+        moving_cars,
+        walkers,
         threads,
         json,
     } = cmd
@@ -44,6 +46,10 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
                 wrong_attribute_rate,
                 mask_noise_px,
             }
+        },
+        movers: ingest::sources::sim::movers::MoverConfig {
+            cars: moving_cars as usize,
+            walkers: walkers as usize,
         },
         ..SimConfig::default()
     };

@@ -3,6 +3,7 @@
 //! The build driver ([`crate::build`]) feeds it frames and writes it into the store.
 
 pub mod associate;
+pub mod dynamic;
 mod fusion;
 pub mod geometry;
 pub mod project;

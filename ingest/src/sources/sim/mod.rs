@@ -6,6 +6,7 @@
 //! the ground-truth junction kind for 39 of 44 junctions (seeds 0-3, small); it misses some
 //! grid corners (L-bends) driven twice in the same direction, and one T-junction.
 
+pub mod movers;
 pub mod roads;
 pub mod scene;
 pub mod sensors;
@@ -46,6 +47,8 @@ pub struct SimConfig {
     pub camera: CameraConfig,
     /// Detection noise.
     pub noise: DetectionNoise,
+    /// Moving traffic and walking people.
+    pub movers: movers::MoverConfig,
     /// Worker threads (output does not depend on it).
     pub threads: usize,
 }
@@ -59,6 +62,7 @@ impl Default for SimConfig {
             lidar: LidarConfig::default(),
             camera: CameraConfig::default(),
             noise: DetectionNoise::default(),
+            movers: movers::MoverConfig::default(),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
         }
     }
@@ -175,7 +179,8 @@ pub fn generate(
     if samples.is_empty() {
         return Err(Error::Invalid("the drive is empty".into()));
     }
-    let scene = Scene::generate(net, cfg.seed, &SceneConfig::default());
+    let scene =
+        Scene::generate(net, cfg.seed, &SceneConfig::default()).with_movers(&cfg.movers, cfg.seed);
     let scene_secs = t0.elapsed().as_secs_f64();
 
     for d in ["velodyne", "labels", "detections", "ground_truth"] {
@@ -201,6 +206,13 @@ pub fn generate(
     write(
         &out.join("ground_truth/objects.json"),
         &json_bytes(&scene.objects_json())?,
+    )?;
+    write(
+        &out.join("ground_truth/movers.json"),
+        &json_bytes(&json!({
+            "frame": "kitti_cam ground plane: [x, z] in metres; time is frame / 10 Hz",
+            "movers": scene.movers.iter().map(|m| m.to_json()).collect::<Vec<_>>(),
+        }))?,
     )?;
     write(
         &out.join("ground_truth/roads.json"),
@@ -299,6 +311,7 @@ pub fn generate(
             "max_detection_m": cfg.camera.max_detection_m, "min_pixels": cfg.camera.min_pixels,
         },
         "noise": cfg.noise,
+        "movers": cfg.movers,
         "objects": report.objects,
         "junctions": report.junctions,
     });
@@ -318,7 +331,8 @@ fn sensor_frame(
 ) -> Result<(u32, u64, usize, usize, String)> {
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(0x9E37_79B9) ^ u64::from(f));
     let world_from_velo = world_from_cam0 * calib.cam0_from_velo;
-    let scan = sensors::lidar_scan(scene, &world_from_velo, &cfg.lidar, &mut rng);
+    let movers = scene.movers_at(f64::from(f) / POSE_HZ);
+    let scan = sensors::lidar_scan(scene, &movers, &world_from_velo, &cfg.lidar, &mut rng);
     let mut bin = Vec::with_capacity(scan.points.len() * 16);
     for p in &scan.points {
         for v in p {
@@ -331,7 +345,7 @@ fn sensor_frame(
         lab.extend_from_slice(&l.to_le_bytes());
     }
     write(&out.join(format!("labels/{f:06}.label")), &lab)?;
-    let img = sensors::render(scene, calib, world_from_cam0, &cfg.camera);
+    let img = sensors::render(scene, &movers, calib, world_from_cam0, &cfg.camera);
     let det = sensors::detect(scene, f, &img, &cfg.camera, &cfg.noise, &mut rng)?;
     write_detections(&out.join(format!("detections/{f:06}.json")), &det.frame)?;
     let line = serde_json::to_string(&json!({

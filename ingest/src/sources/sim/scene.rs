@@ -631,6 +631,8 @@ pub enum Hit {
     Ground(Surface),
     /// An object (index into [`Scene::objects`]).
     Object(u32),
+    /// A moving object (index into [`Scene::movers`]).
+    Mover(u32),
 }
 
 /// The scene: roads, surfaces, objects and their BVH.
@@ -642,6 +644,8 @@ pub struct Scene {
     pub sides: Vec<RoadSides>,
     /// Objects; `objects[i].id == i + 1`.
     pub objects: Vec<SimObject>,
+    /// Moving objects (not in the BVH: their boxes move).
+    pub movers: Vec<super::movers::Mover>,
     /// Every primitive (BVH leaf `i` is `prims[i]`).
     pub prims: Vec<Prim>,
     bvh: Bvh,
@@ -1313,10 +1317,53 @@ impl Scene {
             net,
             sides,
             objects,
+            movers: Vec::new(),
             prims,
             bvh,
             grid,
         }
+    }
+
+    /// The same scene with moving traffic and walking people ([`super::movers::place`]).
+    pub fn with_movers(mut self, cfg: &super::movers::MoverConfig, seed: u64) -> Scene {
+        self.movers = super::movers::place(&self.net, &self.sides, cfg, seed);
+        self
+    }
+
+    /// What instance `id` is: its kind and attributes (static objects and movers).
+    pub fn describe(&self, id: u32) -> Option<(Kind, &Attributes)> {
+        if id >= super::movers::MOVER_ID_BASE {
+            let m = self
+                .movers
+                .get((id - super::movers::MOVER_ID_BASE) as usize)?;
+            Some((m.kind, &m.attributes))
+        } else {
+            let o = self.objects.get((id as usize).checked_sub(1)?)?;
+            Some((o.kind, &o.attributes))
+        }
+    }
+
+    /// The movers' boxes at `t_secs`, in mover order (for [`Scene::cast_among`]).
+    pub fn movers_at(&self, t_secs: f64) -> Vec<super::movers::MoverBox> {
+        self.movers.iter().map(|m| m.box_at(t_secs)).collect()
+    }
+
+    /// [`Scene::cast`] with the movers' boxes of one time ([`Scene::movers_at`]) too.
+    pub fn cast_among(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        max_m: f32,
+        movers: &[super::movers::MoverBox],
+    ) -> Option<(f32, Hit)> {
+        let mut best = self.cast(origin, dir, max_m);
+        for (k, m) in movers.iter().enumerate() {
+            let limit = best.map_or(max_m, |b| b.0);
+            if let Some(t) = m.cast(origin, dir, limit) {
+                best = Some((t, Hit::Mover(k as u32)));
+            }
+        }
+        best
     }
 
     /// What the ground is at `[x, z]`.

@@ -190,6 +190,7 @@ pub struct LidarScan {
 /// Casts every beam at every azimuth from `world_from_velo`.
 pub fn lidar_scan(
     scene: &Scene,
+    movers: &[super::movers::MoverBox],
     world_from_velo: &Rigid3,
     cfg: &LidarConfig,
     rng: &mut ChaCha8Rng,
@@ -212,7 +213,8 @@ pub fn lidar_scan(
             let d_velo = [ce * ca, ce * sa, se];
             let d_world =
                 f32x3((world_from_velo.rotation * nalgebra::Vector3::from(d_velo)).into());
-            let Some((t, hit)) = scene.cast(origin, d_world, cfg.max_range_m as f32) else {
+            let Some((t, hit)) = scene.cast_among(origin, d_world, cfg.max_range_m as f32, movers)
+            else {
                 continue;
             };
             let r = (f64::from(t) + gaussian(rng) * cfg.range_noise_m).max(0.0);
@@ -221,6 +223,10 @@ pub fn lidar_scan(
                 Hit::Object(i) => {
                     let o = &scene.objects[i as usize];
                     (o.id << 16) | u32::from(o.kind.semantic())
+                }
+                Hit::Mover(i) => {
+                    let m = &scene.movers[i as usize];
+                    (m.id << 16) | u32::from(m.semantic())
                 }
             };
             let refl = (remission((label & 0xFFFF) as u16) + gaussian(rng) * 0.05).clamp(0.0, 1.0);
@@ -258,6 +264,7 @@ pub struct InstanceImage {
 /// Ray casts the instance image of camera P2 at `world_from_cam0`.
 pub fn render(
     scene: &Scene,
+    movers: &[super::movers::MoverBox],
     calib: &Calib,
     world_from_cam0: &Rigid3,
     cfg: &CameraConfig,
@@ -285,11 +292,12 @@ pub fn render(
                 (world_from_cam0.rotation * nalgebra::Vector3::new(d[0] / n, d[1] / n, 1.0 / n))
                     .into(),
             );
-            if let Some((t, hit)) = scene.cast(origin, dw, 150.0) {
+            if let Some((t, hit)) = scene.cast_among(origin, dw, 150.0, movers) {
                 let i = (v * w + u) as usize;
                 ids[i] = match hit {
                     Hit::Ground(s) => GROUND | u32::from(s.semantic()),
                     Hit::Object(o) => scene.objects[o as usize].id,
+                    Hit::Mover(m) => scene.movers[m as usize].id,
                 };
                 depth_m[i] = t;
             }
@@ -436,7 +444,9 @@ pub fn detect(
         if id & GROUND != 0 || count < min_low || near > cfg.max_detection_m {
             continue;
         }
-        let o = &scene.objects[(id - 1) as usize];
+        let Some((kind, attributes)) = scene.describe(id) else {
+            continue;
+        };
         if rng.random_range(0.0..1.0) < noise.miss_rate {
             missed.push(id);
             continue;
@@ -450,22 +460,22 @@ pub fn detect(
         let colour = wrong.then(|| {
             // another colour of the same bank, or the same one when the bank has one
             let mut r2 = ChaCha8Rng::seed_from_u64(u64::from(id) ^ 0xC010);
-            let mut c = o.attributes.colour;
+            let mut c = attributes.colour;
             for _ in 0..8 {
-                let a = Attributes::draw(o.kind, &mut r2);
-                if a.colour != o.attributes.colour {
+                let a = Attributes::draw(kind, &mut r2);
+                if a.colour != attributes.colour {
                     c = a.colour;
                     break;
                 }
             }
             c
         });
-        let caption = o.attributes.caption(o.kind, phrasing, colour);
+        let caption = attributes.caption(kind, phrasing, colour);
         let (mask, r) = noisy(rng, full_mask(id));
         push(
             mask,
             caption,
-            vec![o.kind.class().to_string()],
+            vec![kind.class().to_string()],
             rng.random_range(0.6..0.99),
             DetectionTruth {
                 object: Some(id),
@@ -473,7 +483,7 @@ pub fn detect(
                 false_positive: false,
                 caption_of: None,
                 phrasing,
-                wrong_colour: colour.is_some_and(|c| c != o.attributes.colour),
+                wrong_colour: colour.is_some_and(|c| c != attributes.colour),
                 mask_noise_px: r,
             },
         )?;
