@@ -703,6 +703,8 @@ fn remove_dynamic(
 ) -> Result<Scan> {
     use crate::mapping::dynamic::{RangeImage, dynamic_mask, is_moving_label};
     let near = neighbour_scans(seq, i, cfg.window);
+    rep.neighbour_scans += near.len() as u64;
+    rep.key_scans += 1;
     images.retain(|j, _| near.contains(j));
     for &j in &near {
         if let std::collections::btree_map::Entry::Vacant(e) = images.entry(j) {
@@ -1132,7 +1134,8 @@ pub fn build(
         } else {
             scan.clone()
         };
-        t_dynamic += since(t_dyn);
+        let dyn_ms = since(t_dyn);
+        t_dynamic += dyn_ms;
         let points = load_points(
             &seq,
             i,
@@ -1179,7 +1182,8 @@ pub fn build(
                 (d, load)
             }
         };
-        t_load += load_ms;
+        // the filter ran inside the load's time span; it is counted on its own
+        t_load += load_ms - dyn_ms;
         if run.producer.is_empty() {
             run.producer = dets.producer.as_str().to_string();
         }

@@ -85,20 +85,31 @@ fn mover_lines(sim_dir: &Path) -> Result<Option<Vec<Vec<[f64; 2]>>>> {
         path: path.clone(),
         detail: format!("invalid JSON: {e}"),
     })?;
-    let Some(movers) = v["movers"].as_array() else {
-        return Ok(None);
+    let bad = |d: String| crate::Error::File {
+        path: path.clone(),
+        detail: d,
     };
+    let movers = v["movers"]
+        .as_array()
+        .ok_or_else(|| bad("no \"movers\" array".into()))?;
     let mut out = Vec::new();
-    for m in movers {
-        let line: Vec<[f64; 2]> = m["path"]
-            .as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|p| Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?]))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let off = m["offset_m"].as_f64().unwrap_or(0.0) * m["side"].as_f64().unwrap_or(1.0);
+    for (i, m) in movers.iter().enumerate() {
+        let line: Option<Vec<[f64; 2]>> = m["path"].as_array().and_then(|a| {
+            a.iter()
+                .map(|p| Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?]))
+                .collect()
+        });
+        let (Some(line), Some(off), Some(side)) =
+            (line, m["offset_m"].as_f64(), m["side"].as_f64())
+        else {
+            return Err(bad(format!(
+                "mover {i} lacks a path of [x, z] points, offset_m or side"
+            )));
+        };
+        if line.len() < 2 {
+            return Err(bad(format!("mover {i} has a path of fewer than 2 points")));
+        }
+        let off = off * side;
         let sides: &[f64] = if m["class"] == "car" {
             &[1.0, -1.0]
         } else {

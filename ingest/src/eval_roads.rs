@@ -33,6 +33,8 @@ struct TrueRoad {
 /// Scores of one segment.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SegmentRoadScore {
+    /// The Segment's node id (the id the CLI prints and takes).
+    pub node: u64,
     /// `Segment.segment_id`.
     pub segment_id: i64,
     /// `Segment.kind`.
@@ -292,6 +294,7 @@ pub fn eval_roads(r: &impl GraphRead, sim_dir: &Path, max_gap_m: f64) -> Result<
             if u == 0 { 0.0 } else { i as f64 / u as f64 }
         };
         out.segments.push(SegmentRoadScore {
+            node: seg.id,
             segment_id: ids[s],
             kind: seg.kind.clone(),
             truth_m2: t as f64 * cell_m2,

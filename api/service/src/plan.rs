@@ -54,8 +54,9 @@ pub struct PlanAnswer {
     pub path: MotionPath,
     /// Instances whose boxes block the corridor.
     pub blocking: usize,
-    /// Segments whose drivable area (measured from the map) the path was kept on; 0 when
-    /// the map has none and the corridor alone bounded it.
+    /// Segments whose drivable area (measured from the map) reaches the corridor and the
+    /// path was kept on; 0 when the corridor alone bounded it (the map has no areas, or they
+    /// have gaps along the route: then `path.warning` says so).
     pub drivable_segments: usize,
     /// Milliseconds: routing, and everything.
     pub timings_ms: [f64; 2],
@@ -83,8 +84,35 @@ pub fn plan(
     let t_route = t0.elapsed().as_secs_f64() * 1e3;
     let cfg = opts.motion();
     let obstacles = planner::motion::blocking_instances(r, ground, &route, opts.corridor_m)?;
-    let drivable = planner::motion::drivable_of_store(r, ground)?;
-    let path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &cfg)?;
+    // the drivable areas the corridor reaches; where they have gaps across the road (sparse
+    // scans), OMPL cannot stay on them, and the corridor alone bounds the path
+    let corridor = planner::Validity::new(&route.polyline, opts.corridor_m, &[], 0.0);
+    let drivable: Vec<planner::area::Drivable> = planner::motion::drivable_of_store(r, ground)?
+        .into_iter()
+        .filter(|d| {
+            d.rings
+                .iter()
+                .flatten()
+                .any(|p| corridor.corridor_distance(*p) <= opts.corridor_m)
+        })
+        .collect();
+    let mut path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &cfg)?;
+    let mut drivable_segments = drivable.len();
+    if path.fallback && !drivable.is_empty() {
+        let loose = planner::plan_path(&route, &obstacles, &cfg)?;
+        if !loose.fallback {
+            path = loose;
+            path.warning = Some(format!(
+                "the drivable areas measured from the map have gaps along the route; planned in the {} m corridor alone",
+                opts.corridor_m
+            ));
+            drivable_segments = 0;
+        }
+    }
+    if path.fallback {
+        // the route polyline: nothing kept it anywhere
+        drivable_segments = 0;
+    }
     if let Some(p) = &opts.png {
         let all = planner::render::instance_footprints(r, ground)?;
         let markers = [(from_t.xy, (20, 170, 40)), (to_t.xy, (220, 30, 30))];
@@ -96,7 +124,7 @@ pub fn plan(
         route,
         path,
         blocking: obstacles.len(),
-        drivable_segments: drivable.len(),
+        drivable_segments,
         timings_ms: [t_route, t0.elapsed().as_secs_f64() * 1e3],
     })
 }

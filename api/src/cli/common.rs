@@ -66,7 +66,16 @@ pub(crate) fn print_plan(
             "from": p.from,
             "to": p.to,
             "route": {"nodes": p.route.nodes, "length_m": p.route.length_m},
-            "path": {"poses": p.path.poses, "length_m": p.path.length_m, "planner": p.path.planner},
+            "path": {
+                "poses": p.path.poses,
+                "length_m": p.path.length_m,
+                "planner": p.path.planner,
+                "fallback": p.path.fallback,
+                "warning": p.path.warning,
+            },
+            "blocking": p.blocking,
+            "drivable_segments": p.drivable_segments,
+            "timings_ms": p.timings_ms,
         });
         outln!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
@@ -102,9 +111,12 @@ pub(crate) fn print_plan(
         p.timings_ms[1],
         p.blocking,
         if p.drivable_segments > 0 {
-            format!("on the drivable areas of {} segments", p.drivable_segments)
+            format!(
+                "kept on the drivable areas of {} segments",
+                p.drivable_segments
+            )
         } else {
-            "corridor only: the map has no drivable areas".to_string()
+            "bounded by the corridor alone".to_string()
         }
     );
     Ok(())
@@ -405,6 +417,13 @@ pub(crate) fn sim_summary(r: &ingest::sources::sim::SimReport) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    if r.movers.cars + r.movers.walkers > 0 {
+        let _ = writeln!(
+            s,
+            "moving: {} cars, {} walkers (ground_truth/movers.json; LiDAR labels 252, 254)",
+            r.movers.cars, r.movers.walkers
+        );
+    }
     let _ = writeln!(
         s,
         "drive: {} poses at 10 Hz over {:.0} m; {} sensor frames, {} LiDAR points, {} detections ({} visible objects missed on purpose)",
@@ -462,6 +481,12 @@ pub(crate) fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>
     );
     let d = &r.dynamic;
     let mut line = format!("dynamic points: {}", d.filter);
+    if d.key_scans > 0 {
+        line.push_str(&format!(
+            ", {:.1} neighbouring scans per key scan",
+            d.neighbour_scans as f64 / d.key_scans as f64
+        ));
+    }
     if d.points > 0 {
         line.push_str(&format!(
             ": removed {} of {} key-scan points ({:.2} %)",
@@ -494,10 +519,18 @@ pub(crate) fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>
             .collect();
         let _ = writeln!(
             s,
-            "hierarchy: lane nodes {}, {} lane edges, {} instances linked to segments",
+            "hierarchy: lane nodes {}, {} lane edges, {} instances linked to segments; drivable area measured from the map: {}",
             lanes.join(", "),
             h.lane_edges,
-            h.instances_linked
+            h.instances_linked,
+            if h.drivable_m2 > 0.0 {
+                format!(
+                    "{:.0} m² in {} segments",
+                    h.drivable_m2, h.drivable_segments
+                )
+            } else {
+                "none (no points of the drivable classes, or [hierarchy.drivable] off)".into()
+            }
         );
         if let Some(g) = h
             .trajectory_gaps

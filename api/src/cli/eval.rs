@@ -354,11 +354,11 @@ pub(crate) fn roads(cmd: Command) -> anyhow::Result<()> {
             r.segments.len(),
             ingest::eval_roads::CELL_M
         );
-        outln!("segment  kind               truth m²  IoU before  IoU after  polygon m²");
+        outln!("segment node  kind               truth m²  IoU before  IoU after  polygon m²");
         for s in &r.segments {
             outln!(
-                "{:>7}  {:<17} {:>9.0}  {:>10.3}  {:>9.3}  {:>10.0}",
-                s.segment_id,
+                "{:>12}  {:<17} {:>9.0}  {:>10.3}  {:>9.3}  {:>10.0}",
+                s.node,
                 s.kind,
                 s.truth_m2,
                 s.iou_before,

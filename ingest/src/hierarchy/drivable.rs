@@ -21,7 +21,7 @@ pub use planner::area::Drivable;
 
 /// Road-area parameters (`[hierarchy.drivable]`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct DrivableConfig {
     /// Measure road areas at all (off: segments keep only their disc or corridor).
     pub enabled: bool,

@@ -26,7 +26,7 @@ use crate::error::{Error, Result};
 
 /// Parameters, with the reference implementation's defaults.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct LaneConfig {
     /// Neighbourhood radius R.
     pub radius_m: f64,

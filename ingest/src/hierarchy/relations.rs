@@ -10,7 +10,7 @@ use scene::{GroundFrame, OrientedBox};
 
 /// Relation parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct RelationConfig {
     /// Pairs farther apart than this are not candidates for the spanning tree.
     pub candidate_m: f64,

@@ -6,7 +6,7 @@ use super::lanes::{LaneGraph, LaneNodeKind, dist, polyline_length};
 
 /// Segment parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SegmentConfig {
     /// Radius of a junction area.
     pub junction_radius_m: f64,

@@ -15,7 +15,7 @@ use scene::GroundFrame;
 
 /// All hierarchy parameters.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct HierarchyConfig {
     /// Lane graph.
     pub lanes: LaneConfig,
@@ -81,6 +81,22 @@ impl HierarchyConfig {
                 )));
             }
         }
+        let d = &self.drivable;
+        if d.enabled && d.classes.is_empty() {
+            return Err(Error::Invalid(
+                "[hierarchy.drivable] classes is empty: name the drivable classes (road, parking) or set enabled = false".into(),
+            ));
+        }
+        if let Some(c) = d
+            .classes
+            .iter()
+            .find(|c| crate::classes::class_id(c).is_none())
+        {
+            return Err(Error::Invalid(format!(
+                "[hierarchy.drivable] classes: {c:?} is not one of the 19 classes ({})",
+                crate::classes::CLASSES.join(", ")
+            )));
+        }
         if l.l_turn_min_deg >= l.l_turn_max_deg {
             return Err(Error::Invalid(format!(
                 "[hierarchy] lanes.l_turn_min_deg ({}) must be below lanes.l_turn_max_deg ({})",
@@ -130,6 +146,8 @@ pub struct HierarchyReport {
     pub instances_linked: usize,
     /// Drivable area measured over all segments, square metres.
     pub drivable_m2: f64,
+    /// Segments with a drivable polygon.
+    pub drivable_segments: usize,
     /// Geometric relations per label.
     pub relations: BTreeMap<String, usize>,
 }
@@ -301,6 +319,7 @@ fn write_all(
             props.push(("polygon", polygon_value(area, p3)));
             props.push(("drivable_area_m2", Value::Float(area.area_m2())));
             report.drivable_m2 += area.area_m2();
+            report.drivable_segments += 1;
         }
         let id = tx.create_node_named(&["Segment"], &props)?;
         tx.create_rel_named(env, "CONTAINS", id, &[])?;

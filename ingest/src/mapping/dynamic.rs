@@ -16,7 +16,7 @@ use crate::sources::kitti::Rigid3;
 
 /// Filter parameters (`[dynamic]` in the build configuration).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct DynamicConfig {
     /// Remove dynamic points at all.
     pub enabled: bool,
@@ -204,6 +204,11 @@ pub fn dynamic_mask(
 pub struct DynamicReport {
     /// `free-space carving (window W, votes V)` or `off`.
     pub filter: String,
+    /// Key scans filtered.
+    pub key_scans: u64,
+    /// Neighbouring scans used, summed over the key scans (fewer than `2 × window` each
+    /// where the sequence has no more scans within 50 poses).
+    pub neighbour_scans: u64,
     /// Key-scan points looked at.
     pub points: u64,
     /// Of those, removed as dynamic.

@@ -106,6 +106,8 @@ pub struct SimReport {
     pub scene_secs: f64,
     /// Seconds for ray casting and writing the sensor frames.
     pub sensor_secs: f64,
+    /// Moving cars and walkers placed.
+    pub movers: movers::MoverConfig,
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
@@ -285,6 +287,7 @@ pub fn generate(
         lidar_points: points,
         detections: dets,
         missed,
+        movers: cfg.movers,
         scene_secs,
         sensor_secs,
     };
