@@ -1328,6 +1328,14 @@ mod tests {
             ("mapping", "voxel_m"),
             ("mapping", "dbscan_eps_m"),
             ("mapping", "w_geo"),
+            ("mapping", "iou_min_side_m"),
+            ("hierarchy.drivable", "cell_m"),
+            ("hierarchy.drivable", "alpha_m"),
+            ("hierarchy.drivable", "max_gap_m"),
+            ("dynamic", "bin_deg"),
+            ("dynamic", "margin_m"),
+            ("dynamic", "margin_frac"),
+            ("dynamic", "min_range_m"),
         ];
         for (table, key) in keys {
             for v in ["nan", "inf", "-inf", "-1.0", "1e300"] {
@@ -1365,6 +1373,24 @@ mod tests {
                 .to_string()
                 .contains("l_turn_min_deg")
         );
+        // a misspelt key is an error in every table, with the file and line
+        for table in [
+            "mapping",
+            "dynamic",
+            "hierarchy",
+            "hierarchy.drivable",
+            "hierarchy.lanes",
+            "hierarchy.segments",
+            "hierarchy.relations",
+            "oracle",
+        ] {
+            std::fs::write(&path, format!("[{table}]\nmin_vote = 2\n")).unwrap();
+            let e = BuildConfig::from_toml_file(&path).unwrap_err().to_string();
+            assert!(
+                e.contains("rel.toml:2") && e.contains("unknown field `min_vote`"),
+                "[{table}]: {e}"
+            );
+        }
         // the defaults pass
         std::fs::write(&path, "").unwrap();
         assert!(BuildConfig::from_toml_file(&path).is_ok());
