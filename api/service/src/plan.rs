@@ -90,10 +90,11 @@ pub fn plan(
     let drivable: Vec<planner::area::Drivable> = planner::motion::drivable_of_store(r, ground)?
         .into_iter()
         .filter(|d| {
-            d.rings
-                .iter()
-                .flatten()
-                .any(|p| corridor.corridor_distance(*p) <= opts.corridor_m)
+            route.polyline.iter().any(|q| d.contains(*q))
+                || d.rings
+                    .iter()
+                    .flatten()
+                    .any(|p| corridor.corridor_distance(*p) <= opts.corridor_m)
         })
         .collect();
     let mut path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &cfg)?;
