@@ -55,3 +55,16 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
         error,
     })
 }
+
+/// Reads and parses a JSON file; a parse error names the file.
+pub(crate) fn read_json(path: &std::path::Path) -> Result<serde_json::Value> {
+    serde_json::from_str(&read_text(path)?).map_err(|e| Error::File {
+        path: path.to_path_buf(),
+        detail: format!("invalid JSON: {e}"),
+    })
+}
+
+/// A ground point written as a JSON pair `[x, z]`.
+pub(crate) fn json_xy(p: &serde_json::Value) -> Option<[f64; 2]> {
+    Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?])
+}

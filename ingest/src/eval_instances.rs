@@ -80,11 +80,7 @@ fn mover_lines(sim_dir: &Path) -> Result<Option<Vec<Vec<[f64; 2]>>>> {
     if !path.exists() {
         return Ok(None);
     }
-    let text = crate::error::read_text(&path)?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| crate::Error::File {
-        path: path.clone(),
-        detail: format!("invalid JSON: {e}"),
-    })?;
+    let v = crate::error::read_json(&path)?;
     let bad = |d: String| crate::Error::File {
         path: path.clone(),
         detail: d,
@@ -94,11 +90,9 @@ fn mover_lines(sim_dir: &Path) -> Result<Option<Vec<Vec<[f64; 2]>>>> {
         .ok_or_else(|| bad("no \"movers\" array".into()))?;
     let mut out = Vec::new();
     for (i, m) in movers.iter().enumerate() {
-        let line: Option<Vec<[f64; 2]>> = m["path"].as_array().and_then(|a| {
-            a.iter()
-                .map(|p| Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?]))
-                .collect()
-        });
+        let line: Option<Vec<[f64; 2]>> = m["path"]
+            .as_array()
+            .and_then(|a| a.iter().map(crate::error::json_xy).collect());
         let (Some(line), Some(off), Some(side)) =
             (line, m["offset_m"].as_f64(), m["side"].as_f64())
         else {

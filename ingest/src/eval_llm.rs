@@ -64,13 +64,11 @@ pub struct TruthObject {
 /// Reads `DIR/ground_truth/objects.json`.
 pub fn read_truth(sim_dir: &Path) -> Result<Vec<TruthObject>> {
     let path = sim_dir.join("ground_truth/objects.json");
-    let text = crate::error::read_text(&path)?;
+    let v = crate::error::read_json(&path)?;
     let bad = |d: String| Error::File {
         path: path.clone(),
         detail: d,
     };
-    let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| bad(format!("invalid JSON: {e}")))?;
     let objs = v["objects"]
         .as_array()
         .ok_or_else(|| bad("no \"objects\" array".into()))?;

@@ -77,16 +77,12 @@ fn article(phrase: &str) -> &'static str {
 /// The truth files are missing or malformed.
 pub fn generate_cases(sim_dir: &Path, per_spot: usize, seed: u64) -> Result<Vec<LocateCase>> {
     let path = sim_dir.join("ground_truth/roads.json");
-    let text = crate::error::read_text(&path)?;
+    let v = crate::error::read_json(&path)?;
     let bad = |d: &str| Error::File {
         path: path.clone(),
         detail: d.to_string(),
     };
-    let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| bad(&format!("invalid JSON: {e}")))?;
-    let xy = |p: &serde_json::Value| -> Option<[f64; 2]> {
-        Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?])
-    };
+    let xy = crate::error::json_xy;
     let mut spots: Vec<([f64; 2], String)> = Vec::new();
     for j in v["junctions"]
         .as_array()
@@ -113,11 +109,7 @@ pub fn generate_cases(sim_dir: &Path, per_spot: usize, seed: u64) -> Result<Vec<
     }
     // objects, with the fields a description uses
     let opath = sim_dir.join("ground_truth/objects.json");
-    let otext = crate::error::read_text(&opath)?;
-    let ov: serde_json::Value = serde_json::from_str(&otext).map_err(|e| Error::File {
-        path: opath.clone(),
-        detail: format!("invalid JSON: {e}"),
-    })?;
+    let ov = crate::error::read_json(&opath)?;
     let objects: Vec<([f64; 2], String, String, String)> = ov["objects"]
         .as_array()
         .map(|a| {

@@ -67,23 +67,19 @@ pub struct RoadEval {
 
 fn read_roads(sim_dir: &Path) -> Result<Vec<TrueRoad>> {
     let path = sim_dir.join("ground_truth/roads.json");
-    let text = crate::error::read_text(&path)?;
+    let v = crate::error::read_json(&path)?;
     let bad = |d: String| Error::File {
         path: path.clone(),
         detail: d,
     };
-    let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| bad(format!("invalid JSON: {e}")))?;
     let roads = v["roads"]
         .as_array()
         .ok_or_else(|| bad("no \"roads\" array".into()))?;
     let mut out = Vec::new();
     for (i, r) in roads.iter().enumerate() {
-        let line: Option<Vec<[f64; 2]>> = r["centerline"].as_array().map(|a| {
-            a.iter()
-                .filter_map(|p| Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?]))
-                .collect()
-        });
+        let line: Option<Vec<[f64; 2]>> = r["centerline"]
+            .as_array()
+            .map(|a| a.iter().filter_map(crate::error::json_xy).collect());
         let (Some(centerline), Some(w)) = (line, r["width_m"].as_f64()) else {
             return Err(bad(format!("road {i} lacks a centerline or width_m")));
         };
