@@ -95,10 +95,7 @@ pub fn load_segments(r: &impl GraphRead, g: scene::GroundFrame) -> Result<Vec<Se
                 radius_m: 12.0,
             },
         };
-        let drivable = r
-            .node_prop(id, "polygon")?
-            .and_then(|v| planner::area::Drivable::from_property(&v, g))
-            .filter(|d| !d.is_empty());
+        let drivable = planner::area::Drivable::of_segment(r, id, g)?;
         out.push(SegmentInfo {
             id,
             kind,

@@ -51,10 +51,7 @@ impl SegmentArea {
                 } else {
                     centreline
                         .windows(2)
-                        .map(|w| {
-                            let (_, q) = closest_on_segment(p, w[0], w[1]);
-                            (p[0] - q[0]).hypot(p[1] - q[1])
-                        })
+                        .map(|w| edge_gap(p, w[0], w[1]))
                         .fold(f64::INFINITY, f64::min)
                 };
                 (d - half_width_m).max(0.0)
@@ -129,10 +126,7 @@ impl SegmentArea {
         let SegmentArea::Corridor { centreline, .. } = self else {
             return None;
         };
-        let gap = |a: [f64; 2], b: [f64; 2]| {
-            let (_, q) = closest_on_segment(p, a, b);
-            (p[0] - q[0]).hypot(p[1] - q[1])
-        };
+        let gap = |a: [f64; 2], b: [f64; 2]| edge_gap(p, a, b);
         let best = centreline
             .windows(2)
             .min_by(|a, b| gap(a[0], a[1]).total_cmp(&gap(b[0], b[1])))?;
@@ -223,21 +217,16 @@ impl Drivable {
             .max(0.0)
     }
 
+    /// Every ring edge `(from, to)`, the closing ones included.
+    fn edges(&self) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+        self.rings
+            .iter()
+            .flat_map(|r| (0..r.len()).map(move |i| (r[i], r[(i + 1) % r.len()])))
+    }
+
     /// Whether `p` lies inside (even-odd rule over all rings).
     pub fn contains(&self, p: [f64; 2]) -> bool {
-        let mut inside = false;
-        for r in &self.rings {
-            for i in 0..r.len() {
-                let (a, b) = (r[i], r[(i + 1) % r.len()]);
-                if (a[1] > p[1]) != (b[1] > p[1]) {
-                    let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-                    if p[0] < x {
-                        inside = !inside;
-                    }
-                }
-            }
-        }
-        inside
+        even_odd(self.edges(), p)
     }
 
     /// Distance from `p` to the area, metres (0 inside; infinite for an empty area).
@@ -245,19 +234,29 @@ impl Drivable {
         if self.contains(p) {
             return 0.0;
         }
-        self.rings
-            .iter()
-            .flat_map(|r| (0..r.len()).map(move |i| (r[i], r[(i + 1) % r.len()])))
-            .map(|(a, b)| {
-                let (_, q) = closest_on_segment(p, a, b);
-                (p[0] - q[0]).hypot(p[1] - q[1])
-            })
+        self.edges()
+            .map(|(a, b)| edge_gap(p, a, b))
             .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The drivable area of Segment node `id` (its `polygon` property); `None` when it has
+    /// none, or an empty or malformed one.
+    ///
+    /// # Errors
+    /// The store fails.
+    pub fn of_segment(
+        r: &impl graphstore::GraphRead,
+        id: u64,
+        frame: scene::GroundFrame,
+    ) -> graphstore::Result<Option<Drivable>> {
+        Ok(r.node_prop(id, "polygon")?
+            .and_then(|v| Drivable::from_property(&v, frame))
+            .filter(|d| !d.is_empty()))
     }
 
     /// The area of a `Segment.polygon` property (a list of rings, each a list of world
     /// points); `None` for anything else.
-    pub fn from_property(v: &graphstore::Value, frame: scene::GroundFrame) -> Option<Drivable> {
+    fn from_property(v: &graphstore::Value, frame: scene::GroundFrame) -> Option<Drivable> {
         use graphstore::Value;
         let Value::List(rings) = v else { return None };
         let rings: Option<Vec<Vec<[f64; 2]>>> = rings
@@ -279,6 +278,27 @@ impl Drivable {
     }
 }
 
+/// Whether `p` is inside the closed curves made of `edges` by the even-odd rule: a ray from
+/// `p` along +x crosses an odd number of them.
+fn even_odd(edges: impl IntoIterator<Item = ([f64; 2], [f64; 2])>, p: [f64; 2]) -> bool {
+    let mut inside = false;
+    for (a, b) in edges {
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+    }
+    inside
+}
+
+/// Distance from `p` to the edge `a`–`b`, metres.
+fn edge_gap(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (_, q) = closest_on_segment(p, a, b);
+    (p[0] - q[0]).hypot(p[1] - q[1])
+}
+
 /// Several drivable areas with disjoint interiors (the segments' polygons) behind one
 /// index for many point queries: every ring edge is filed under the 1 m bands of the second
 /// ground axis it spans, so a query reads only the edges of its band. Even-odd over all the
@@ -297,8 +317,7 @@ impl DrivableIndex {
     pub fn new(areas: &[Drivable]) -> DrivableIndex {
         let edges: Vec<([f64; 2], [f64; 2])> = areas
             .iter()
-            .flat_map(|d| &d.rings)
-            .flat_map(|r| (0..r.len()).map(move |i| (r[i], r[(i + 1) % r.len()])))
+            .flat_map(Drivable::edges)
             .filter(|(a, b)| a.iter().chain(b).all(|c| c.is_finite()))
             .collect();
         let y0 = edges
@@ -338,19 +357,8 @@ impl DrivableIndex {
 
     /// Whether `p` lies in one of the areas.
     pub fn contains(&self, p: [f64; 2]) -> bool {
-        let Some(edges) = self.band(p[1]) else {
-            return false;
-        };
-        let mut inside = false;
-        for (a, b) in edges {
-            if (a[1] > p[1]) != (b[1] > p[1]) {
-                let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-                if p[0] < x {
-                    inside = !inside;
-                }
-            }
-        }
-        inside
+        self.band(p[1])
+            .is_some_and(|edges| even_odd(edges.iter().copied(), p))
     }
 
     /// Whether `p` lies in one of the areas or within `tolerance_m` of one.
@@ -366,10 +374,9 @@ impl DrivableIndex {
         let hi = (hi as usize).min(self.bands.len().saturating_sub(1));
         (lo..=hi).any(|k| {
             self.bands.get(k).is_some_and(|edges| {
-                edges.iter().any(|(a, b)| {
-                    let (_, q) = closest_on_segment(p, *a, *b);
-                    (p[0] - q[0]).hypot(p[1] - q[1]) <= tolerance_m
-                })
+                edges
+                    .iter()
+                    .any(|(a, b)| edge_gap(p, *a, *b) <= tolerance_m)
             })
         })
     }

@@ -34,6 +34,14 @@ pub struct RoadEdge {
     pub directed: bool,
 }
 
+/// The oriented box of an `Instance.obb` property value (see
+/// [`OrientedBox::to_values`](scene::OrientedBox::to_values)); `None` for anything else.
+pub fn obb_of(v: &Value) -> Option<scene::OrientedBox> {
+    let Value::List(v) = v else { return None };
+    let f: Option<Vec<f64>> = v.iter().map(Value::as_f64).collect();
+    f.and_then(|f| scene::OrientedBox::from_values(&f))
+}
+
 /// A road graph with adjacency.
 #[derive(Debug, Clone, Default)]
 pub struct RoadGraph {

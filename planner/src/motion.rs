@@ -30,13 +30,7 @@ pub fn drivable_of_store(
 ) -> Result<Vec<Drivable>> {
     let mut out = Vec::new();
     for id in r.nodes_with_label("Segment")? {
-        if let Some(d) = r
-            .node_prop(id, "polygon")?
-            .and_then(|v| Drivable::from_property(&v, ground))
-            .filter(|d| !d.is_empty())
-        {
-            out.push(d);
-        }
+        out.extend(Drivable::of_segment(r, id, ground)?);
     }
     Ok(out)
 }
@@ -116,21 +110,10 @@ impl Obstacle {
 
     /// An axis-aligned obstacle `min`..`max` (ground coordinates).
     pub fn axis_aligned(min: [f64; 2], max: [f64; 2]) -> Obstacle {
-        let he = [(max[0] - min[0]) / 2.0, (max[1] - min[1]) / 2.0];
-        let (half_extents, yaw_rad) = if he[0] >= he[1] {
-            (he, 0.0)
-        } else {
-            ([he[1], he[0]], std::f64::consts::FRAC_PI_2)
-        };
         Obstacle {
             min,
             max,
-            footprint: OrientedBox {
-                center: [(min[0] + max[0]) / 2.0, (min[1] + max[1]) / 2.0],
-                half_extents,
-                yaw_rad,
-                height_m: [0.0, 0.0],
-            },
+            footprint: OrientedBox::from_ground_bounds(min, max, [0.0, 0.0]),
         }
     }
 }
@@ -502,15 +485,10 @@ pub fn blocking_instances(
         let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
             continue;
         };
-        let obb = match r.node_prop(id, "obb")? {
-            Some(graphstore::Value::List(v)) => v
-                .iter()
-                .map(|x| x.as_f64())
-                .collect::<Option<Vec<f64>>>()
-                .and_then(|f| OrientedBox::from_values(&f)),
-            _ => None,
-        };
-        let o = match obb {
+        let o = match r
+            .node_prop(id, "obb")?
+            .and_then(|v| crate::graph::obb_of(&v))
+        {
             Some(b) => Obstacle::oriented(b),
             None => {
                 let (a, b) = (ground.ground(lo), ground.ground(hi));

@@ -100,22 +100,32 @@ impl OrientedBox {
         }
     }
 
-    /// The axis-aligned box `min`..`max` (world frame) as an oriented box with yaw 0.
+    /// The axis-aligned box `min`..`max` (world frame) as an oriented box with yaw 0 (π/2
+    /// when it is longer along ground axis 1).
     pub fn from_aabb(ground: GroundFrame, min: [f64; 3], max: [f64; 3]) -> OrientedBox {
-        let (a, b) = (ground.ground(min), ground.ground(max));
         let (ha, hb) = (ground.height(min), ground.height(max));
+        OrientedBox::from_ground_bounds(
+            ground.ground(min),
+            ground.ground(max),
+            [ha.min(hb), ha.max(hb)],
+        )
+    }
+
+    /// The ground rectangle with opposite corners `a` and `b` and the height range
+    /// `height_m` as an oriented box with yaw 0 (π/2 when it is longer along ground axis 1).
+    pub fn from_ground_bounds(a: [f64; 2], b: [f64; 2], height_m: [f64; 2]) -> OrientedBox {
         let he = [(a[0] - b[0]).abs() / 2.0, (a[1] - b[1]).abs() / 2.0];
-        let mut o = OrientedBox {
-            center: [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0],
-            half_extents: he,
-            yaw_rad: 0.0,
-            height_m: [ha.min(hb), ha.max(hb)],
+        let (half_extents, yaw_rad) = if he[1] > he[0] {
+            ([he[1], he[0]], std::f64::consts::FRAC_PI_2)
+        } else {
+            (he, 0.0)
         };
-        if he[1] > he[0] {
-            o.half_extents = [he[1], he[0]];
-            o.yaw_rad = std::f64::consts::FRAC_PI_2;
+        OrientedBox {
+            center: [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0],
+            half_extents,
+            yaw_rad,
+            height_m,
         }
-        o
     }
 
     /// The same box with each footprint side at least `min_side_m` long (about its centre),

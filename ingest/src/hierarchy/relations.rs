@@ -96,13 +96,9 @@ pub fn read_instance_box(
     let Some((min, max)) = bbox.or_else(|| centroid.map(|c| (c, c))) else {
         return Ok(None);
     };
-    let obb = match r.node_prop(id, "obb")? {
-        Some(graphstore::Value::List(v)) => {
-            let f: Option<Vec<f64>> = v.iter().map(|x| x.as_f64()).collect();
-            f.and_then(|f| OrientedBox::from_values(&f))
-        }
-        _ => None,
-    };
+    let obb = r
+        .node_prop(id, "obb")?
+        .and_then(|v| planner::graph::obb_of(&v));
     Ok(Some(InstanceBox::new(frame, min, max, obb)))
 }
 
