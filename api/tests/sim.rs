@@ -3,7 +3,7 @@
 //! arguments. Needs no data beside the checkout.
 
 mod common;
-use common::{assert_route_ends_at, first_lane_node, json, og, ok, s, xyz};
+use common::{assert_route_ends_at, build_map, first_lane_node, json, og, ok, s, xyz};
 
 #[test]
 fn sim_build_find_plan_eval() {
@@ -248,27 +248,10 @@ fn moving_objects_are_filtered_and_leave_fewer_ghosts() {
     assert_eq!(movers["movers"].as_array().unwrap().len(), 40);
     let off_cfg = dir.path().join("off.toml");
     std::fs::write(&off_cfg, "[dynamic]\nenabled = false\n").unwrap();
-    let dets = sim.join("detections");
-    let build = |db: &std::path::Path, extra: &[&str]| {
-        let mut a = vec![
-            "build",
-            "--kitti",
-            s(&sim),
-            "--detections",
-            s(&dets),
-            "--db",
-            s(db),
-            "--embedder",
-            "hash",
-            "--json",
-        ];
-        a.extend_from_slice(extra);
-        json(&og(&a))
-    };
     let (on, off) = (dir.path().join("on.og"), dir.path().join("off.og"));
-    let r_off = build(&off, &["--config", s(&off_cfg)]);
+    let r_off = build_map(&sim, &off, &["--embedder", "hash", "--config", s(&off_cfg)]);
     assert_eq!(r_off["dynamic"]["filter"], "off", "{}", r_off["dynamic"]);
-    let r = build(&on, &[]);
+    let r = build_map(&sim, &on, &["--embedder", "hash"]);
     let d = &r["dynamic"];
     let share = |a: &str, b: &str| d[a].as_f64().unwrap() / d[b].as_f64().unwrap().max(1.0);
     assert!(d["moving_points"].as_u64().unwrap() > 1000, "{d}");

@@ -1122,24 +1122,26 @@ pub fn build(
         let t = Instant::now();
         let scan = kitti::read_scan(&seq.scan_path(i))?;
         let t_dyn = Instant::now();
+        let filtered;
         let kept = if cfg.dynamic.enabled {
-            remove_dynamic(
+            filtered = remove_dynamic(
                 &seq,
                 i,
                 &scan,
                 &cfg.dynamic,
                 &mut images,
                 &mut report.dynamic,
-            )?
+            )?;
+            &filtered
         } else {
-            scan.clone()
+            &scan
         };
         let dyn_ms = since(t_dyn);
         t_dynamic += dyn_ms;
         let points = load_points(
             &seq,
             i,
-            &kept,
+            kept,
             cfg.mapping.accumulate,
             &mut report.nonfinite_points,
         )?;

@@ -97,20 +97,26 @@ pub fn sim_map(
     let mut a = vec!["sim", "--out", s(&sim), "--json"];
     a.extend_from_slice(sim_args);
     json(&og(&a));
+    build_map(&sim, &db, build_args);
+    (sim, db)
+}
+
+/// `opengraph build --json` of the simulator's sequence `sim` (its detections) into `db`,
+/// with `build_args` added; the build's report.
+pub fn build_map(sim: &Path, db: &Path, build_args: &[&str]) -> serde_json::Value {
     let dets = sim.join("detections");
     let mut b = vec![
         "build",
         "--kitti",
-        s(&sim),
+        s(sim),
         "--detections",
         s(&dets),
         "--db",
-        s(&db),
+        s(db),
         "--json",
     ];
     b.extend_from_slice(build_args);
-    json(&og(&b));
-    (sim, db)
+    json(&og(&b))
 }
 
 /// A running `opengraph serve`; killed on drop.

@@ -111,12 +111,6 @@ impl Mover {
         }
     }
 
-    /// The distance along the unit ray `origin + t·dir` to the mover's box at `t_secs`, if
-    /// it is hit within `max_m` (see [`MoverBox::cast`]).
-    pub fn cast(&self, t_secs: f64, origin: [f32; 3], dir: [f32; 3], max_m: f32) -> Option<f32> {
-        self.box_at(t_secs).cast(origin, dir, max_m)
-    }
-
     /// The mover as `ground_truth/movers.json` has it.
     pub fn to_json(&self) -> Json {
         let r3 = |v: f64| (v * 1000.0).round() / 1000.0;
@@ -281,26 +275,31 @@ mod tests {
         let m = car();
         // at t = 5 the car is at (2, 50): a ray along +x at z = 50, 0.5 m above the ground
         let hit = m
-            .cast(5.0, [-10.0, -0.5, 50.0], [1.0, 0.0, 0.0], 100.0)
+            .box_at(5.0)
+            .cast([-10.0, -0.5, 50.0], [1.0, 0.0, 0.0], 100.0)
             .unwrap();
         assert!((hit - 11.0).abs() < 1e-4, "{hit}");
         // at t = 0 it is at z = 0: the same ray misses
         assert!(
-            m.cast(0.0, [-10.0, -0.5, 50.0], [1.0, 0.0, 0.0], 100.0)
+            m.box_at(0.0)
+                .cast([-10.0, -0.5, 50.0], [1.0, 0.0, 0.0], 100.0)
                 .is_none()
         );
         // above the roof, or out of range: no hit
         assert!(
-            m.cast(5.0, [-10.0, -2.0, 50.0], [1.0, 0.0, 0.0], 100.0)
+            m.box_at(5.0)
+                .cast([-10.0, -2.0, 50.0], [1.0, 0.0, 0.0], 100.0)
                 .is_none()
         );
         assert!(
-            m.cast(5.0, [-10.0, -0.5, 50.0], [1.0, 0.0, 0.0], 5.0)
+            m.box_at(5.0)
+                .cast([-10.0, -0.5, 50.0], [1.0, 0.0, 0.0], 5.0)
                 .is_none()
         );
         // from inside the box: not hit
         assert!(
-            m.cast(5.0, [2.0, -0.5, 50.0], [1.0, 0.0, 0.0], 100.0)
+            m.box_at(5.0)
+                .cast([2.0, -0.5, 50.0], [1.0, 0.0, 0.0], 100.0)
                 .is_none()
         );
         assert_eq!(m.semantic(), 252);
