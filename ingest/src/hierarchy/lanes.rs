@@ -8,8 +8,10 @@
 //! 3. A sample with fewer than 3 neighbours, or whose neighbours all lie on one side of it
 //!    (the start, the end, the tip of a dead end), is a breakpoint candidate. Samples with
 //!    λ > `disfluency_rad` are clustered with DBSCAN (`dbscan_eps_m`, `dbscan_min_samples`);
-//!    each cluster is a junction at its most disfluent sample. Junctions closer than
-//!    `association_m` merge.
+//!    each local peak of λ in a cluster (the highest within `association_m / 2`, with at
+//!    least half the cluster's peak) is a junction at the medoid of its plateau (samples
+//!    within 90 % of its λ), so two junctions chained by a bending road stay two. Junctions
+//!    closer than `association_m` merge.
 //! 4. The kind of a junction comes from the number of distinct ways the trajectory enters or
 //!    leaves it: 4+ is an intersection, 3 a T-junction, 2 an L-bend when the turn (deviation
 //!    from straight) is at least `l_turn_min_deg` and the peak disfluency is at most
@@ -509,28 +511,43 @@ pub fn extract_lanes(traj: &[[f64; 2]], cfg: &LaneConfig) -> Result<LaneGraph> {
             members[*c].push(cand[k]);
         }
     }
-    // each cluster's centre: the medoid of its disfluency plateau (>= 90% of the peak), which
-    // sits on the crossing point of the roads rather than anywhere on a flat plateau
-    let mut peaks: Vec<usize> = members
-        .iter()
-        .filter(|m| !m.is_empty())
-        .map(|m| {
-            let peak = m.iter().map(|&i| lambda[i]).fold(0.0, f64::max);
-            let plateau: Vec<usize> = m
+    // each cluster's centres. A bending road between two junctions is disfluent enough to
+    // chain them into one cluster, so every local peak of λ (the highest within half the
+    // association distance) holding at least half the cluster's peak is a junction; its
+    // centre is the medoid of its plateau (the samples around it within 90 % of its λ), which
+    // sits on the crossing point of the roads rather than anywhere on a flat plateau.
+    let half_r = cfg.association_m / 2.0;
+    let mut peaks: Vec<usize> = Vec::new();
+    for m in members.iter().filter(|m| !m.is_empty()) {
+        let peak = m.iter().map(|&i| lambda[i]).fold(0.0, f64::max);
+        for &p in m {
+            let around: Vec<usize> = m
                 .iter()
                 .copied()
-                .filter(|&i| lambda[i] >= 0.9 * peak)
+                .filter(|&j| dist(pts[p], pts[j]) <= half_r)
                 .collect();
-            *plateau
+            // ties: the lowest index is the peak
+            let is_local_peak = around.iter().all(|&j| {
+                lambda[j].total_cmp(&lambda[p]).then(p.cmp(&j)) != std::cmp::Ordering::Greater
+            });
+            if lambda[p] < 0.5 * peak || !is_local_peak {
+                continue;
+            }
+            let plateau: Vec<usize> = around
+                .into_iter()
+                .filter(|&j| lambda[j] >= 0.9 * lambda[p])
+                .collect();
+            let medoid = plateau
                 .iter()
                 .min_by(|&&a, &&b| {
                     let sa: f64 = plateau.iter().map(|&j| dist(pts[a], pts[j])).sum();
                     let sb: f64 = plateau.iter().map(|&j| dist(pts[b], pts[j])).sum();
                     sa.total_cmp(&sb).then(a.cmp(&b))
                 })
-                .expect("non-empty plateau")
-        })
-        .collect();
+                .expect("the peak is on its plateau");
+            peaks.push(*medoid);
+        }
+    }
     peaks.sort_by(|a, b| lambda[*b].total_cmp(&lambda[*a]).then(a.cmp(b)));
     let mut centres: Vec<usize> = Vec::new();
     for p in peaks {
@@ -976,6 +993,41 @@ pub(crate) mod tests {
         let l = g.nodes.iter().find(|n| n.kind == LIntersection).unwrap();
         assert!(dist(l.xy, [200.0, 0.0]) < 5.0, "{:?}", l.xy);
         check_cover(&g, &t);
+    }
+
+    /// Two bends joined by a road that bows out: the bow is disfluent enough to chain both
+    /// bends into one DBSCAN cluster, and each bend is still a junction of its own.
+    #[test]
+    fn two_bends_joined_by_a_bowed_road_are_two_bends() {
+        // the second bend as sharp as the first (68°), then gentler (45°: its peak λ is two
+        // thirds of the first's; the bow's own local peaks hold under two fifths)
+        for last in [[0.0, 80.0], [8.0, 119.0]] {
+            let t = drive(&[
+                [0.0, 0.0],
+                [100.0, 0.0],
+                [108.0, 20.0],
+                [112.0, 40.0],
+                [108.0, 60.0],
+                [100.0, 80.0],
+                last,
+            ]);
+            let g = extract_lanes(&t, &LaneConfig::default()).unwrap();
+            assert_eq!(
+                kinds(&g),
+                vec![(LIntersection, 2), (Breakpoint, 2)],
+                "{g:#?}"
+            );
+            for corner in [[100.0, 0.0], [100.0, 80.0]] {
+                assert!(
+                    g.nodes
+                        .iter()
+                        .any(|n| n.kind == LIntersection && dist(n.xy, corner) < 8.0),
+                    "no bend at {corner:?}: {:?}",
+                    g.nodes
+                );
+            }
+            check_cover(&g, &t);
+        }
     }
 
     #[test]
