@@ -52,13 +52,15 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
         r_at_1(&graph, "relational") >= r_at_1(&plain, "relational") + 0.3,
         "plain {plain} graph {graph}"
     );
-    assert!(r_at_1(&graph, "relational") >= 0.7, "{graph}");
+    // the goals: R@1 >= 0.9 named, >= 0.8 relational and functional (measured 0.962,
+    // 0.885 and 0.955 on this city)
+    assert!(r_at_1(&graph, "relational") >= 0.8, "{graph}");
     assert!(
         r_at_1(&graph, "functional") >= r_at_1(&plain, "functional"),
         "plain {plain} graph {graph}"
     );
     assert!(r_at_1(&graph, "functional") >= 0.8, "{graph}");
-    assert!(r_at_1(&graph, "named") >= 0.88, "{graph}");
+    assert!(r_at_1(&graph, "named") >= 0.9, "{graph}");
     // road areas measured from the map fit the simulator's roads far better than the
     // trajectory's discs and corridors
     let roads = json(&og(&[
@@ -75,7 +77,6 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
         roads["mean_iou_after"].as_f64().unwrap(),
     );
     assert!(after >= 0.85 && after >= before + 0.2, "{roads}");
-    assert!(r_at_1(&graph, "named") >= 0.8, "{graph}");
 
     let find = |text: &str| -> Vec<serde_json::Value> {
         json(&og(&["find", "--db", s(&db), text, "-k", "5", "--json"]))
@@ -149,9 +150,10 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
         "--json",
     ]));
     assert!(e["all"]["cases"].as_u64().unwrap() >= 40, "{e}");
-    // measured 0.647 / 0.838 at seed 0; the scoring before standing spots gave 0.544 top-1
-    assert!(e["all"]["top1"].as_f64().unwrap() >= 0.64, "{e}");
-    assert!(e["all"]["top3"].as_f64().unwrap() >= 0.75, "{e}");
+    // the goal is top-1 >= 0.8: measured 0.824 / 0.926 at seed 0 (0.706 / 0.838 before
+    // small things were kept and chained junctions split)
+    assert!(e["all"]["top1"].as_f64().unwrap() >= 0.8, "{e}");
+    assert!(e["all"]["top3"].as_f64().unwrap() >= 0.9, "{e}");
 
     // navigate: both ends from words; the route ends at the instance `find` resolved
     let png = dir.path().join("nav.png");

@@ -81,6 +81,8 @@ fn main() -> anyhow::Result<()> {
                 camera: &camera,
                 detections: dets,
                 features: feats,
+                // the integration alone: no dynamic filter ran
+                moving: None,
                 classes,
             });
             per_frame.push(t.elapsed().as_secs_f64() * 1e3);

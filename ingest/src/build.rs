@@ -302,6 +302,9 @@ pub struct BuildReport {
     pub detections: usize,
     /// Detections dropped (no points, or none after denoising).
     pub detections_dropped: usize,
+    /// Thing detections not mapped because their masks were largely points the dynamic
+    /// filter removed (`[dynamic] moving_detection_share`).
+    pub detections_moving: usize,
     /// NaN/inf points dropped from scans by this run.
     pub nonfinite_points: u64,
     /// The dynamic-point filter of this run.
@@ -690,9 +693,10 @@ fn neighbour_scans(seq: &Sequence, i: u32, window: u32) -> Vec<u32> {
     out
 }
 
-/// The key scan `i` without its dynamic points ([`crate::mapping::dynamic`]); range images
-/// of the neighbours are kept in `images` for the next key frames. Counts go to `rep`, and,
-/// where the scan has SemanticKITTI labels, against its moving classes.
+/// The key scan `i` without its dynamic points ([`crate::mapping::dynamic`]), and those
+/// points; range images of the neighbours are kept in `images` for the next key frames.
+/// Counts go to `rep`, and, where the scan has SemanticKITTI labels, against its moving
+/// classes.
 fn remove_dynamic(
     seq: &Sequence,
     i: u32,
@@ -700,7 +704,7 @@ fn remove_dynamic(
     cfg: &crate::mapping::dynamic::DynamicConfig,
     images: &mut BTreeMap<u32, crate::mapping::dynamic::RangeImage>,
     rep: &mut crate::mapping::dynamic::DynamicReport,
-) -> Result<Scan> {
+) -> Result<(Scan, Vec<[f32; 4]>)> {
     use crate::mapping::dynamic::{RangeImage, dynamic_mask, is_moving_label};
     let near = neighbour_scans(seq, i, cfg.window);
     rep.neighbour_scans += near.len() as u64;
@@ -738,15 +742,15 @@ fn remove_dynamic(
             }
         }
     }
-    Ok(Scan {
-        points: scan
-            .points
-            .iter()
-            .zip(&mask)
-            .filter(|(_, m)| !**m)
-            .map(|(p, _)| *p)
-            .collect(),
-    })
+    let (mut kept, mut removed) = (Vec::new(), Vec::new());
+    for (p, m) in scan.points.iter().zip(mask) {
+        if m {
+            removed.push(*p);
+        } else {
+            kept.push(*p);
+        }
+    }
+    Ok((Scan { points: kept }, removed))
 }
 
 struct FrameRecord {
@@ -1122,9 +1126,9 @@ pub fn build(
         let t = Instant::now();
         let scan = kitti::read_scan(&seq.scan_path(i))?;
         let t_dyn = Instant::now();
-        let filtered;
+        let (filtered, removed);
         let kept = if cfg.dynamic.enabled {
-            filtered = remove_dynamic(
+            (filtered, removed) = remove_dynamic(
                 &seq,
                 i,
                 &scan,
@@ -1134,6 +1138,7 @@ pub fn build(
             )?;
             &filtered
         } else {
+            removed = Vec::new();
             &scan
         };
         let dyn_ms = since(t_dyn);
@@ -1212,11 +1217,16 @@ pub fn build(
             camera: &camera,
             detections: &dets,
             features: &features,
+            moving: cfg.dynamic.enabled.then_some(crate::mapping::MovingPoints {
+                points: &removed,
+                detection_share: cfg.dynamic.moving_detection_share,
+            }),
             classes: &det_classes,
         });
         times.add(&stats.times);
         report.detections += stats.detections;
         report.detections_dropped += stats.dropped;
+        report.detections_moving += stats.moving;
         report.frames_run += 1;
         pending.push(FrameRecord {
             index: i,
@@ -1331,6 +1341,7 @@ mod tests {
             ("mapping", "dbscan_eps_m"),
             ("mapping", "w_geo"),
             ("mapping", "iou_min_side_m"),
+            ("mapping", "foreground_min_share"),
             ("hierarchy.drivable", "cell_m"),
             ("hierarchy.drivable", "alpha_m"),
             ("hierarchy.drivable", "max_gap_m"),
@@ -1338,6 +1349,7 @@ mod tests {
             ("dynamic", "margin_m"),
             ("dynamic", "margin_frac"),
             ("dynamic", "min_range_m"),
+            ("dynamic", "moving_detection_share"),
         ];
         for (table, key) in keys {
             for v in ["nan", "inf", "-inf", "-1.0", "1e300"] {

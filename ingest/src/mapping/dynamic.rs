@@ -36,6 +36,10 @@ pub struct DynamicConfig {
     pub margin_frac: f64,
     /// Points nearer to the sensor than this are kept (the car's own body, noise).
     pub min_range_m: f64,
+    /// A thing's detection is of a moving thing, and is not mapped, when at least this share
+    /// of the points in its mask were removed: the filter catches only part of a moving
+    /// object, and what it leaves would become a ghost (1 maps every detection).
+    pub moving_detection_share: f64,
 }
 
 impl Default for DynamicConfig {
@@ -49,6 +53,7 @@ impl Default for DynamicConfig {
             margin_m: 0.5,
             margin_frac: 0.05,
             min_range_m: 2.0,
+            moving_detection_share: 0.3,
         }
     }
 }
@@ -68,6 +73,11 @@ impl DynamicConfig {
         }
         if self.spread_bins > 10 {
             return bad("spread_bins must be at most 10");
+        }
+        if !(self.moving_detection_share.is_finite()
+            && (0.0..=1.0).contains(&self.moving_detection_share))
+        {
+            return bad("moving_detection_share must be a number in [0, 1]");
         }
         for (k, v) in [
             ("margin_m", self.margin_m),

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use super::MappingConfig;
 use super::associate::{TfIdf, Weights, cosine, greedy_assign, phi, words};
-use super::geometry::{Aabb, VoxelKey, clusters, largest_cluster, voxel_downsample, voxel_key};
+use super::geometry::{Aabb, VoxelKey, clusters, foreground_cluster, voxel_downsample, voxel_key};
 use super::project::{Camera, points_in_mask};
 use crate::classes;
 use crate::sources::detections::DetectionFrame;
@@ -198,11 +198,29 @@ pub struct FrameInput<'a> {
     pub detections: &'a DetectionFrame,
     /// Per detection: its feature (its own, or its caption's embedding).
     pub features: &'a [Vec<f32>],
+    /// What the dynamic-point filter removed from the key scan, when it ran.
+    pub moving: Option<MovingPoints<'a>>,
     /// Per detection: its class (1..=19). Surface classes ([`classes::is_surface`]) are
     /// fused into ground tiles, every other class into objects, so a detection that is a
     /// thing must never carry a surface class (see [`classes::names_surface`]).
     pub classes: &'a [u8],
 }
+
+/// The points of a key scan that the dynamic-point filter removed
+/// ([`crate::mapping::dynamic`]).
+#[derive(Debug, Clone, Copy)]
+pub struct MovingPoints<'a> {
+    /// The removed points, in the key frame's velodyne frame.
+    pub points: &'a [[f32; 4]],
+    /// A thing's detection whose mask holds at least this share of removed points (among
+    /// removed and kept), and at least [`MOVING_MIN_POINTS`], is of a moving thing and is not
+    /// mapped.
+    pub detection_share: f64,
+}
+
+/// A detection is of a moving thing only when at least this many of its mask's points were
+/// removed: a few edge points of a small static thing must not make it move.
+pub const MOVING_MIN_POINTS: usize = 5;
 
 /// Milliseconds spent per stage.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
@@ -248,6 +266,8 @@ pub struct FrameStats {
     pub created: usize,
     /// Background detections fused into tiles.
     pub background: usize,
+    /// Thing detections of moving things, not mapped ([`MovingPoints`]).
+    pub moving: usize,
     /// Time per stage.
     pub times: StageTimes,
 }
@@ -424,6 +444,21 @@ impl Mapper {
             .iter()
             .map(|d| points_in_mask(&projected, &d.mask.counts))
             .collect();
+        // detections of moving things: their masks are largely what the filter removed
+        let mut moving = vec![false; n];
+        if let Some(mv) = f.moving.filter(|mv| !mv.points.is_empty()) {
+            let mut removed = f.camera.project_all(mv.points);
+            removed.sort_unstable_by_key(|p| (p.pixel, p.point));
+            for (i, d) in f.detections.detections.iter().enumerate() {
+                if classes::is_surface(f.classes[i]) {
+                    continue;
+                }
+                let gone = points_in_mask(&removed, &d.mask.counts).len();
+                let total = gone + in_mask[i].len();
+                moving[i] =
+                    gone >= MOVING_MIN_POINTS && gone as f64 >= mv.detection_share * total as f64;
+            }
+        }
         st.times.project_ms += elapsed_ms(t);
         // per detection: voxel down-sample, DBSCAN (objects only), world transform
         let mut det_points: Vec<Vec<[f32; 3]>> = Vec::with_capacity(n);
@@ -438,7 +473,12 @@ impl Mapper {
                 .collect();
             let mut pts = voxel_downsample(&pts, cfg.voxel_m);
             if !classes::is_surface(f.classes[i]) {
-                pts = largest_cluster(&pts, cfg.dbscan_eps_m, cfg.dbscan_min_points);
+                pts = foreground_cluster(
+                    &pts,
+                    cfg.dbscan_eps_m,
+                    cfg.dbscan_min_points,
+                    cfg.foreground_min_share,
+                );
             }
             st.times.denoise_ms += elapsed_ms(t);
             let t = Instant::now();
@@ -476,6 +516,9 @@ impl Mapper {
             let (Some(b), false) = (Aabb::of(pts), classes::is_surface(f.classes[i])) else {
                 continue;
             };
+            if moving[i] {
+                continue;
+            }
             let det_obb = OrientedBox::fit(self.ground, pts);
             let caption = self.tfidf.vector(&f.detections.detections[i].caption);
             let candidates = if need_overlap {
@@ -516,6 +559,10 @@ impl Mapper {
         let t = Instant::now();
         for (i, pts) in det_points.into_iter().enumerate() {
             let d = &f.detections.detections[i];
+            if moving[i] {
+                st.moving += 1;
+                continue;
+            }
             if pts.is_empty() {
                 st.dropped += 1;
                 continue;
@@ -689,7 +736,8 @@ impl Mapper {
     /// `dbscan_eps_m`, `dbscan_min_points`): the largest cluster stays the object, every other
     /// cluster with at least `min_object_points` points and `split_min_share` of the object's
     /// points becomes a new object (with the same captions and feature), the rest is noise;
-    /// drop objects under `min_object_points`, then merge pairs whose shared-voxel ratio (over the smaller one)
+    /// drop objects under `min_object_points` (`tracked_min_points` for an object of at least
+    /// `tracked_detections` detections), then merge pairs whose shared-voxel ratio (over the smaller one)
     /// exceeds `merge_overlap` and whose feature cosine exceeds `merge_feature_cos`. The
     /// lower id survives and absorbs the other's points, feature, captions and counts.
     pub fn post_process(&mut self) -> PostReport {
@@ -719,7 +767,12 @@ impl Mapper {
             }
             // the new objects copy the object's captions, feature and counts
             let template = (!split_off.is_empty()).then(|| o.clone());
-            if o.points.len() < cfg.min_object_points {
+            let min_points = if o.detection_count >= cfg.tracked_detections {
+                cfg.tracked_min_points.min(cfg.min_object_points)
+            } else {
+                cfg.min_object_points
+            };
+            if o.points.len() < min_points {
                 report.dropped.push(id);
                 self.objects.remove(&id);
             }
@@ -889,6 +942,43 @@ mod tests {
         }
     }
 
+    /// A detection whose mask holds many points that the dynamic filter removed is of a
+    /// moving thing: it makes no object. A few removed points do not count, nor do surfaces.
+    #[test]
+    fn detections_of_moving_things_are_not_mapped() {
+        let cam = test_camera();
+        let kept = cube(0.0);
+        let dets = frame_of(vec![full_mask_detection("a red car")]);
+        let run = |removed: &[[f32; 4]], class: u8| {
+            let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+            let s = m.integrate(&FrameInput {
+                index: 0,
+                world_from_velo: Rigid3::identity(),
+                points: &kept,
+                camera: &cam,
+                detections: &dets,
+                features: &[vec![1.0, 0.0]],
+                moving: Some(MovingPoints {
+                    points: removed,
+                    detection_share: 0.3,
+                }),
+                classes: &[class],
+            });
+            (s.moving, m.objects().len())
+        };
+        // the car's other half was carved away: half of the mask's points are gone
+        let half: Vec<[f32; 4]> = cube(0.0)
+            .iter()
+            .map(|p| [p[0] + 0.1, p[1], p[2], p[3]])
+            .collect();
+        assert_eq!(run(&half, 1), (1, 0));
+        // four stray points: under MOVING_MIN_POINTS of 1,200
+        assert_eq!(run(&half[..4], 1), (0, 1));
+        assert_eq!(run(&[], 1), (0, 1));
+        // a road's mask is never a moving thing (class 9: road; the cube spans two tiles)
+        assert_eq!(run(&half, 9), (0, 2));
+    }
+
     #[test]
     fn the_same_object_seen_twice_is_one_object() {
         let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
@@ -907,6 +997,7 @@ mod tests {
                 detections: &dets,
                 features: &feats,
                 classes: &[1],
+                moving: None,
             });
             assert_eq!(s.dropped, 0, "{s:?}");
             assert_eq!((s.matched, s.created), if k == 0 { (0, 1) } else { (1, 0) });
@@ -928,6 +1019,7 @@ mod tests {
             detections: &frame_of(vec![full_mask_detection("a red car")]),
             features: &feats,
             classes: &[1],
+            moving: None,
         });
         // 30 m to the side is outside this 100 px camera: the detection has no points
         assert_eq!(s.dropped, 1);
@@ -960,6 +1052,7 @@ mod tests {
                 detections: &dets,
                 features: &[vec![0.0, 1.0]],
                 classes: &[class],
+                moving: None,
             });
             (m, s)
         };
@@ -1092,24 +1185,31 @@ mod tests {
             }
             v
         };
-        let mk = |id, pts, f: Vec<f32>| {
-            MapObject::restore(id, None, pts, f, vec![format!("o{id}")], 1, 0, 0, 0.1)
+        let mk_seen = |id, pts, f: Vec<f32>, seen| {
+            MapObject::restore(id, None, pts, f, vec![format!("o{id}")], seen, 0, 0, 0.1)
         };
+        let mk = |id, pts, f: Vec<f32>| mk_seen(id, pts, f, 1);
         let objects = vec![
             mk(0, grid(0.0, 10), vec![1.0, 0.0]),
             mk(1, grid(0.5, 10), vec![1.0, 0.1]), // half overlaps 0, similar
             mk(2, grid(0.5, 10), vec![-1.0, 0.0]), // overlaps, dissimilar
             mk(3, grid(20.0, 3), vec![1.0, 0.0]), // 30 points: too small
+            // 30 points too, but seen twice: a small thing seen again is kept
+            mk_seen(4, grid(30.0, 3), vec![0.0, 1.0], 2),
+            // seen twice, 10 points: under tracked_min_points
+            mk_seen(5, grid(40.0, 1), vec![0.0, 1.0], 2),
         ];
-        let mut m = Mapper::restore(cfg, GroundFrame::KittiCam, objects, 4);
+        assert_eq!((cfg.tracked_detections, cfg.tracked_min_points), (2, 15));
+        let mut m = Mapper::restore(cfg, GroundFrame::KittiCam, objects, 6);
         let r = m.post_process();
-        assert_eq!(r.dropped, vec![3]);
+        assert_eq!(r.dropped, vec![3, 5]);
+        assert_eq!(m.objects()[&4].points.len(), 30);
         assert_eq!(r.merged, vec![(0, 1)]);
         let o = &m.objects()[&0];
         assert_eq!(o.points.len(), 150);
         assert_eq!(o.detection_count, 2);
         assert_eq!(o.captions, vec!["o0".to_string(), "o1".to_string()]);
         assert!(m.objects().contains_key(&2));
-        assert_eq!(m.next_id(), 4);
+        assert_eq!(m.next_id(), 6);
     }
 }

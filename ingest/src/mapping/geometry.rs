@@ -103,6 +103,39 @@ pub fn largest_cluster(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> V
         .unwrap_or_default()
 }
 
+/// The foreground DBSCAN cluster of a detection's points, given in the sensor's frame: among
+/// the clusters holding at least `min_share` of the largest one's points, the one with the
+/// nearest median range. An object occludes what stands behind it, so the points of its
+/// mask that lie on it are the nearest ones; a wall or hedge behind a thin pole, caught at
+/// the mask's edge, can hold more points than the pole. With no cluster, returns nothing.
+pub fn foreground_cluster(
+    points: &[[f32; 3]],
+    eps_m: f32,
+    min_samples: usize,
+    min_share: f64,
+) -> Vec<[f32; 3]> {
+    let parts = clusters(points, eps_m, min_samples);
+    let Some(largest) = parts.first().map(Vec::len) else {
+        return Vec::new();
+    };
+    let median_range = |c: &Vec<[f32; 3]>| {
+        let mut r: Vec<f32> = c
+            .iter()
+            .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+            .collect();
+        r.sort_by(f32::total_cmp);
+        r[r.len() / 2]
+    };
+    parts
+        .into_iter()
+        .filter(|c| c.len() as f64 >= min_share * largest as f64)
+        .map(|c| (median_range(&c), c))
+        // ties keep the larger cluster, which comes first
+        .reduce(|a, b| if b.0 < a.0 { b } else { a })
+        .map(|(_, c)| c)
+        .unwrap_or_default()
+}
+
 /// The DBSCAN clusters of `points` ([`dbscan3`]), largest first (ties: the cluster found
 /// first); noise points are left out.
 pub fn clusters(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<Vec<[f32; 3]>> {
@@ -217,6 +250,28 @@ mod tests {
         let big = largest_cluster(&pts, 0.5, 20);
         assert_eq!(big.len(), 100);
         assert!(largest_cluster(&pts[..5], 0.5, 20).is_empty());
+    }
+
+    /// A thin pole 10 m out with a wall 3 m behind it, both in one mask: the wall holds more
+    /// points, the pole is nearer.
+    #[test]
+    fn the_foreground_cluster_is_the_nearer_one() {
+        let mut pts = Vec::new();
+        for j in 0..30 {
+            pts.push([10.0, 0.0, j as f32 * 0.1]);
+        }
+        for i in 0..20 {
+            for j in 0..10 {
+                pts.push([13.0, i as f32 * 0.1 - 1.0, j as f32 * 0.1]);
+            }
+        }
+        let pole = foreground_cluster(&pts, 0.5, 5, 0.1);
+        assert_eq!(pole.len(), 30);
+        assert!(pole.iter().all(|p| (p[0] - 10.0).abs() < 1e-6));
+        // a share above the pole's (30 of 200 points) keeps the wall
+        assert_eq!(foreground_cluster(&pts, 0.5, 5, 0.2).len(), 200);
+        assert_eq!(foreground_cluster(&pts, 0.5, 5, 1.0).len(), 200);
+        assert!(foreground_cluster(&pts[..3], 0.5, 5, 0.3).is_empty());
     }
 
     #[test]

@@ -9,7 +9,8 @@ pub mod geometry;
 pub mod project;
 
 pub use fusion::{
-    CaptionMerger, FrameInput, FrameStats, MapObject, Mapper, MedoidMerger, PostReport, StageTimes,
+    CaptionMerger, FrameInput, FrameStats, MapObject, Mapper, MedoidMerger, MovingPoints,
+    PostReport, StageTimes,
 };
 
 /// Every mapping parameter, with the reference implementation's defaults. Loadable from the
@@ -23,6 +24,10 @@ pub struct MappingConfig {
     pub dbscan_eps_m: f32,
     /// DBSCAN minimum neighbourhood (the point included).
     pub dbscan_min_points: usize,
+    /// A detection's points are the foreground DBSCAN cluster of its mask's points: the
+    /// nearest among the clusters with at least this share of the largest one's points
+    /// ([`geometry::foreground_cluster`]; 1 keeps the largest).
+    pub foreground_min_share: f64,
     /// Weight of the 3D IoU in φ.
     pub w_geo: f64,
     /// The 3D IoU of φ is that of the detection's and the object's oriented boxes, each
@@ -38,8 +43,14 @@ pub struct MappingConfig {
     /// How many of the latest captions are merged into the object's caption (and compared
     /// with new detections).
     pub merge_captions: usize,
-    /// Post-processing: objects with fewer points are dropped.
+    /// Post-processing: objects with fewer points are dropped ...
     pub min_object_points: usize,
+    /// ... unless at least this many detections were fused into them ...
+    pub tracked_detections: u32,
+    /// ... and they keep at least this many points: a small thing (a hydrant, a post box, a
+    /// sign) seen again and again is real even when its points are under
+    /// `min_object_points`.
+    pub tracked_min_points: usize,
     /// Post-processing: a point cluster of an object other than its largest becomes an
     /// object of its own when it holds at least this share of the object's points (and
     /// `min_object_points`); smaller ones are dropped as noise.
@@ -68,7 +79,8 @@ impl Default for MappingConfig {
         MappingConfig {
             voxel_m: 0.1,
             dbscan_eps_m: 0.5,
-            dbscan_min_points: 20,
+            dbscan_min_points: 5,
+            foreground_min_share: 0.3,
             w_geo: 1.0,
             iou_min_side_m: 0.5,
             w_cap: 0.2,
@@ -76,6 +88,8 @@ impl Default for MappingConfig {
             sim_threshold: 0.6,
             merge_captions: 4,
             min_object_points: 50,
+            tracked_detections: 2,
+            tracked_min_points: 15,
             split_min_share: 0.2,
             join_eps_m: 1.0,
             merge_overlap: 0.1,
@@ -120,6 +134,14 @@ impl MappingConfig {
             if !(w.is_finite() && (0.0..1e6).contains(&w)) {
                 return bad(&format!("{n} must be a non-negative number below 1e6"));
             }
+        }
+        if !(self.foreground_min_share.is_finite()
+            && (0.0..=1.0).contains(&self.foreground_min_share))
+        {
+            return bad("foreground_min_share must be a number in [0, 1]");
+        }
+        if self.tracked_min_points == 0 {
+            return bad("tracked_min_points must be at least 1");
         }
         if !self.merge_feature_cos.is_finite() {
             return bad("merge_feature_cos must be finite");
