@@ -4,4 +4,6 @@ pub mod http;
 pub mod mcp;
 
 // the service layer, under the names the adapters and the CLI use
-pub use opengraph_service::{ask, demo, find, info, plan, service, tools, update, view};
+pub use opengraph_service::{
+    ask, demo, find, info, plan, query_cache, service, tools, update, view,
+};

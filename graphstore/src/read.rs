@@ -138,6 +138,12 @@ pub trait GraphRead {
     #[doc(hidden)]
     fn view(&self) -> View<'_>;
 
+    /// The [`crate::Store::commit_seq`] a committed snapshot sees; None inside a write
+    /// transaction (its state is not a commit yet).
+    fn commit_seq(&self) -> Option<u64> {
+        None
+    }
+
     /// The id of a label, if the store has seen it.
     fn label(&self, name: &str) -> Option<LabelId> {
         self.view().raw.token(TokenKind::Label, name).map(LabelId)

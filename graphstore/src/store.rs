@@ -104,6 +104,8 @@ pub struct Committed {
     pub(crate) tokens: Arc<Tokens>,
     pub(crate) schema: Arc<Compiled>,
     pub(crate) mem: Arc<Mem>,
+    /// Commits since the store was opened (see [`Store::commit_seq`]).
+    pub(crate) seq: u64,
 }
 
 /// The redb handle: read-write, or read-only (never changes the file, opens files the user
@@ -361,6 +363,7 @@ impl Store {
                     tokens: Arc::new(tokens),
                     schema: Arc::new(compiled),
                     mem: Arc::new(Mem::default()),
+                    seq: 0,
                 })),
             }),
         };
@@ -372,6 +375,7 @@ impl Store {
                 tokens: old.tokens.clone(),
                 schema: old.schema.clone(),
                 mem: Arc::new(mem),
+                seq: old.seq,
             });
         }
         tracing::debug!(path = %path.display(), "store opened");
@@ -404,6 +408,13 @@ impl Store {
 
     fn committed(&self) -> Arc<Committed> {
         lock(&self.inner.state).clone()
+    }
+
+    /// How many commits this handle (and its clones) has made since the store was opened: a
+    /// cache of what a read saw stays valid while this is unchanged. The writer holds the
+    /// file, so no other process changes it meanwhile.
+    pub fn commit_seq(&self) -> u64 {
+        self.committed().seq
     }
 
     /// A consistent snapshot for reading. Writers may commit meanwhile; this reader keeps
@@ -455,6 +466,7 @@ impl Store {
             tokens,
             schema: base.schema.clone(),
             mem,
+            seq: base.seq + 1,
         });
         Ok(value)
     }
@@ -492,6 +504,7 @@ impl Store {
             tokens: Arc::new(t),
             schema: compiled,
             mem: Arc::new(Mem::default()),
+            seq: base.seq + 1,
         });
         let rtx = self.inner.db.begin_read().map_err(storage)?;
         let mem = build_mem(&ReadTxn::new(rtx, staged.clone())?)?;
@@ -499,6 +512,7 @@ impl Store {
             tokens: staged.tokens.clone(),
             schema: staged.schema.clone(),
             mem: Arc::new(mem),
+            seq: staged.seq,
         });
         Ok(())
     }

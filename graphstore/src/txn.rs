@@ -338,6 +338,10 @@ impl GraphRead for ReadTxn {
     fn view(&self) -> View<'_> {
         View { raw: self }
     }
+
+    fn commit_seq(&self) -> Option<u64> {
+        Some(self.base.seq)
+    }
 }
 
 impl GraphRead for WriteTxn<'_> {

@@ -154,3 +154,38 @@ fn one_writer_and_32_readers_see_whole_snapshots() {
     assert!(r > 0 && w > 0);
     assert!(store.check_consistency().unwrap().is_empty());
 }
+
+/// The commit sequence counts commits: a read or a failed write leaves it, a write or a
+/// schema change moves it, and a snapshot keeps the sequence it was taken at.
+#[test]
+fn the_commit_sequence_moves_with_commits_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::create(dir.path().join("seq.og")).unwrap();
+    let s0 = store.commit_seq();
+    store
+        .query("MATCH (n) RETURN count(n)", &QueryOptions::default())
+        .unwrap();
+    assert_eq!(store.commit_seq(), s0);
+    let before = store.read().unwrap();
+    store
+        .query("CREATE (:A {x: 1})", &QueryOptions::default())
+        .unwrap();
+    assert_eq!(store.commit_seq(), s0 + 1);
+    assert_eq!(before.commit_seq(), Some(s0));
+    assert_eq!(store.read().unwrap().commit_seq(), Some(s0 + 1));
+    // a write that fails commits nothing
+    let failed: graphstore::Result<()> = store.write(|tx| {
+        tx.create_node_named(&["B"], &[])?;
+        Err(graphstore::Error::InvalidValue("no".into()))
+    });
+    assert!(failed.is_err());
+    assert_eq!(store.commit_seq(), s0 + 1);
+    // a clone shares the sequence
+    let other = store.clone();
+    other
+        .query("CREATE (:A {x: 2})", &QueryOptions::default())
+        .unwrap();
+    assert_eq!(store.commit_seq(), s0 + 2);
+    assert!(graphstore::cypher::is_deterministic("MATCH (n) RETURN n.x").unwrap());
+    assert!(!graphstore::cypher::is_deterministic("RETURN RAND() AS r").unwrap());
+}

@@ -4,6 +4,7 @@
 //! surroundings, with a position estimate. The CLI's `find`, `locate` and `eval` call them; the
 //! server will too.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use graphstore::GraphRead;
@@ -90,7 +91,24 @@ pub struct FindAnswer {
 pub struct Finder {
     embedder: Box<dyn Embedder + Send>,
     llm: Option<Box<dyn ChatModel>>,
-    scene: Option<Scene>,
+    /// The loaded scene and the commit it was loaded at (None: inside a write).
+    scene: Option<(Option<u64>, Arc<Scene>)>,
+    /// A scene shared with other finders (a server's workers), loaded once per commit.
+    shared_scene: Option<Arc<SharedScene>>,
+}
+
+/// The scene of the latest commit, shared by finders: after a write the first request
+/// loads it and the others take it.
+#[derive(Debug, Default)]
+pub struct SharedScene {
+    slot: std::sync::Mutex<Option<(u64, Arc<Scene>)>>,
+}
+
+impl SharedScene {
+    /// An empty slot to share.
+    pub fn new() -> Arc<SharedScene> {
+        Arc::new(SharedScene::default())
+    }
 }
 
 /// A locate request.
@@ -126,6 +144,7 @@ impl std::fmt::Debug for Finder {
             .field("embedder", &self.embedder.name())
             .field("llm", &self.llm.as_ref().map(|m| m.model_id()))
             .field("scene_loaded", &self.scene.is_some())
+            .field("scene_shared", &self.shared_scene.is_some())
             .finish()
     }
 }
@@ -137,6 +156,7 @@ impl Finder {
             embedder,
             llm,
             scene: None,
+            shared_scene: None,
         }
     }
 
@@ -148,12 +168,47 @@ impl Finder {
         })
     }
 
-    /// The map's scene (instances and segments), loaded on first use.
-    fn scene(&mut self, r: &impl GraphRead) -> Result<&Scene> {
-        if self.scene.is_none() {
-            self.scene = Some(Scene::load(r)?);
+    /// The map's scene (instances and segments) as of `r`'s commit: kept while the commit
+    /// is the same, taken from the shared slot when another finder loaded it, else loaded.
+    fn scene(&mut self, r: &impl GraphRead) -> Result<Arc<Scene>> {
+        let seq = r.commit_seq();
+        match &self.scene {
+            // inside a write the scene loaded there is kept until forgotten
+            Some((s, scene)) if seq.is_none() || *s == seq => return Ok(scene.clone()),
+            _ => {}
         }
-        Ok(self.scene.as_ref().expect("loaded"))
+        let lock = |sh: &SharedScene| {
+            sh.slot
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .clone()
+        };
+        if let (Some(seq), Some(sh)) = (seq, &self.shared_scene)
+            && let Some((s, scene)) = lock(sh)
+            && s == seq
+        {
+            self.scene = Some((Some(seq), scene.clone()));
+            return Ok(scene);
+        }
+        let scene = Arc::new(Scene::load(r)?);
+        if let (Some(seq), Some(sh)) = (seq, &self.shared_scene) {
+            let mut slot = sh
+                .slot
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            // keep the newest commit's scene
+            if slot.as_ref().is_none_or(|(s, _)| *s < seq) {
+                *slot = Some((seq, scene.clone()));
+            }
+        }
+        self.scene = Some((seq, scene.clone()));
+        Ok(scene)
+    }
+
+    /// Shares loaded scenes with every other finder given `shared` (a server's workers):
+    /// one load per commit instead of one per worker.
+    pub fn share_scene(&mut self, shared: Arc<SharedScene>) {
+        self.shared_scene = Some(shared);
     }
 
     /// The cosine below which a best match is no match (the map holds nothing like the
@@ -204,16 +259,17 @@ impl Finder {
     ///
     /// # Errors
     /// The store fails or has no ground frame.
-    pub fn segments(&mut self, r: &impl GraphRead) -> Result<&[SegmentInfo]> {
-        Ok(&self.scene(r)?.segments)
+    pub fn segments(&mut self, r: &impl GraphRead) -> Result<Vec<SegmentInfo>> {
+        Ok(self.scene(r)?.segments.clone())
     }
 
-    /// The map's instances as the finder sees them (loading the scene if needed).
+    /// The map's scene, whose `objects` are the instances as the finder sees them (loading it
+    /// if needed).
     ///
     /// # Errors
     /// The store fails or has no ground frame.
-    pub fn objects(&mut self, r: &impl GraphRead) -> Result<&[llm_tools::graph_find::SceneObject]> {
-        Ok(&self.scene(r)?.objects)
+    pub fn objects(&mut self, r: &impl GraphRead) -> Result<Arc<Scene>> {
+        self.scene(r)
     }
 
     /// Ranks the map's segments for a description of the surroundings.
@@ -242,8 +298,8 @@ impl Finder {
         };
         let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
         let t1 = Instant::now();
-        self.scene(r)?;
-        let scene = self.scene.as_ref().expect("loaded");
+        let scene = self.scene(r)?;
+        let scene = &*scene;
         // the hash embedder has no weak-match level (0): no floor then
         let floor = Some(self.weak_match_cosine())
             .filter(|w| *w > 0.0)
@@ -343,8 +399,8 @@ impl Finder {
         };
         let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
         let t1 = Instant::now();
-        self.scene(r)?;
-        let scene = self.scene.as_ref().expect("loaded");
+        let scene = self.scene(r)?;
+        let scene = &*scene;
         let opts = GraphFindOptions {
             k: if rerank {
                 req.k.max(req.rerank_n)

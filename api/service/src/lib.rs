@@ -5,6 +5,7 @@ pub mod demo;
 pub mod find;
 pub mod info;
 pub mod plan;
+pub mod query_cache;
 pub mod service;
 pub mod tools;
 pub mod update;

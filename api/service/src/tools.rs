@@ -378,6 +378,8 @@ pub struct Toolbox {
     generation: Arc<AtomicU64>,
     /// The generation this toolbox's scene cache was loaded at.
     seen: u64,
+    /// Answers of read-only Cypher statements, shared with the forks given it.
+    query_cache: Option<Arc<crate::query_cache::QueryCache>>,
 }
 
 impl std::fmt::Debug for Toolbox {
@@ -487,6 +489,7 @@ impl Toolbox {
             writes,
             generation: Arc::new(AtomicU64::new(0)),
             seen: 0,
+            query_cache: None,
         }
     }
 
@@ -498,7 +501,21 @@ impl Toolbox {
             writes: self.writes,
             generation: self.generation.clone(),
             seen: self.generation.load(Ordering::SeqCst),
+            query_cache: self.query_cache.clone(),
         }
+    }
+
+    /// Shares loaded scenes with every other toolbox given `shared` (a server's workers):
+    /// after a write one worker loads the map's scene and the others take it.
+    pub fn share_scene(&mut self, shared: Arc<crate::find::SharedScene>) {
+        self.finder.share_scene(shared);
+    }
+
+    /// Keeps answers of read-only Cypher statements in `cache`, shared with every other
+    /// toolbox given it (a server's workers), until the next commit
+    /// ([`crate::query_cache`]).
+    pub fn share_query_cache(&mut self, cache: Arc<crate::query_cache::QueryCache>) {
+        self.query_cache = Some(cache);
     }
 
     /// Shares `cache` for query embeddings with every other toolbox given it (a server's
@@ -685,6 +702,43 @@ impl Toolbox {
     }
 
     fn cypher(&self, query: &str, params: Option<&Json>, read_only: bool) -> ToolResult<Json> {
+        // a read-only answer kept since the last commit is the answer now; the sequence is
+        // read before the statement's snapshot is taken, so nothing newer is ever labelled
+        // older (see crate::query_cache)
+        let cached = match &self.query_cache {
+            Some(c)
+                if read_only && graphstore::cypher::is_deterministic(query).unwrap_or(false) =>
+            {
+                let key = (
+                    query.to_string(),
+                    params.map(Json::to_string).unwrap_or_default(),
+                );
+                let seq = self.store.commit_seq();
+                if let Some(answer) = c.get(&key, seq) {
+                    return Ok((*answer).clone());
+                }
+                Some((c, key, seq))
+            }
+            _ => None,
+        };
+        let out = self.cypher_uncached(query, params, read_only)?;
+        if let Some((c, key, seq)) = cached
+            && out.get("plan").is_none()
+            && out["row_count"]
+                .as_u64()
+                .is_some_and(|n| n as usize <= crate::query_cache::MAX_CACHED_ROWS)
+        {
+            c.put(key, seq, Arc::new(out.clone()));
+        }
+        Ok(out)
+    }
+
+    fn cypher_uncached(
+        &self,
+        query: &str,
+        params: Option<&Json>,
+        read_only: bool,
+    ) -> ToolResult<Json> {
         let mut p = BTreeMap::new();
         if let Some(Json::Object(m)) = params {
             for (k, v) in m {
@@ -879,6 +933,67 @@ mod tests {
             pinned, now,
             "the tool surface changed; review it and run UPDATE_SNAPSHOTS=1 cargo test -p opengraph-service --lib"
         );
+    }
+
+    /// Read-only answers come back from the shared cache until a write through any worker;
+    /// rand() and plans are never kept; the scene is loaded once per commit for all workers.
+    #[test]
+    fn read_answers_are_cached_until_a_write() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
+        crate::demo::build(&store).unwrap();
+        let finder = || {
+            crate::find::Finder::new(
+                Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+                None,
+            )
+        };
+        let mut a = Toolbox::new(store, finder(), true);
+        let mut b = a.fork(finder());
+        let cache = crate::query_cache::QueryCache::new(16);
+        let scene = crate::find::SharedScene::new();
+        for t in [&mut a, &mut b] {
+            t.share_query_cache(cache.clone());
+            t.share_scene(scene.clone());
+        }
+        let count = json!({"query": "MATCH (n:Note) RETURN count(n) AS n"});
+        let n0 = a.call("read_cypher", &count).unwrap()["rows"][0]["n"].clone();
+        assert_eq!(cache.stats(), (0, 1));
+        // the other worker gets the same answer from the cache
+        assert_eq!(b.call("read_cypher", &count).unwrap()["rows"][0]["n"], n0);
+        assert_eq!(cache.stats(), (1, 1));
+        // parameters are part of the key
+        let with = json!({"query": "MATCH (n:Note) RETURN count(n) + $k AS n", "params": {"k": 1}});
+        a.call("read_cypher", &with).unwrap();
+        assert_eq!(cache.stats(), (1, 2));
+        // a write through one worker retires the answer for both
+        a.call(
+            "write_cypher",
+            &json!({"query": "CREATE (:Note {text: 'the bench was painted'})"}),
+        )
+        .unwrap();
+        let n1 = b.call("read_cypher", &count).unwrap()["rows"][0]["n"].clone();
+        assert_eq!(n1.as_i64().unwrap(), n0.as_i64().unwrap() + 1);
+        assert_eq!(cache.stats(), (1, 3));
+        // rand() and EXPLAIN are computed every time
+        let (h, m) = cache.stats();
+        for q in ["RETURN rand() AS r", "EXPLAIN MATCH (n) RETURN n"] {
+            a.call("read_cypher", &json!({"query": q})).unwrap();
+            a.call("read_cypher", &json!({"query": q})).unwrap();
+        }
+        let (h2, m2) = cache.stats();
+        assert_eq!(h2, h, "nothing came from the cache");
+        assert_eq!(m2 - m, 2, "EXPLAIN looks up but is never kept; rand() never looks up");
+        // both workers' finds see one scene per commit
+        a.call(
+            "write_cypher",
+            &json!({"query": "MATCH (e:Environment) SET e.ground_frame = 'kitti_cam'"}),
+        )
+        .unwrap();
+        let find = json!({"text": "a bench", "k": 3});
+        let fa = a.call("find_objects", &find).unwrap();
+        let fb = b.call("find_objects", &find).unwrap();
+        assert_eq!(fa["results"], fb["results"]);
     }
 
     #[test]

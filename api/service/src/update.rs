@@ -275,7 +275,7 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
             || anchor.as_ref().is_some_and(|a| a.ambiguous));
     let best = |x: &Option<Resolved>| x.as_ref().map(|x| x.candidates[0].clone());
     let (t, a) = (best(&target), best(&anchor));
-    let segments = finder.segments(&r).map_err(failed)?.to_vec();
+    let segments = finder.segments(&r).map_err(failed)?;
     let mut position = None;
     let mut caption = None;
     let (change, proposal) = match request.kind {
@@ -311,11 +311,11 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
             ];
             let dir = toward_road(ac, &segments);
             let to = place((amin_max.0, amin_max.1), &relation, half, dir);
-            let objects = finder.objects(&r).map_err(failed)?;
+            let scene = finder.objects(&r).map_err(failed)?;
             let to = if matches!(relation.as_str(), "on" | "under") {
                 to
             } else {
-                clear_spot(to, half, dir, objects, Some(t.id))
+                clear_spot(to, half, dir, &scene.objects, Some(t.id))
             };
             position = Some(to);
             (
@@ -382,11 +382,11 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
             let ac = [(amin[0] + amax[0]) / 2.0, (amin[1] + amax[1]) / 2.0];
             let dir = toward_road(ac, &segments);
             let to = place((amin, amax), &relation, ADDED_SIZE_M[0] / 2.0, dir);
-            let objects = finder.objects(&r).map_err(failed)?;
+            let scene = finder.objects(&r).map_err(failed)?;
             let to = if matches!(relation.as_str(), "on" | "under") {
                 to
             } else {
-                clear_spot(to, ADDED_SIZE_M[0] / 2.0, dir, objects, None)
+                clear_spot(to, ADDED_SIZE_M[0] / 2.0, dir, &scene.objects, None)
             };
             let base = if relation == "on" { atop } else { abase };
             let feature = finder

@@ -437,6 +437,11 @@ pub(crate) enum Command {
         /// (least recently used out; 4,096 MiniLM vectors take about 6 MiB; 0 turns it off).
         #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(0..=1_000_000))]
         embedding_cache: u32,
+        /// Answers of read-only Cypher statements kept for reuse until the next write, shared
+        /// by the workers (least recently used out; answers over 1,000 rows and statements
+        /// calling rand() are never kept; 0 turns it off).
+        #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+        query_cache: u32,
         /// A browser origin allowed to call the API (CORS); repeat for more. Default: CORS off.
         #[arg(long)]
         cors_origin: Vec<String>,

@@ -224,7 +224,7 @@ pub(crate) fn locate(cmd: Command) -> anyhow::Result<()> {
     let r = store.read()?;
     let parser = parser_of(&parser);
     let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
-    let segments = finder.segments(&r)?.to_vec();
+    let segments = finder.segments(&r)?;
     let mut latencies = Vec::new();
     let report = ingest::eval_locate::eval_locate(&cases, &segments, |text| {
         let t = std::time::Instant::now();

@@ -18,6 +18,7 @@ pub(crate) struct ServeArgs {
     pub(crate) body_limit_bytes: usize,
     pub(crate) max_concurrent: usize,
     pub(crate) embedding_cache: u32,
+    pub(crate) query_cache: u32,
     pub(crate) cors_origin: Vec<String>,
     pub(crate) llm: LlmArgs,
 }
@@ -80,6 +81,18 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         let cache = llm_tools::EmbeddingCache::new(a.embedding_cache as usize);
         for b in &mut boxes {
             b.share_embedding_cache(cache.clone());
+        }
+    }
+    // one scene per commit for every worker
+    let scene = api::find::SharedScene::new();
+    for b in &mut boxes {
+        b.share_scene(scene.clone());
+    }
+    // one cache of read-only Cypher answers for every worker, kept until the next commit
+    if a.query_cache > 0 {
+        let cache = api::query_cache::QueryCache::new(a.query_cache as usize);
+        for b in &mut boxes {
+            b.share_query_cache(cache.clone());
         }
     }
     let timeout = std::time::Duration::from_secs_f64(a.timeout_secs);
@@ -174,6 +187,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         body_limit_bytes,
         max_concurrent,
         embedding_cache,
+        query_cache,
         cors_origin,
         llm,
     } = cmd
@@ -190,6 +204,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         body_limit_bytes,
         max_concurrent,
         embedding_cache,
+        query_cache,
         cors_origin,
         llm,
     })

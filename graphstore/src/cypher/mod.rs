@@ -604,6 +604,18 @@ pub fn validate(text: &str) -> Result<(), QueryError> {
     check::check(&stmt)
 }
 
+/// Whether the statement's answer depends only on the graph and its parameters: false when
+/// it calls `rand()` (judged from its tokens, so a property named `rand` counts too). A cache
+/// of answers must not keep the others.
+///
+/// # Errors
+/// The text does not lex.
+pub fn is_deterministic(text: &str) -> Result<bool, QueryError> {
+    Ok(!lexer::lex(text)?
+        .iter()
+        .any(|t| matches!(&t.tok, lexer::Tok::Ident(w) if w.eq_ignore_ascii_case("rand"))))
+}
+
 /// Whether the statement writes (CREATE, MERGE, SET, REMOVE, DELETE).
 pub fn is_write(text: &str) -> Result<bool, QueryError> {
     let stmt = parser::parse(text)?;
