@@ -983,7 +983,11 @@ mod tests {
         }
         let (h2, m2) = cache.stats();
         assert_eq!(h2, h, "nothing came from the cache");
-        assert_eq!(m2 - m, 2, "EXPLAIN looks up but is never kept; rand() never looks up");
+        assert_eq!(
+            m2 - m,
+            2,
+            "EXPLAIN looks up but is never kept; rand() never looks up"
+        );
         // both workers' finds see one scene per commit
         a.call(
             "write_cypher",
