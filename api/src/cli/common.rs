@@ -444,7 +444,7 @@ pub(crate) fn build_summary(r: &ingest::build::BuildReport, rss_mib: Option<f64>
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "key frames: {} ({} this run{}), detections from {}: {} ({} dropped, {} of moving things), non-finite points dropped: {}",
+        "key frames: {} ({} this run{}), detections from {}: {} ({} dropped: no points; {} more not mapped: mostly points the dynamic filter removed, a moving thing), non-finite points dropped: {}",
         r.frames_total,
         r.frames_run,
         r.resumed_at

@@ -140,14 +140,24 @@ impl MappingConfig {
         {
             return bad("foreground_min_share must be a number in [0, 1]");
         }
-        if self.tracked_min_points == 0 {
-            return bad("tracked_min_points must be at least 1");
+        if self.tracked_min_points == 0 || self.tracked_min_points > 1_000_000 {
+            return bad("tracked_min_points must be between 1 and 1000000");
         }
         if !self.merge_feature_cos.is_finite() {
             return bad("merge_feature_cos must be finite");
         }
         if self.merge_captions == 0 || self.accumulate == 0 || self.commit_every == 0 {
             return bad("merge_captions, accumulate and commit_every must be at least 1");
+        }
+        // a DBSCAN neighbourhood holds the point itself; more than a scan's points is a typo
+        for (n, v) in [
+            ("dbscan_min_points", self.dbscan_min_points),
+            ("tracked_detections", self.tracked_detections as usize),
+            ("min_object_points", self.min_object_points),
+        ] {
+            if v == 0 || v > 1_000_000 {
+                return bad(&format!("{n} must be between 1 and 1000000"));
+            }
         }
         if self.image_size[0] == 0 || self.image_size[1] == 0 {
             return bad("image_size must be positive");
