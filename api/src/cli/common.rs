@@ -170,7 +170,8 @@ pub(crate) fn open_store(
                     drop(e);
                     Err(UsageError(format!(
                         "cannot open {} for writing: a read-only `opengraph serve` holds it ({url}); \
-                         stop it, or serve with --token-file and write through it (POST {url}api/update, {url}api/cypher/write)",
+                         to read, open it read-only too (`opengraph query --read-only ...`, or POST {url}api/cypher); \
+                         to write, stop it, or serve with --token-file and write through it (POST {url}api/update, {url}api/cypher/write)",
                         db.display()
                     ))
                     .into())
