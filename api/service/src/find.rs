@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use graphstore::GraphRead;
 use llm_tools::graph_find::{self, GraphFindOptions, GraphFound, Scene};
-use llm_tools::locate::{self, Description, Located, SegmentInfo};
+use llm_tools::locate::{self, Description, Located};
 use llm_tools::request::{self, Request};
 use llm_tools::retrieve::{self, FindOptions};
 use llm_tools::{ChatModel, Embedder, Result};
@@ -91,8 +91,8 @@ pub struct FindAnswer {
 pub struct Finder {
     embedder: Box<dyn Embedder + Send>,
     llm: Option<Box<dyn ChatModel>>,
-    /// The loaded scene and the commit it was loaded at (None: inside a write).
-    scene: Option<(Option<u64>, Arc<Scene>)>,
+    /// The loaded scene and the commit it was loaded at.
+    scene: Option<(u64, Arc<Scene>)>,
     /// A scene shared with other finders (a server's workers), loaded once per commit.
     shared_scene: Option<Arc<SharedScene>>,
 }
@@ -108,6 +108,29 @@ impl SharedScene {
     /// An empty slot to share.
     pub fn new() -> Arc<SharedScene> {
         Arc::new(SharedScene::default())
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Option<(u64, Arc<Scene>)>> {
+        // a panic while holding the lock leaves only a cache behind: keep using it
+        self.slot
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// The scene loaded at commit `seq`, if it is the one kept.
+    fn get(&self, seq: u64) -> Option<Arc<Scene>> {
+        self.lock()
+            .as_ref()
+            .filter(|(s, _)| *s == seq)
+            .map(|(_, scene)| scene.clone())
+    }
+
+    /// Keeps `scene`, loaded at commit `seq`, unless a newer commit's is kept.
+    fn put(&self, seq: u64, scene: Arc<Scene>) {
+        let mut slot = self.lock();
+        if slot.as_ref().is_none_or(|(s, _)| *s < seq) {
+            *slot = Some((seq, scene));
+        }
     }
 }
 
@@ -170,37 +193,30 @@ impl Finder {
 
     /// The map's scene (instances and segments) as of `r`'s commit: kept while the commit
     /// is the same, taken from the shared slot when another finder loaded it, else loaded.
-    fn scene(&mut self, r: &impl GraphRead) -> Result<Arc<Scene>> {
-        let seq = r.commit_seq();
-        match &self.scene {
-            // inside a write the scene loaded there is kept until forgotten
-            Some((s, scene)) if seq.is_none() || *s == seq => return Ok(scene.clone()),
-            _ => {}
-        }
-        let lock = |sh: &SharedScene| {
-            sh.slot
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner)
-                .clone()
+    /// Inside a write transaction (no commit yet) it is loaded every time and not kept.
+    ///
+    /// # Errors
+    /// The store fails or has no ground frame.
+    pub fn scene(&mut self, r: &impl GraphRead) -> Result<Arc<Scene>> {
+        let Some(seq) = r.commit_seq() else {
+            return Ok(Arc::new(Scene::load(r)?));
         };
-        if let (Some(seq), Some(sh)) = (seq, &self.shared_scene)
-            && let Some((s, scene)) = lock(sh)
-            && s == seq
+        if let Some((s, scene)) = &self.scene
+            && *s == seq
         {
-            self.scene = Some((Some(seq), scene.clone()));
-            return Ok(scene);
+            return Ok(scene.clone());
         }
-        let scene = Arc::new(Scene::load(r)?);
-        if let (Some(seq), Some(sh)) = (seq, &self.shared_scene) {
-            let mut slot = sh
-                .slot
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            // keep the newest commit's scene
-            if slot.as_ref().is_none_or(|(s, _)| *s < seq) {
-                *slot = Some((seq, scene.clone()));
+        let shared = self.shared_scene.as_ref().and_then(|sh| sh.get(seq));
+        let scene = match shared {
+            Some(scene) => scene,
+            None => {
+                let scene = Arc::new(Scene::load(r)?);
+                if let Some(sh) = &self.shared_scene {
+                    sh.put(seq, scene.clone());
+                }
+                scene
             }
-        }
+        };
         self.scene = Some((seq, scene.clone()));
         Ok(scene)
     }
@@ -248,28 +264,6 @@ impl Finder {
     /// The embedder fails.
     pub fn embed(&mut self, texts: &[&str]) -> Result<Vec<Vec<f32>>> {
         self.embedder.embed(texts)
-    }
-
-    /// Drops the cached scene, so the next request reloads it (after the map changed).
-    pub fn forget_scene(&mut self) {
-        self.scene = None;
-    }
-
-    /// The map's segments (loading the scene if needed).
-    ///
-    /// # Errors
-    /// The store fails or has no ground frame.
-    pub fn segments(&mut self, r: &impl GraphRead) -> Result<Vec<SegmentInfo>> {
-        Ok(self.scene(r)?.segments.clone())
-    }
-
-    /// The map's scene, whose `objects` are the instances as the finder sees them (loading it
-    /// if needed).
-    ///
-    /// # Errors
-    /// The store fails or has no ground frame.
-    pub fn objects(&mut self, r: &impl GraphRead) -> Result<Arc<Scene>> {
-        self.scene(r)
     }
 
     /// Ranks the map's segments for a description of the surroundings.

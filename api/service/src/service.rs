@@ -4,8 +4,8 @@
 //! it; neither holds logic of its own.
 //!
 //! Writes: the store has one writer at a time (redb); write tools run only for callers that
-//! presented the write token (`may_write`), and every worker reloads its scene cache after a
-//! write (see [`Toolbox::fork`]).
+//! presented the write token (`may_write`), and every worker loads the new scene after a
+//! write (scenes are kept by the store's commit sequence; see [`Toolbox::fork`]).
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -18,7 +18,6 @@
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use graphstore::{Direction, GraphRead, Store, Value};
@@ -368,16 +367,13 @@ fn output_schema(name: &str) -> Json {
 }
 
 /// The map and what calls share: the store, the finder, whether writes are on. Toolboxes
-/// made with [`Toolbox::fork`] share one store and one write counter: after a write through
-/// any of them, each reloads its cached scene before its next call.
+/// made with [`Toolbox::fork`] share one store; each finder keeps its scene by the store's
+/// commit sequence, so after a write through any of them each loads the new scene on its
+/// next call.
 pub struct Toolbox {
     store: Store,
     finder: Finder,
     writes: bool,
-    /// Writes made through this toolbox or its forks.
-    generation: Arc<AtomicU64>,
-    /// The generation this toolbox's scene cache was loaded at.
-    seen: u64,
     /// Answers of read-only Cypher statements, shared with the forks given it.
     query_cache: Option<Arc<crate::query_cache::QueryCache>>,
 }
@@ -487,8 +483,6 @@ impl Toolbox {
             store,
             finder,
             writes,
-            generation: Arc::new(AtomicU64::new(0)),
-            seen: 0,
             query_cache: None,
         }
     }
@@ -499,8 +493,6 @@ impl Toolbox {
             store: self.store.clone(),
             finder,
             writes: self.writes,
-            generation: self.generation.clone(),
-            seen: self.generation.load(Ordering::SeqCst),
             query_cache: self.query_cache.clone(),
         }
     }
@@ -567,23 +559,12 @@ impl Toolbox {
         };
         check_args(&args, validator)?;
         let name = tool.name;
-        let now = self.generation.load(Ordering::SeqCst);
-        if now != self.seen {
-            self.finder.forget_scene();
-            self.seen = now;
-        }
         let s = |k: &str| args[k].as_str().unwrap_or_default().to_string();
         let n = |k: &str, d: u64| args[k].as_u64().unwrap_or(d) as usize;
         match name {
             "get_schema" => self.get_schema(),
             "read_cypher" => self.cypher(&s("query"), args.get("params"), true),
-            "write_cypher" => {
-                let answer = self.cypher(&s("query"), args.get("params"), false);
-                // the scene caches of every fork are stale now
-                self.seen = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
-                self.finder.forget_scene();
-                answer
-            }
+            "write_cypher" => self.cypher(&s("query"), args.get("params"), false),
             "find_objects" => {
                 let r = self.store.read().map_err(failed)?;
                 let a = self.finder.find(
@@ -648,18 +629,11 @@ impl Toolbox {
                         parser: ParserKind::Rules,
                     },
                 )?;
-                if a.applied.is_some() {
-                    self.seen = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
-                }
                 serde_json::to_value(a).map_err(failed)
             }
             "undo_map_edit" => {
-                let a = crate::update::undo(
-                    &mut self.finder,
-                    &self.store,
-                    args["edit_id"].as_u64().unwrap_or_default(),
-                )?;
-                self.seen = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
+                let a =
+                    crate::update::undo(&self.store, args["edit_id"].as_u64().unwrap_or_default())?;
                 serde_json::to_value(a).map_err(failed)
             }
             "describe_area" => self.describe_area(args["segment_id"].as_u64()),

@@ -275,7 +275,8 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
             || anchor.as_ref().is_some_and(|a| a.ambiguous));
     let best = |x: &Option<Resolved>| x.as_ref().map(|x| x.candidates[0].clone());
     let (t, a) = (best(&target), best(&anchor));
-    let segments = finder.segments(&r).map_err(failed)?;
+    let scene = finder.scene(&r).map_err(failed)?;
+    let segments = &scene.segments;
     let mut position = None;
     let mut caption = None;
     let (change, proposal) = match request.kind {
@@ -309,9 +310,8 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
                 (amin_max.0[0] + amin_max.1[0]) / 2.0,
                 (amin_max.0[1] + amin_max.1[1]) / 2.0,
             ];
-            let dir = toward_road(ac, &segments);
+            let dir = toward_road(ac, segments);
             let to = place((amin_max.0, amin_max.1), &relation, half, dir);
-            let scene = finder.objects(&r).map_err(failed)?;
             let to = if matches!(relation.as_str(), "on" | "under") {
                 to
             } else {
@@ -380,9 +380,8 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
             let new_caption = request.new_description.clone().unwrap_or_default();
             let (amin, amax, abase, atop) = ground_box(&r, frame, a.id)?;
             let ac = [(amin[0] + amax[0]) / 2.0, (amin[1] + amax[1]) / 2.0];
-            let dir = toward_road(ac, &segments);
+            let dir = toward_road(ac, segments);
             let to = place((amin, amax), &relation, ADDED_SIZE_M[0] / 2.0, dir);
-            let scene = finder.objects(&r).map_err(failed)?;
             let to = if matches!(relation.as_str(), "on" | "under") {
                 to
             } else {
@@ -466,9 +465,9 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
         proposal
     };
     let applied = if req.apply && !ambiguous && !no_match {
-        let a = ingest::map_edit::apply(store, &change, &req.text, &parsed_by)?;
-        finder.forget_scene();
-        Some(a)
+        Some(ingest::map_edit::apply(
+            store, &change, &req.text, &parsed_by,
+        )?)
     } else {
         None
     };
@@ -491,20 +490,14 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
 /// # Errors
 /// [`ToolError::BadArguments`] for an id that is no applied `MapEdit`, or one a later edit
 /// depends on.
-pub fn undo(
-    finder: &mut Finder,
-    store: &Store,
-    edit_id: u64,
-) -> ToolResult<ingest::map_edit::EditInfo> {
+pub fn undo(store: &Store, edit_id: u64) -> ToolResult<ingest::map_edit::EditInfo> {
     {
         let r = store.read().map_err(failed)?;
         if r.node(edit_id).map_err(failed)?.is_none() {
             return Err(ToolError::NotFound(format!("no map edit {edit_id}")));
         }
     }
-    let info = ingest::map_edit::undo(store, edit_id)?;
-    finder.forget_scene();
-    Ok(info)
+    Ok(ingest::map_edit::undo(store, edit_id)?)
 }
 
 #[cfg(test)]

@@ -224,9 +224,9 @@ pub(crate) fn locate(cmd: Command) -> anyhow::Result<()> {
     let r = store.read()?;
     let parser = parser_of(&parser);
     let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
-    let segments = finder.segments(&r)?;
+    let scene = finder.scene(&r)?;
     let mut latencies = Vec::new();
-    let report = ingest::eval_locate::eval_locate(&cases, &segments, |text| {
+    let report = ingest::eval_locate::eval_locate(&cases, &scene.segments, |text| {
         let t = std::time::Instant::now();
         let a = finder
             .locate(
