@@ -460,9 +460,14 @@ impl Mapper {
             }
         }
         st.times.project_ms += elapsed_ms(t);
-        // per detection: voxel down-sample, DBSCAN (objects only), world transform
+        // per detection: voxel down-sample, DBSCAN (objects only), world transform; a moving
+        // thing's detection keeps no points (it is neither associated nor fused)
         let mut det_points: Vec<Vec<[f32; 3]>> = Vec::with_capacity(n);
         for (i, idx) in in_mask.iter().enumerate() {
+            if moving[i] {
+                det_points.push(Vec::new());
+                continue;
+            }
             let t = Instant::now();
             let pts: Vec<[f32; 3]> = idx
                 .iter()
@@ -516,9 +521,6 @@ impl Mapper {
             let (Some(b), false) = (Aabb::of(pts), classes::is_surface(f.classes[i])) else {
                 continue;
             };
-            if moving[i] {
-                continue;
-            }
             let det_obb = OrientedBox::fit(self.ground, pts);
             let caption = self.tfidf.vector(&f.detections.detections[i].caption);
             let candidates = if need_overlap {

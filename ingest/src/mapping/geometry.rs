@@ -94,15 +94,6 @@ pub fn dbscan3(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<Optio
     label
 }
 
-/// Keeps the largest DBSCAN cluster (ties: the first). With no cluster at all, returns
-/// nothing.
-pub fn largest_cluster(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<[f32; 3]> {
-    clusters(points, eps_m, min_samples)
-        .into_iter()
-        .next()
-        .unwrap_or_default()
-}
-
 /// The foreground DBSCAN cluster of a detection's points, given in the sensor's frame: among
 /// the clusters holding at least `min_share` of the largest one's points, the one with the
 /// nearest median range. An object occludes what stands behind it, so the points of its
@@ -247,9 +238,9 @@ mod tests {
         assert!(labels[..100].iter().all(|l| *l == Some(0)));
         assert!(labels[100..130].iter().all(|l| *l == Some(1)));
         assert_eq!(labels[130], None);
-        let big = largest_cluster(&pts, 0.5, 20);
-        assert_eq!(big.len(), 100);
-        assert!(largest_cluster(&pts[..5], 0.5, 20).is_empty());
+        let parts = clusters(&pts, 0.5, 20);
+        assert_eq!(parts[0].len(), 100, "largest first");
+        assert!(clusters(&pts[..5], 0.5, 20).is_empty());
     }
 
     /// A thin pole 10 m out with a wall 3 m behind it, both in one mask: the wall holds more

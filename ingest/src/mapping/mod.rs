@@ -140,9 +140,6 @@ impl MappingConfig {
         {
             return bad("foreground_min_share must be a number in [0, 1]");
         }
-        if self.tracked_min_points == 0 || self.tracked_min_points > 1_000_000 {
-            return bad("tracked_min_points must be between 1 and 1000000");
-        }
         if !self.merge_feature_cos.is_finite() {
             return bad("merge_feature_cos must be finite");
         }
@@ -154,6 +151,7 @@ impl MappingConfig {
             ("dbscan_min_points", self.dbscan_min_points),
             ("tracked_detections", self.tracked_detections as usize),
             ("min_object_points", self.min_object_points),
+            ("tracked_min_points", self.tracked_min_points),
         ] {
             if v == 0 || v > 1_000_000 {
                 return bad(&format!("{n} must be between 1 and 1000000"));
