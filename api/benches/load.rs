@@ -13,6 +13,9 @@
 //! request as soon as the last one is answered (closed loop), and latency is mostly queueing.
 //! `OPENGRAPH_LOAD_UNIQUE=1` makes every find and locate text unique (a request number is
 //! appended), so that none is answered from the server's query-embedding cache.
+//! `OPENGRAPH_LOAD_WRITES=E` paces the writer to E edits a second (each an update and its undo,
+//! so 2E commits a second; default 5); 0 lets it write as fast as the server answers.
+//! `OPENGRAPH_LOAD_WORKERS=N` passes `--workers N` to the server.
 //! The map is copied first (the writer changes it); without `OPENGRAPH_LOAD_DB` the default small
 //! city is simulated and built (MiniLM; about 15 s).
 
@@ -124,6 +127,10 @@ fn main() -> anyhow::Result<()> {
     let clients: usize = env_or("OPENGRAPH_LOAD_CLIENTS", 32);
     let dir = tempfile::tempdir()?;
     let db = map(dir.path())?;
+    let workers: Option<usize> = std::env::var("OPENGRAPH_LOAD_WORKERS")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    let edits_per_s: f64 = env_or("OPENGRAPH_LOAD_WRITES", 5.0);
     let token = "load-test-token-0123456789";
     let token_file = dir.path().join("token");
     std::fs::write(&token_file, token)?;
@@ -137,6 +144,12 @@ fn main() -> anyhow::Result<()> {
         ])
         .args(["--token-file", token_file.to_str().unwrap()])
         .args(["--max-concurrent", "256"])
+        .args(
+            workers
+                .map(|w| ["--workers".to_string(), w.to_string()])
+                .into_iter()
+                .flatten(),
+        )
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()?;
@@ -276,7 +289,16 @@ fn main() -> anyhow::Result<()> {
         handles.push(std::thread::spawn(move || {
             let a = agent();
             let mut local = Vec::new();
+            let every = (edits_per_s > 0.0).then(|| Duration::from_secs_f64(1.0 / edits_per_s));
+            let mut due = Instant::now();
             while Instant::now() < deadline {
+                if let Some(every) = every {
+                    let now = Instant::now();
+                    if due > now {
+                        std::thread::sleep(due - now);
+                    }
+                    due += every;
+                }
                 let t = Instant::now();
                 let (ok, v) = post(
                     &a,
@@ -312,7 +334,6 @@ fn main() -> anyhow::Result<()> {
                         ok,
                     });
                 }
-                std::thread::sleep(Duration::from_millis(50));
             }
             samples.lock().unwrap().extend(local);
         }));
@@ -335,8 +356,13 @@ fn main() -> anyhow::Result<()> {
     let total = samples.len();
     let errors: usize = by.values().map(|v| v.1).sum();
     println!(
-        "{clients} clients + 1 writer, {wall:.1} s: {total} requests, {:.0} requests/s, {errors} errors",
-        total as f64 / wall
+        "{clients} clients + 1 writer, {wall:.1} s: {total} requests, {:.0} requests/s, {errors} errors, {:.1} commits/s",
+        total as f64 / wall,
+        samples
+            .iter()
+            .filter(|s| matches!(s.route, "update" | "undo") && s.ok)
+            .count() as f64
+            / wall
     );
     println!(
         "{:<8} {:>8} {:>9} {:>9} {:>9} {:>7}",
@@ -367,7 +393,7 @@ fn main() -> anyhow::Result<()> {
     );
     println!(
         "{}",
-        json!({"clients": clients, "secs": wall, "requests": total, "errors": errors, "unique_texts": unique, "rate": rate,
+        json!({"clients": clients, "secs": wall, "edits_per_s": edits_per_s, "workers": workers, "requests": total, "errors": errors, "unique_texts": unique, "rate": rate,
                "consistent": problems.is_empty(), "routes": report})
     );
     Ok(())

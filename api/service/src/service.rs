@@ -5,7 +5,9 @@
 //!
 //! Writes: the store has one writer at a time (redb); write tools run only for callers that
 //! presented the write token (`may_write`), and every worker loads the new scene after a
-//! write (scenes are kept by the store's commit sequence; see [`Toolbox::fork`]).
+//! write (scenes are kept by the store's commit sequence; see [`Toolbox::fork`]). A service
+//! given a writer ([`Service::with_writer`]) runs the write tools on it alone, so a commit
+//! waiting on the disk never holds a reader's worker: many readers and one writer.
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -22,15 +24,32 @@ type SharedModel = Arc<Mutex<Box<dyn llm_tools::ChatModel>>>;
 /// How long one `ask` may take: a local model needs seconds per step.
 pub const ASK_TIMEOUT: Duration = Duration::from_secs(300);
 
+/// Toolboxes that take turns: a permit for each.
+struct Lane {
+    idle: Arc<Mutex<Vec<Toolbox>>>,
+    permits: Arc<Semaphore>,
+    size: usize,
+}
+
+impl Lane {
+    fn new(toolboxes: Vec<Toolbox>) -> Lane {
+        Lane {
+            size: toolboxes.len(),
+            permits: Arc::new(Semaphore::new(toolboxes.len())),
+            idle: Arc::new(Mutex::new(toolboxes)),
+        }
+    }
+}
+
 /// A pool of toolboxes over one store.
 pub struct Service {
     llm: Option<SharedModel>,
     store: Store,
-    idle: Mutex<Vec<Toolbox>>,
-    permits: Arc<Semaphore>,
+    readers: Lane,
+    /// The write tools' own toolbox, when the service has one.
+    writer: Option<Lane>,
     writes: bool,
     timeout: Duration,
-    workers: usize,
 }
 
 impl std::fmt::Debug for Service {
@@ -38,7 +57,8 @@ impl std::fmt::Debug for Service {
         f.debug_struct("Service")
             .field("llm", &self.llm.is_some())
             .field("store", &self.store.path())
-            .field("workers", &self.workers)
+            .field("workers", &self.readers.size)
+            .field("writer", &self.writer.is_some())
             .field("writes", &self.writes)
             .field("timeout", &self.timeout)
             .finish()
@@ -56,15 +76,13 @@ impl Service {
         let first = toolboxes.first()?;
         let store = first.store().clone();
         let writes = first.writes();
-        let workers = toolboxes.len();
         Some(Arc::new(Service {
             llm: None,
             store,
-            idle: Mutex::new(toolboxes),
-            permits: Arc::new(Semaphore::new(workers)),
+            readers: Lane::new(toolboxes),
+            writer: None,
             writes,
             timeout,
-            workers,
         }))
     }
 
@@ -77,6 +95,15 @@ impl Service {
         let s = Service::new(toolboxes, timeout)?;
         let mut s = Arc::into_inner(s)?;
         s.llm = Some(Arc::new(Mutex::new(llm)));
+        Some(Arc::new(s))
+    }
+
+    /// The service with `writer` (a [`Toolbox::fork`] of the others) for the write tools alone,
+    /// so that a write, which waits for the disk at its commit, never holds a reader's worker.
+    /// `None` when the service is already shared.
+    pub fn with_writer(self: Arc<Self>, writer: Toolbox) -> Option<Arc<Service>> {
+        let mut s = Arc::into_inner(self)?;
+        s.writer = Some(Lane::new(vec![writer]));
         Some(Arc::new(s))
     }
 
@@ -139,7 +166,7 @@ impl Service {
         crate::tools::tools(self.writes)
     }
 
-    /// Calls a tool on a free worker.
+    /// Calls a tool on a free worker (a write tool on the writer, where the service has one).
     ///
     /// # Errors
     /// [`ToolError::Forbidden`] for a write tool without `may_write`; [`ToolError::Busy`] when
@@ -152,16 +179,19 @@ impl Service {
         args: Json,
         may_write: bool,
     ) -> ToolResult<Json> {
-        if let Some(t) = self.tools().iter().find(|t| t.name == name)
-            && t.writes
-            && !may_write
-        {
+        let writes = self.tools().iter().any(|t| t.name == name && t.writes);
+        if writes && !may_write {
             return Err(ToolError::Forbidden(format!(
                 "{name} changes the map: send the write token (Authorization: Bearer <token>)"
             )));
         }
         let name = name.to_string();
-        self.run(move |tb| tb.call(&name, &args)).await
+        let lane = match &self.writer {
+            Some(w) if writes => w,
+            _ => &self.readers,
+        };
+        self.run_on(lane, self.timeout, move |tb| tb.call(&name, &args))
+            .await
     }
 
     /// The map's summary (`opengraph info --json`): node and relationship counts.
@@ -255,26 +285,36 @@ impl Service {
         limit: Duration,
         f: impl FnOnce(&mut Toolbox) -> ToolResult<T> + Send + 'static,
     ) -> ToolResult<T> {
+        self.run_on(&self.readers, limit, f).await
+    }
+
+    /// Runs `f` on a free toolbox of `lane` off the async workers: the wait for it is bounded
+    /// by the request timeout, the work by `limit`.
+    async fn run_on<T: Send + 'static>(
+        &self,
+        lane: &Lane,
+        limit: Duration,
+        f: impl FnOnce(&mut Toolbox) -> ToolResult<T> + Send + 'static,
+    ) -> ToolResult<T> {
         let secs = self.timeout.as_secs_f64();
-        let permit = tokio::time::timeout(self.timeout, self.permits.clone().acquire_owned())
+        let permit = tokio::time::timeout(self.timeout, lane.permits.clone().acquire_owned())
             .await
             .map_err(|_| {
                 ToolError::Busy(format!(
                     "all {} workers stayed busy for {secs:.0} s; try again later",
-                    self.workers
+                    lane.size
                 ))
             })?
             .map_err(|_| ToolError::Failed("the service is shutting down".into()))?;
-        let me = self.clone();
+        let idle = lane.idle.clone();
         let job = tokio::task::spawn_blocking(move || {
-            let mut tb = me
-                .idle
+            let mut tb = idle
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .pop()
                 .expect("a permit guarantees an idle toolbox");
             let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(&mut tb)));
-            me.idle.lock().unwrap_or_else(|e| e.into_inner()).push(tb);
+            idle.lock().unwrap_or_else(|e| e.into_inner()).push(tb);
             drop(permit);
             out.unwrap_or_else(|_| Err(ToolError::Failed("the operation panicked".into())))
         });
@@ -337,6 +377,7 @@ impl WriteGate {
 mod tests {
     use super::*;
     use llm_tools::chat::scripted::{Reply, Scripted};
+    use serde_json::json;
 
     /// `ask` offers the write tools to the model only for a caller that may write: for an
     /// unauthenticated caller `write_cypher` is not among the offered tools and nothing is
@@ -410,6 +451,66 @@ mod tests {
         let e = rt.block_on(svc.ask("hi".into(), 2, false)).unwrap_err();
         assert_eq!(e.http_status(), 400);
         assert!(e.to_string().contains("--llm"), "{e}");
+    }
+
+    /// With a writer, a write runs while every reader is busy: it does not queue behind them.
+    #[test]
+    fn writes_run_on_the_writer_while_the_readers_are_busy() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
+        crate::demo::build(&store).unwrap();
+        let finder = || {
+            crate::find::Finder::new(
+                Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+                None,
+            )
+        };
+        let reader = Toolbox::new(store.clone(), finder(), true);
+        let writer = reader.fork(finder());
+        let svc = Service::new(vec![reader], Duration::from_secs(60))
+            .unwrap()
+            .with_writer(writer)
+            .unwrap();
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            // the only reader scans for seconds
+            let slow = {
+                let svc = svc.clone();
+                tokio::spawn(async move {
+                    let q = json!({"query": "UNWIND range(1, 2000) AS a UNWIND range(1, 2000) AS b WITH a WHERE a = 0 RETURN count(*) AS n"});
+                    svc.call("read_cypher", q, false).await
+                })
+            };
+            let t = std::time::Instant::now();
+            while svc.readers.permits.available_permits() > 0 {
+                assert!(t.elapsed() < Duration::from_secs(10), "the read never began");
+                tokio::time::sleep(Duration::from_millis(1)).await;
+            }
+            let w = tokio::time::timeout(
+                Duration::from_secs(5),
+                svc.call(
+                    "write_cypher",
+                    json!({"query": "CREATE (:Note {text: 'written while reading'})"}),
+                    true,
+                ),
+            )
+            .await
+            .expect("the write waited for the reader")
+            .unwrap();
+            assert_eq!(w["stats"]["nodes_created"], 1, "{w}");
+            assert!(!slow.is_finished(), "the read ended first: the test proves nothing");
+            // a write without the token is refused before any worker is asked
+            let e = svc
+                .call("write_cypher", json!({"query": "CREATE (:Hack)"}), false)
+                .await
+                .unwrap_err();
+            assert_eq!(e.http_status(), 401);
+            let _ = tokio::time::timeout(Duration::from_secs(30), slow).await;
+        });
     }
 
     #[test]

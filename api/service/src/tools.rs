@@ -678,8 +678,9 @@ impl Toolbox {
     fn cypher(&self, query: &str, params: Option<&Json>, read_only: bool) -> ToolResult<Json> {
         // a read-only answer kept since the last commit is the answer now; the sequence is
         // read before the statement's snapshot is taken, so nothing newer is ever labelled
-        // older (see crate::query_cache)
-        let cached = match &self.query_cache {
+        // older, and a statement already being computed at this commit is waited for (see
+        // crate::query_cache)
+        match &self.query_cache {
             Some(c)
                 if read_only && graphstore::cypher::is_deterministic(query).unwrap_or(false) =>
             {
@@ -688,23 +689,18 @@ impl Toolbox {
                     params.map(Json::to_string).unwrap_or_default(),
                 );
                 let seq = self.store.commit_seq();
-                if let Some(answer) = c.get(&key, seq) {
-                    return Ok((*answer).clone());
-                }
-                Some((c, key, seq))
+                let answer = c.get_or_compute(key, seq, CYPHER_TIMEOUT, || {
+                    let out = self.cypher_uncached(query, params, read_only)?;
+                    let keep = out.get("plan").is_none()
+                        && out["row_count"]
+                            .as_u64()
+                            .is_some_and(|n| n as usize <= crate::query_cache::MAX_CACHED_ROWS);
+                    Ok::<_, ToolError>((out, keep))
+                })?;
+                Ok(Arc::unwrap_or_clone(answer))
             }
-            _ => None,
-        };
-        let out = self.cypher_uncached(query, params, read_only)?;
-        if let Some((c, key, seq)) = cached
-            && out.get("plan").is_none()
-            && out["row_count"]
-                .as_u64()
-                .is_some_and(|n| n as usize <= crate::query_cache::MAX_CACHED_ROWS)
-        {
-            c.put(key, seq, Arc::new(out.clone()));
+            _ => self.cypher_uncached(query, params, read_only),
         }
-        Ok(out)
     }
 
     fn cypher_uncached(

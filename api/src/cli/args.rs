@@ -420,8 +420,9 @@ pub(crate) enum Command {
         /// Refuse writes even with a token (the store is opened read-only).
         #[arg(long)]
         read_only: bool,
-        /// Requests served side by side (each worker holds a sentence embedder, ~100 MB);
-        /// default: the number of cores.
+        /// Read requests served side by side (each worker holds a sentence embedder, ~100 MB);
+        /// default: the number of cores, at most 8. With writes on, one more worker runs the
+        /// writes alone, so a commit never holds up a reader.
         #[arg(long)]
         workers: Option<usize>,
         /// Seconds a request may wait and run (0.1..3600).

@@ -67,8 +67,10 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .min(8)
     });
     let first = open_toolbox(&a.db, writes)?;
-    let mut boxes = Vec::with_capacity(workers);
-    for _ in 1..workers {
+    // the readers, then (where writes are on) the writer's own toolbox
+    let toolboxes = workers + usize::from(writes);
+    let mut boxes = Vec::with_capacity(toolboxes);
+    for _ in 1..toolboxes {
         let finder = {
             let r = first.store().read()?;
             finder_for(&r, None, false, &LlmArgs::default())?
@@ -95,6 +97,7 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             b.share_query_cache(cache.clone());
         }
     }
+    let writer = if writes { boxes.pop() } else { None };
     let timeout = std::time::Duration::from_secs_f64(a.timeout_secs);
     let cfg = a.llm.config(llm_tools::LlmConfig::default(), "none");
     let service = if cfg.backend == "none" {
@@ -104,6 +107,10 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         api::service::Service::with_llm(boxes, timeout, model)
     }
     .context("no workers")?;
+    let service = match writer {
+        Some(w) => service.with_writer(w).context("the service is shared")?,
+        None => service,
+    };
     let opts = api::http::ServeOptions {
         bind: a.bind,
         token,
@@ -134,7 +141,7 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         errln!(
             "{workers} workers, {}; Ctrl-C stops",
             if writes {
-                "writes need the token"
+                "and a writer; writes need the token"
             } else {
                 "read-only"
             }
