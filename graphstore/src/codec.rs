@@ -225,6 +225,52 @@ impl<'a> Reader<'a> {
         })
     }
 
+    /// Steps over one value without building it.
+    fn skip_value_at(&mut self, depth: usize) -> Result<()> {
+        if depth > MAX_DEPTH {
+            return Err(self.err("nesting too deep"));
+        }
+        match self.u8()? {
+            T_NULL | T_FALSE | T_TRUE => {}
+            T_INT => {
+                self.varint()?;
+            }
+            T_FLOAT => {
+                self.bytes(8)?;
+            }
+            T_STRING | T_BYTES => {
+                let n = self.len(1)?;
+                self.bytes(n)?;
+            }
+            T_LIST => {
+                let n = self.len(1)?;
+                for _ in 0..n {
+                    self.skip_value_at(depth + 1)?;
+                }
+            }
+            T_MAP => {
+                let n = self.len(2)?;
+                for _ in 0..n {
+                    let k = self.len(1)?;
+                    self.bytes(k)?;
+                    self.skip_value_at(depth + 1)?;
+                }
+            }
+            T_POINT2 => {
+                self.bytes(16)?;
+            }
+            T_POINT3 => {
+                self.bytes(24)?;
+            }
+            T_VECTOR => {
+                let n = self.len(4)?;
+                self.bytes(n * 4)?;
+            }
+            t => return Err(self.err(&format!("unknown value tag {t}"))),
+        }
+        Ok(())
+    }
+
     pub(crate) fn u32_varint(&mut self) -> Result<u32> {
         u32::try_from(self.varint()?).map_err(|_| self.err("token id out of range"))
     }
@@ -297,6 +343,28 @@ pub(crate) fn decode_rel(buf: &[u8]) -> Result<(u32, u64, u64, RawProps)> {
         return Err(r.err("trailing bytes"));
     }
     Ok((ty, start, end, props))
+}
+
+/// One property of a relationship record, building only its value (the others are stepped
+/// over; keys are sorted, so the walk stops past `key`). Unlike [`decode_rel`] it does not
+/// check the bytes after the property.
+pub(crate) fn rel_prop(buf: &[u8], key: u32) -> Result<Option<Value>> {
+    let mut r = Reader::new(buf, "relationship record");
+    r.u32_varint()?;
+    r.varint()?;
+    r.varint()?;
+    let n = r.len(2)?;
+    for _ in 0..n {
+        let k = r.u32_varint()?;
+        if k == key {
+            return r.value().map(Some);
+        }
+        if k > key {
+            break;
+        }
+        r.skip_value_at(0)?;
+    }
+    Ok(None)
 }
 
 // ---- order-preserving keys for property indexes ----
@@ -392,9 +460,22 @@ mod tests {
         }
 
         #[test]
-        fn decode_never_panics(bytes in prop::collection::vec(any::<u8>(), 0..64)) {
+        fn one_rel_prop_is_the_decoded_one(
+            props in prop::collection::btree_map(0u32..12, arb_value(), 0..6),
+            key in 0u32..14,
+        ) {
+            let props: Vec<(u32, Value)> = props.into_iter().collect();
+            let buf = encode_rel(7, 1, 2, &props);
+            let (_, _, _, all) = decode_rel(&buf).unwrap();
+            let want = all.iter().find(|(k, _)| *k == key).map(|(_, v)| v.clone());
+            prop_assert_eq!(rel_prop(&buf, key).unwrap(), want);
+        }
+
+        #[test]
+        fn decode_never_panics(bytes in prop::collection::vec(any::<u8>(), 0..64), key in 0u32..4) {
             let _ = decode_node(&bytes);
             let _ = decode_rel(&bytes);
+            let _ = rel_prop(&bytes, key);
             let _ = Reader::new(&bytes, "fuzz").value();
         }
 

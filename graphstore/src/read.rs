@@ -24,6 +24,8 @@ pub(crate) trait Raw {
     fn token_name(&self, id: u32) -> Option<String>;
     fn load_rec(&self, id: u64) -> Result<Option<NodeRec>>;
     fn load_rel(&self, id: u64) -> Result<Option<Relationship>>;
+    /// One property of a relationship (None when it or the property is missing).
+    fn load_rel_prop(&self, id: u64, key: u32) -> Result<Option<Value>>;
     /// (rel, type, other) for one direction (0 out, 1 in), optionally one type.
     fn adj(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<(u64, u32, u64)>>;
     fn label_nodes(&self, label: u32) -> Result<Vec<u64>>;
@@ -176,6 +178,12 @@ pub trait GraphRead {
     /// A relationship by id.
     fn rel(&self, id: u64) -> Result<Option<Relationship>> {
         self.view().raw.load_rel(id)
+    }
+
+    /// One property of a relationship, decoding only that value (None if the relationship or
+    /// the property is missing).
+    fn rel_prop(&self, id: u64, key: PropKey) -> Result<Option<Value>> {
+        self.view().raw.load_rel_prop(id, key.0)
     }
 
     /// One property of a node, by name (None if the node or property is missing).

@@ -43,6 +43,17 @@ impl TokenKind {
     pub(crate) fn qualify(self, name: &str) -> String {
         format!("{}{name}", self.prefix())
     }
+
+    /// The kind of a qualified name ("L:Instance").
+    fn of_qualified(q: &str) -> Option<TokenKind> {
+        [TokenKind::Label, TokenKind::RelType, TokenKind::PropKey]
+            .into_iter()
+            .find(|k| q.starts_with(k.prefix()))
+    }
+
+    fn slot(self) -> usize {
+        self as usize
+    }
 }
 
 /// Committed tokens (append-only).
@@ -50,13 +61,16 @@ impl TokenKind {
 pub(crate) struct Tokens {
     /// Qualified names ("L:Instance") by id.
     names: Vec<String>,
-    by_name: HashMap<String, u32>,
+    /// Ids by plain name, one map per kind (a lookup allocates nothing).
+    by_name: [HashMap<String, u32>; 3],
 }
 
 impl Tokens {
     pub(crate) fn push(&mut self, qualified: String) -> u32 {
         let id = self.names.len() as u32;
-        self.by_name.insert(qualified.clone(), id);
+        if let Some(k) = TokenKind::of_qualified(&qualified) {
+            self.by_name[k.slot()].insert(qualified[2..].to_string(), id);
+        }
         self.names.push(qualified);
         id
     }
@@ -66,7 +80,7 @@ impl Tokens {
     }
 
     pub(crate) fn get(&self, kind: TokenKind, name: &str) -> Option<u32> {
-        self.by_name.get(&kind.qualify(name)).copied()
+        self.by_name[kind.slot()].get(name).copied()
     }
 
     pub(crate) fn name(&self, id: u32) -> Option<&str> {

@@ -148,6 +148,16 @@ macro_rules! raw_reads {
             }
         }
 
+        fn load_rel_prop(&self, id: u64, key: u32) -> Result<Option<Value>> {
+            match self.rels.get(&id).map_err(storage)? {
+                Some(g) => codec::rel_prop(g.value(), key).map_err(|e| match e {
+                    Error::Corrupt { detail, .. } => corrupt(format!("relationship {id}"), detail),
+                    other => other,
+                }),
+                None => Ok(None),
+            }
+        }
+
         fn adj(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<(u64, u32, u64)>> {
             let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
             let mut out = Vec::new();

@@ -734,9 +734,9 @@ impl Ctx<'_, '_> {
                     ));
                 }
                 let g = self.g();
-                match (g.prop_key(key), g.rel(*id)?) {
-                    (Some(k), Some(r)) => r.get(k).cloned().map(Val::from).unwrap_or(Val::Null),
-                    _ => Val::Null,
+                match g.prop_key(key) {
+                    Some(k) => g.rel_prop(*id, k)?.map(Val::from).unwrap_or(Val::Null),
+                    None => Val::Null,
                 }
             }
             Val::Map(m) => m.get(key).cloned().unwrap_or(Val::Null),
