@@ -9,7 +9,9 @@
 //! falling linearly to 0 over 0.2, so paraphrases of the same thing count alike), `attr(t)` is
 //! 1 + 0.3 × the share of the request's attribute words that the caption says, `g_a(b)` the
 //! same gate for anchor `a` and candidate `b` (plateau 0.2, fall-off 0.15), `fit_a` in [0, 1] how well the pair matches the asked relation (and distance;
-//! a `RELATED` edge between them counts at least 0.8), and `seg(t)` 1 when the target's
+//! a `RELATED` edge between them counts at least 0.8; a target whose own caption places it by
+//! the anchor, "a post box on a short post" for "on a short post", counts 1 with itself as
+//! the evidence, see [`caption_places_by`]), and `seg(t)` 1 when the target's
 //! segment satisfies the asked segment constraint, else `0.5 + 0.5 · near(d)` with `d` its
 //! distance to the nearest segment of that kind (`near` 1 within 10 m, `exp(-(d − 10) / 10)`
 //! beyond).
@@ -434,6 +436,49 @@ fn has_word(caption: &str, word: &str) -> bool {
         .any(|w| w == word || w.split('-').any(|p| p == word))
 }
 
+/// Words a caption places its object with ("… on the sidewalk", "… next to a bus stop").
+const PLACE_WORDS: &[&str] = &[
+    "on", "atop", "over", "above", "next", "near", "by", "beside", "at", "along", "against",
+    "behind", "in", "inside", "within", "under", "beneath", "below", "opposite", "across",
+];
+
+/// Words of an anchor phrase that name nothing.
+const ARTICLES: &[&str] = &["a", "an", "the", "this", "that", "some", "one", "its"];
+
+fn words(text: &str) -> Vec<String> {
+    text.to_lowercase()
+        .split(|ch: char| !ch.is_alphanumeric() && ch != '-')
+        .filter(|w| !w.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
+/// Whether `caption` itself places its object by the anchor `phrase` under `rel`: its first
+/// place word ("on", "next", "near", …) agrees with the relation (on: on, atop, over, above;
+/// under: under, beneath, below; inside: in, inside, within; opposite and across the road
+/// from: opposite, across; the rest: any but those two) and every word of the phrase but its
+/// article follows it. "a small yellow metal post box on a short post" places itself on "a
+/// short post"; "a brown bench, long, facing the street" places itself by nothing.
+pub fn caption_places_by(caption: &str, rel: Relation, phrase: &str) -> bool {
+    let cap = words(caption);
+    let Some(at) = cap.iter().position(|w| PLACE_WORDS.contains(&w.as_str())) else {
+        return false;
+    };
+    let place = cap[at].as_str();
+    let agrees = match rel {
+        Relation::On => ["on", "atop", "over", "above"].contains(&place),
+        Relation::Under => ["under", "beneath", "below"].contains(&place),
+        Relation::Inside => ["in", "inside", "within"].contains(&place),
+        Relation::Opposite | Relation::AcrossTheRoadFrom => ["opposite", "across"].contains(&place),
+        _ => !["opposite", "across"].contains(&place),
+    };
+    let content: Vec<String> = words(phrase)
+        .into_iter()
+        .filter(|w| !ARTICLES.contains(&w.as_str()))
+        .collect();
+    agrees && !content.is_empty() && content.iter().all(|w| cap[at + 1..].contains(w))
+}
+
 /// Answers `req` over `scene` (see the module docs). `r` is read for `RELATED` edges.
 ///
 /// # Errors
@@ -516,6 +561,21 @@ pub fn find_graph(
         let mut evidence = Vec::new();
         let mut support = 0.0;
         for (a, (idx, sims, best)) in req.anchors.iter().zip(&anchors) {
+            // the target's own caption places it by the anchor: full support, itself the evidence
+            if a.distance_m.is_none() && caption_places_by(&t.caption, a.relation, &a.phrase) {
+                support += 1.0;
+                evidence.push(Evidence {
+                    anchor: a.phrase.clone(),
+                    relation: a.relation.as_str().into(),
+                    anchor_id: t.id,
+                    anchor_caption: t.caption.clone(),
+                    distance_m: 0.0,
+                    similarity: 1.0,
+                    fit: 1.0,
+                    related: Some("said by its own caption".into()),
+                });
+                continue;
+            }
             let mut pick: Option<(f64, usize, f64, f64)> = None;
             for &bi in idx {
                 if bi == ti {
@@ -698,6 +758,50 @@ pub fn rerank_llm(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_caption_places_its_object_only_by_what_follows_its_place_word() {
+        let post_box = "a small yellow metal post box on a short post";
+        assert!(caption_places_by(post_box, Relation::On, "a short post"));
+        assert!(caption_places_by(
+            post_box,
+            Relation::Near,
+            "the short post"
+        ));
+        // "post" is in the subject too, but "short" is not after "on" there
+        assert!(!caption_places_by(post_box, Relation::On, "a short box"));
+        assert!(!caption_places_by(post_box, Relation::On, "the sidewalk"));
+        // the place word must agree with the relation
+        assert!(!caption_places_by(
+            post_box,
+            Relation::Under,
+            "a short post"
+        ));
+        assert!(!caption_places_by(
+            post_box,
+            Relation::Opposite,
+            "a short post"
+        ));
+        let mailbox = "a small yellow metal mailbox on the sidewalk";
+        assert!(caption_places_by(mailbox, Relation::On, "the sidewalk"));
+        assert!(caption_places_by(
+            "a grey bench next to the bus stop",
+            Relation::NextTo,
+            "a bus stop"
+        ));
+        assert!(caption_places_by(
+            "a lamp across the road from the bus stop",
+            Relation::AcrossTheRoadFrom,
+            "the bus stop"
+        ));
+        // no place word, or a phrase of articles only
+        assert!(!caption_places_by(
+            "a brown bench, long, facing the street",
+            Relation::Near,
+            "the street"
+        ));
+        assert!(!caption_places_by(mailbox, Relation::On, "the"));
+    }
 
     fn obj(id: u64, lo: [f64; 2], hi: [f64; 2], h: (f64, f64)) -> SceneObject {
         SceneObject {
