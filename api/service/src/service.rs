@@ -481,7 +481,7 @@ mod tests {
             let slow = {
                 let svc = svc.clone();
                 tokio::spawn(async move {
-                    let q = json!({"query": "UNWIND range(1, 2000) AS a UNWIND range(1, 2000) AS b WITH a WHERE a = 0 RETURN count(*) AS n"});
+                    let q = json!({"query": "UNWIND range(1, 950) AS a UNWIND range(1, 950) AS b WITH a WHERE a = 0 RETURN count(*) AS n"});
                     svc.call("read_cypher", q, false).await
                 })
             };

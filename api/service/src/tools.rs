@@ -143,6 +143,11 @@ pub type ToolResult<T> = std::result::Result<T, ToolError>;
 /// Rows a `read_cypher` call may return.
 pub const MAX_ROWS: usize = 1000;
 
+/// Rows any clause of a tool's Cypher statement may produce (intermediate rows take about
+/// 600 bytes each, so about 600 MB at most per statement, against 6 GB at graphstore's own
+/// default of 10 million).
+pub const MAX_INTERMEDIATE_ROWS: usize = 1_000_000;
+
 /// Time a Cypher call may take.
 pub const CYPHER_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -722,9 +727,19 @@ impl Toolbox {
             timeout: Some(CYPHER_TIMEOUT),
             row_limit: Some(MAX_ROWS),
             read_only,
+            max_intermediate_rows: MAX_INTERMEDIATE_ROWS,
             ..graphstore::cypher::QueryOptions::default()
         };
         let r = self.store.query(query, &opts).map_err(|e| match e {
+            graphstore::Error::Query(q) if q.kind == graphstore::cypher::ErrorKind::Timeout => {
+                ToolError::TimedOut(format!(
+                    "the Cypher statement ran past its {} s limit{}; narrow the pattern or add LIMIT",
+                    CYPHER_TIMEOUT.as_secs(),
+                    q.pos
+                        .map(|p| format!(" (at line {}, column {})", p.line, p.col))
+                        .unwrap_or_default()
+                ))
+            }
             graphstore::Error::Query(_) => ToolError::BadArguments(e.to_string()),
             other => failed(other),
         })?;
@@ -907,6 +922,26 @@ mod tests {
 
     /// Read-only answers come back from the shared cache until a write through any worker;
     /// rand() and plans are never kept; the scene is loaded once per commit for all workers.
+    /// A tool's statement may not build more than MAX_INTERMEDIATE_ROWS rows in any clause
+    /// (a memory bound for an unauthenticated caller); just under it runs.
+    #[test]
+    fn a_runaway_statement_stops_at_the_intermediate_row_limit() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
+        crate::demo::build(&store).unwrap();
+        let finder = crate::find::Finder::new(
+            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+            None,
+        );
+        let mut tb = Toolbox::new(store, finder, false);
+        let q = |n: usize| json!({"query": format!("UNWIND range(1, {n}) AS a UNWIND range(1, 1000) AS b RETURN count(*) AS n")});
+        let e = tb.call("read_cypher", &q(1001)).unwrap_err();
+        assert_eq!(e.http_status(), 400);
+        assert!(e.to_string().contains("1000000 rows"), "{e}");
+        let ok = tb.call("read_cypher", &q(999)).unwrap();
+        assert_eq!(ok["rows"][0]["n"], 999_000);
+    }
+
     #[test]
     fn read_answers_are_cached_until_a_write() {
         let dir = tempfile::tempdir().unwrap();

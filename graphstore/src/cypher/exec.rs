@@ -270,6 +270,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
                     let (cols, out) = self.project_rows(p, &rows, &scope)?;
                     let mut next = Vec::with_capacity(out.len());
                     for (vals, src) in out {
+                        self.tick()?;
                         let mut r = Row::default();
                         for (c, v) in cols.iter().zip(vals) {
                             r.set(c, v);
@@ -515,6 +516,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             let mut groups: BTreeMap<Key, usize> = BTreeMap::new();
             let mut group_rows: Vec<(Row, Vec<Val>, Vec<Vec<Val>>)> = Vec::new();
             for row in rows {
+                self.tick()?;
                 let key: Vec<Val> = key_idx
                     .iter()
                     .map(|i| self.eval(&items[*i].expr, row))
