@@ -5,5 +5,5 @@ pub mod mcp;
 
 // the service layer, under the names the adapters and the CLI use
 pub use opengraph_service::{
-    ask, demo, find, info, plan, query_cache, service, tools, update, view,
+    ask, commit_cache, demo, find, info, plan, query_cache, service, tools, update, view,
 };

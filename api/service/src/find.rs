@@ -97,90 +97,13 @@ pub struct Finder {
     shared_scene: Option<Arc<SharedScene>>,
 }
 
-/// The scene of the latest commit, shared by finders: after a write the first request
-/// loads it and the others take it; one that asks while it is loading waits for it rather
-/// than loading it again.
-#[derive(Debug, Default)]
-pub struct SharedScene {
-    state: std::sync::Mutex<SceneSlot>,
-    loaded: std::sync::Condvar,
-}
+/// The scene of the latest commit, shared by finders (a server's workers): after a write
+/// the first request loads it, one that asks meanwhile waits for that load, and the others
+/// take it. Make it with `SharedScene::new(1)`.
+pub type SharedScene = crate::commit_cache::CommitCache<(), Scene>;
 
-#[derive(Debug, Default)]
-struct SceneSlot {
-    kept: Option<(u64, Arc<Scene>)>,
-    /// The commit whose scene is being loaded.
-    loading: Option<u64>,
-}
-
-/// Clears the loading mark however the load ends, and wakes the waiters.
-struct Loading<'a>(&'a SharedScene, u64);
-
-impl Drop for Loading<'_> {
-    fn drop(&mut self) {
-        let mut st = self.0.lock();
-        if st.loading == Some(self.1) {
-            st.loading = None;
-        }
-        drop(st);
-        self.0.loaded.notify_all();
-    }
-}
-
-impl SharedScene {
-    /// An empty slot to share.
-    pub fn new() -> Arc<SharedScene> {
-        Arc::new(SharedScene::default())
-    }
-
-    fn lock(&self) -> std::sync::MutexGuard<'_, SceneSlot> {
-        // a panic while holding the lock leaves only a cache behind: keep using it
-        self.state
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-    }
-
-    /// The scene at commit `seq`: the kept one; else, while another finder loads it, that one
-    /// (waited for up to 30 s); else `load`'s, kept unless a newer commit's is kept. A load
-    /// that fails shares nothing: its waiters load for themselves.
-    ///
-    /// # Errors
-    /// `load`'s.
-    fn get_or_load(&self, seq: u64, load: impl FnOnce() -> Result<Scene>) -> Result<Arc<Scene>> {
-        let kept = |st: &SceneSlot| {
-            st.kept
-                .as_ref()
-                .filter(|(s, _)| *s == seq)
-                .map(|(_, scene)| scene.clone())
-        };
-        let mut st = self.lock();
-        if st.loading == Some(seq) {
-            st = self
-                .loaded
-                .wait_timeout_while(st, std::time::Duration::from_secs(30), |st| {
-                    st.loading == Some(seq) && kept(st).is_none()
-                })
-                .unwrap_or_else(std::sync::PoisonError::into_inner)
-                .0;
-        }
-        if let Some(scene) = kept(&st) {
-            return Ok(scene);
-        }
-        // lead the load unless a newer commit's is under way (then this one is not kept)
-        let lead = st.loading.is_none_or(|l| l < seq);
-        if lead {
-            st.loading = Some(seq);
-        }
-        drop(st);
-        let _mark = lead.then(|| Loading(self, seq));
-        let scene = Arc::new(load()?);
-        let mut st = self.lock();
-        if st.kept.as_ref().is_none_or(|(s, _)| *s < seq) {
-            st.kept = Some((seq, scene.clone()));
-        }
-        Ok(scene)
-    }
-}
+/// How long a finder waits for another's load of the same scene before loading it itself.
+const SCENE_WAIT: std::time::Duration = std::time::Duration::from_secs(30);
 
 /// A locate request.
 #[derive(Debug, Clone, PartialEq)]
@@ -255,7 +178,9 @@ impl Finder {
             return Ok(scene.clone());
         }
         let scene = match &self.shared_scene {
-            Some(sh) => sh.get_or_load(seq, || Scene::load(r))?,
+            Some(sh) => sh.get_or_compute((), seq, SCENE_WAIT, || {
+                Ok::<_, llm_tools::Error>((Scene::load(r)?, true))
+            })?,
             None => Arc::new(Scene::load(r)?),
         };
         self.scene = Some((seq, scene.clone()));
@@ -465,77 +390,5 @@ impl Finder {
             results,
             timings_ms: [parse_ms, rank_ms, t2.elapsed().as_secs_f64() * 1e3],
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::time::Duration;
-
-    fn empty_scene() -> Scene {
-        Scene {
-            ground: scene::GroundFrame::Enu,
-            objects: Vec::new(),
-            segments: Vec::new(),
-        }
-    }
-
-    /// Waits (at most 10 s) until commit `seq`'s scene is being loaded.
-    fn until_loading(sh: &SharedScene, seq: u64) {
-        let t = std::time::Instant::now();
-        while sh.lock().loading != Some(seq) {
-            assert!(t.elapsed() < Duration::from_secs(10), "no load began");
-            std::thread::sleep(Duration::from_millis(1));
-        }
-    }
-
-    #[test]
-    fn a_commit_s_scene_is_loaded_once_for_concurrent_finders() {
-        let sh = SharedScene::default();
-        let loads = AtomicUsize::new(0);
-        let load = || {
-            loads.fetch_add(1, Ordering::SeqCst);
-            std::thread::sleep(Duration::from_millis(200));
-            Ok(empty_scene())
-        };
-        std::thread::scope(|s| {
-            let first = s.spawn(|| sh.get_or_load(3, load));
-            until_loading(&sh, 3);
-            let others: Vec<_> = (0..3)
-                .map(|_| s.spawn(|| sh.get_or_load(3, load)))
-                .collect();
-            let a = first.join().unwrap().unwrap();
-            for o in others {
-                assert!(Arc::ptr_eq(&a, &o.join().unwrap().unwrap()));
-            }
-        });
-        assert_eq!(loads.load(Ordering::SeqCst), 1);
-        // the next commit loads again; an older one's scene is not kept over it
-        sh.get_or_load(4, load).unwrap();
-        sh.get_or_load(2, load).unwrap();
-        assert_eq!(loads.load(Ordering::SeqCst), 3);
-        assert_eq!(sh.lock().kept.as_ref().map(|k| k.0), Some(4));
-        assert_eq!(sh.lock().loading, None);
-    }
-
-    #[test]
-    fn a_failed_load_releases_its_waiters_who_load_for_themselves() {
-        let sh = SharedScene::default();
-        std::thread::scope(|s| {
-            let first = s.spawn(|| {
-                sh.get_or_load(1, || {
-                    std::thread::sleep(Duration::from_millis(200));
-                    Err(llm_tools::Error::Invalid("the store failed".into()))
-                })
-            });
-            until_loading(&sh, 1);
-            let other = s.spawn(|| sh.get_or_load(1, || Ok(empty_scene())));
-            assert!(first.join().unwrap().is_err());
-            assert!(other.join().unwrap().is_ok());
-        });
-        assert_eq!(sh.lock().loading, None);
-        assert_eq!(sh.lock().kept.as_ref().map(|k| k.0), Some(1));
     }
 }

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod ask;
+pub mod commit_cache;
 pub mod demo;
 pub mod find;
 pub mod info;

@@ -956,7 +956,7 @@ mod tests {
         let mut a = Toolbox::new(store, finder(), true);
         let mut b = a.fork(finder());
         let cache = crate::query_cache::QueryCache::new(16);
-        let scene = crate::find::SharedScene::new();
+        let scene = crate::find::SharedScene::new(1);
         for t in [&mut a, &mut b] {
             t.share_query_cache(cache.clone());
             t.share_scene(scene.clone());

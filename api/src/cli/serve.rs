@@ -86,7 +86,7 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         }
     }
     // one scene per commit for every worker
-    let scene = api::find::SharedScene::new();
+    let scene = api::find::SharedScene::new(1);
     for b in &mut boxes {
         b.share_scene(scene.clone());
     }
