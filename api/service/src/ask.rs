@@ -141,14 +141,11 @@ mod tests {
     use serde_json::json;
 
     fn toolbox() -> (tempfile::TempDir, Toolbox) {
-        let dir = tempfile::tempdir().unwrap();
-        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
-        crate::demo::build(&store).unwrap();
-        let finder = crate::find::Finder::new(
-            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-            None,
-        );
-        (dir, Toolbox::new(store, finder, false))
+        let (dir, store) = crate::test_support::demo_store();
+        (
+            dir,
+            Toolbox::new(store, crate::test_support::hash_finder(), false),
+        )
     }
 
     /// The loop's protocol: a tool call's answer goes back to the model as a tool message

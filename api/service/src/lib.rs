@@ -11,3 +11,6 @@ pub mod service;
 pub mod tools;
 pub mod update;
 pub mod view;
+
+#[cfg(test)]
+mod test_support;

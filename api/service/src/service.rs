@@ -376,6 +376,7 @@ impl WriteGate {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::{demo_store, hash_finder};
     use llm_tools::chat::scripted::{Reply, Scripted};
     use serde_json::json;
 
@@ -384,13 +385,8 @@ mod tests {
     /// written; with the token the same call writes.
     #[test]
     fn ask_withholds_the_write_tools_from_callers_without_the_token() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
-        crate::demo::build(&store).unwrap();
-        let finder = crate::find::Finder::new(
-            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-            None,
-        );
+        let (_dir, store) = demo_store();
+        let finder = hash_finder();
         let tb = Toolbox::new(store.clone(), finder, true);
         let script = || {
             Box::new(Scripted::new(
@@ -429,20 +425,14 @@ mod tests {
         assert_eq!(count(&store), 0);
         // the toolbox offers writes again afterwards, to a caller with the token
         drop(svc);
-        let finder = crate::find::Finder::new(
-            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-            None,
-        );
+        let finder = hash_finder();
         let tb = Toolbox::new(store.clone(), finder, true);
         let svc = Service::with_llm(vec![tb], Duration::from_secs(30), script()).unwrap();
         let a = rt.block_on(svc.ask("make a node".into(), 3, true)).unwrap();
         assert_eq!(a["steps"][0]["is_error"], false, "{a}");
         assert_eq!(count(&store), 1);
         // without a model, ask is the caller's error
-        let finder = crate::find::Finder::new(
-            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-            None,
-        );
+        let finder = hash_finder();
         let svc = Service::new(
             vec![Toolbox::new(store, finder, false)],
             Duration::from_secs(5),
@@ -456,17 +446,9 @@ mod tests {
     /// With a writer, a write runs while every reader is busy: it does not queue behind them.
     #[test]
     fn writes_run_on_the_writer_while_the_readers_are_busy() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
-        crate::demo::build(&store).unwrap();
-        let finder = || {
-            crate::find::Finder::new(
-                Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-                None,
-            )
-        };
-        let reader = Toolbox::new(store.clone(), finder(), true);
-        let writer = reader.fork(finder());
+        let (_dir, store) = demo_store();
+        let reader = Toolbox::new(store.clone(), hash_finder(), true);
+        let writer = reader.fork(hash_finder());
         let svc = Service::new(vec![reader], Duration::from_secs(60))
             .unwrap()
             .with_writer(writer)

@@ -900,6 +900,7 @@ impl Toolbox {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::{demo_store, hash_finder};
 
     /// The whole tool surface (names, descriptions, schemas) is pinned by a snapshot: a change
     /// to it is a change to every agent's interface and shows in review. Refresh with
@@ -920,20 +921,12 @@ mod tests {
         );
     }
 
-    /// Read-only answers come back from the shared cache until a write through any worker;
-    /// rand() and plans are never kept; the scene is loaded once per commit for all workers.
     /// A tool's statement may not build more than MAX_INTERMEDIATE_ROWS rows in any clause
     /// (a memory bound for an unauthenticated caller); just under it runs.
     #[test]
     fn a_runaway_statement_stops_at_the_intermediate_row_limit() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
-        crate::demo::build(&store).unwrap();
-        let finder = crate::find::Finder::new(
-            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-            None,
-        );
-        let mut tb = Toolbox::new(store, finder, false);
+        let (_dir, store) = demo_store();
+        let mut tb = Toolbox::new(store, hash_finder(), false);
         let q = |n: usize| json!({"query": format!("UNWIND range(1, {n}) AS a UNWIND range(1, 1000) AS b RETURN count(*) AS n")});
         let e = tb.call("read_cypher", &q(1001)).unwrap_err();
         assert_eq!(e.http_status(), 400);
@@ -942,19 +935,13 @@ mod tests {
         assert_eq!(ok["rows"][0]["n"], 999_000);
     }
 
+    /// Read-only answers come back from the shared cache until a write through any worker;
+    /// rand() and plans are never kept; the scene is loaded once per commit for all workers.
     #[test]
     fn read_answers_are_cached_until_a_write() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
-        crate::demo::build(&store).unwrap();
-        let finder = || {
-            crate::find::Finder::new(
-                Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
-                None,
-            )
-        };
-        let mut a = Toolbox::new(store, finder(), true);
-        let mut b = a.fork(finder());
+        let (_dir, store) = demo_store();
+        let mut a = Toolbox::new(store, hash_finder(), true);
+        let mut b = a.fork(hash_finder());
         let cache = crate::query_cache::QueryCache::new(16);
         let scene = crate::find::SharedScene::new(1);
         for t in [&mut a, &mut b] {
