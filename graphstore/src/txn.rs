@@ -37,19 +37,22 @@ impl NodeRec {
             .map(|i| &self.props[i].1)
     }
     fn decode(bytes: &[u8], id: u64) -> Result<NodeRec> {
-        let (labels, props) = codec::decode_node(bytes).map_err(|e| match e {
-            Error::Corrupt { detail, .. } => corrupt(format!("node {id}"), detail),
-            other => other,
-        })?;
+        let (labels, props) = codec::decode_node(bytes).map_err(in_record("node", id))?;
         Ok(NodeRec { labels, props })
     }
 }
 
-fn decode_rel(bytes: &[u8], id: u64) -> Result<Relationship> {
-    let (ty, start, end, props) = codec::decode_rel(bytes).map_err(|e| match e {
-        Error::Corrupt { detail, .. } => corrupt(format!("relationship {id}"), detail),
+/// Names the record in a codec's corruption error ("node 7", "relationship 9").
+fn in_record(kind: &'static str, id: u64) -> impl FnOnce(Error) -> Error {
+    move |e| match e {
+        Error::Corrupt { detail, .. } => corrupt(format!("{kind} {id}"), detail),
         other => other,
-    })?;
+    }
+}
+
+fn decode_rel(bytes: &[u8], id: u64) -> Result<Relationship> {
+    let (ty, start, end, props) =
+        codec::decode_rel(bytes).map_err(in_record("relationship", id))?;
     Ok(Relationship {
         id,
         ty: RelType(ty),
@@ -150,10 +153,7 @@ macro_rules! raw_reads {
 
         fn load_rel_prop(&self, id: u64, key: u32) -> Result<Option<Value>> {
             match self.rels.get(&id).map_err(storage)? {
-                Some(g) => codec::rel_prop(g.value(), key).map_err(|e| match e {
-                    Error::Corrupt { detail, .. } => corrupt(format!("relationship {id}"), detail),
-                    other => other,
-                }),
+                Some(g) => codec::rel_prop(g.value(), key).map_err(in_record("relationship", id)),
                 None => Ok(None),
             }
         }
