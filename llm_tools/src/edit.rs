@@ -217,13 +217,7 @@ pub fn edit_schema() -> serde_json::Value {
 /// Whether every word of `phrase` occurs in `text` (case and punctuation aside): what the
 /// model says must come from the report.
 fn grounded(phrase: &str, text: &str) -> bool {
-    let words = |s: &str| -> Vec<String> {
-        s.to_lowercase()
-            .split(|c: char| !c.is_alphanumeric() && c != '-')
-            .filter(|w| !w.is_empty())
-            .map(str::to_string)
-            .collect()
-    };
+    use crate::vocab::words;
     let have = words(text);
     let want = words(phrase);
     !want.is_empty()

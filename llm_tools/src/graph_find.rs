@@ -28,7 +28,7 @@ use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::embed::{Embedder, cosine};
 use crate::error::{Error, Result};
 use crate::request::{Relation, Request};
-use crate::vocab::{colour_agreement, names_surface};
+use crate::vocab::{colour_agreement, names_surface, words};
 
 /// Cosine taken off a candidate per unit of colour disagreement ([`colour_agreement`]).
 pub const COLOUR_PENALTY: f64 = 0.25;
@@ -444,14 +444,6 @@ const PLACE_WORDS: &[&str] = &[
 
 /// Words of an anchor phrase that name nothing.
 const ARTICLES: &[&str] = &["a", "an", "the", "this", "that", "some", "one", "its"];
-
-fn words(text: &str) -> Vec<String> {
-    text.to_lowercase()
-        .split(|ch: char| !ch.is_alphanumeric() && ch != '-')
-        .filter(|w| !w.is_empty())
-        .map(str::to_string)
-        .collect()
-}
 
 /// Whether `caption` itself places its object by the anchor `phrase` under `rel`: its first
 /// place word ("on", "next", "near", …) agrees with the relation (on: on, atop, over, above;

@@ -121,6 +121,16 @@ pub fn names_surface(tags: &[String], caption: &str) -> bool {
     }
 }
 
+/// The words of a text, lower-cased: runs of letters, digits and hyphens ("other-ground"
+/// is one word).
+pub(crate) fn words(text: &str) -> Vec<String> {
+    text.to_lowercase()
+        .split(|c: char| !c.is_alphanumeric() && c != '-')
+        .filter(|w| !w.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
 /// Colour words.
 const COLOURS: [&str; 16] = [
     "red", "green", "blue", "yellow", "white", "black", "grey", "gray", "silver", "brown",
