@@ -436,6 +436,11 @@ impl From<ingest::Error> for ToolError {
     }
 }
 
+/// Whether `name` is a tool that changes the map (looked up in the registry, built once).
+pub fn is_write_tool(name: &str) -> bool {
+    registry().iter().any(|(t, _)| t.name == name && t.writes)
+}
+
 /// Every tool (write tools included) with its argument validator, built once per process:
 /// a call looks its tool up here instead of rebuilding the schemas and validators.
 fn registry() -> &'static [(Tool, jsonschema::Validator)] {
