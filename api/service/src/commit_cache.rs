@@ -8,7 +8,10 @@
 //! Misses fly once: while one worker computes a key at a commit, another worker that asks
 //! the same key at the same commit waits for that value instead of computing it again
 //! ([`CommitCache::get_or_compute`]). Right after a write every dashboard asks at once;
-//! without this, a 30 ms scan ran once per waiting request and held every worker.
+//! without this, a 30 ms scan ran once per waiting request and held every worker. What a
+//! computation gives is shared with the callers that waited for it even when it is not kept
+//! for later ones (a Cypher error, a timeout included, is an answer at that commit too: two
+//! identical statements that time out take 10 s, not 10 s and then 10 s more).
 
 use std::collections::HashMap;
 use std::hash::Hash;
@@ -112,8 +115,8 @@ impl<K: Hash + Eq + Clone, V> CommitCache<K, V> {
     }
 
     /// The value for `key` at commit `seq`: the kept one; else the one another caller is
-    /// computing at the same commit, waited for up to `wait` (then, or when that computation
-    /// fails or is not kept, computed here after all); else `compute`'s, kept when it says so
+    /// computing at the same commit, kept or not, waited for up to `wait` (then, or when that
+    /// computation fails or panics, computed here after all); else `compute`'s, kept when it says so
     /// (`(value, keep)`) unless a newer commit's is kept. A caller whose commit is older than
     /// one being computed computes alone. Never holds the cache's lock while computing or
     /// waiting.
@@ -199,8 +202,8 @@ impl<K: Hash + Eq + Clone, V> CommitCache<K, V> {
         let v = Arc::new(v);
         if keep {
             self.keep(key, seq, v.clone());
-            landing.value = Some(v.clone());
         }
+        landing.value = Some(v.clone());
         drop(landing);
         Ok(v)
     }
@@ -331,5 +334,26 @@ mod tests {
         assert_eq!(at(4, -1), 40);
         assert_eq!(c.stats(), (1, 2));
         assert!(c.lock().flying.is_empty());
+    }
+
+    #[test]
+    fn a_value_not_kept_is_still_shared_with_the_callers_that_waited_for_it() {
+        let c = C::new(8);
+        std::thread::scope(|s| {
+            let leader = s.spawn(|| {
+                c.get_or_compute("q", 1, Duration::from_secs(10), || {
+                    until_waiting(&c, 1);
+                    Ok::<_, ()>((7, false))
+                })
+            });
+            until_waiting_for_flight(&c);
+            let joiner = s.spawn(|| {
+                c.get_or_compute("q", 1, Duration::from_secs(10), || Ok::<_, ()>((-1, false)))
+            });
+            assert_eq!(*leader.join().unwrap().unwrap(), 7);
+            assert_eq!(*joiner.join().unwrap().unwrap(), 7);
+        });
+        assert_eq!(c.stats(), (1, 1));
+        assert!(c.lock().ready.is_empty());
     }
 }

@@ -12,11 +12,14 @@
 
 use serde_json::Value as Json;
 
+use crate::tools::ToolResult;
+
 /// Answers with more rows are not kept (they are rare and large).
 pub const MAX_CACHED_ROWS: usize = 1000;
 
 /// (statement text, parameters as JSON text).
 pub type Key = (String, String);
 
-/// The shared cache of read-only answers.
-pub type QueryCache = crate::commit_cache::CommitCache<Key, Json>;
+/// The shared cache of read-only answers. An error is an answer too: shared with the callers
+/// that waited for the same statement at the same commit, never kept.
+pub type QueryCache = crate::commit_cache::CommitCache<Key, ToolResult<Json>>;

@@ -54,7 +54,7 @@ pub struct Tool {
 /// | `Busy` | 1 | 503 | tool result with `isError` |
 /// | `TimedOut` | 1 | 504 | tool result with `isError` |
 /// | `Failed` | 1 | 500 | tool result with `isError` |
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 #[non_exhaustive]
 pub enum ToolError {
     /// No tool of that name (or a write tool while writes are off).
@@ -699,15 +699,24 @@ impl Toolbox {
                     params.map(Json::to_string).unwrap_or_default(),
                 );
                 let seq = self.store.commit_seq();
-                let answer = c.get_or_compute(key, seq, CYPHER_TIMEOUT, || {
-                    let out = self.cypher_uncached(query, params, read_only)?;
-                    let keep = out.get("plan").is_none()
-                        && out["row_count"]
-                            .as_u64()
-                            .is_some_and(|n| n as usize <= crate::query_cache::MAX_CACHED_ROWS);
-                    Ok::<_, ToolError>((out, keep))
-                })?;
-                Ok(Arc::unwrap_or_clone(answer))
+                // an error (a timeout too) is shared with those who waited for it, not kept
+                // the leader's statement ends by its own time limit, a little past it; a waiter
+                // that gave up just before would run the whole statement again
+                let wait = CYPHER_TIMEOUT + Duration::from_secs(5);
+                let answer = c.get_or_compute(key, seq, wait, || {
+                    let out = self.cypher_uncached(query, params, read_only);
+                    let keep = out.as_ref().is_ok_and(|out| {
+                        out.get("plan").is_none()
+                            && out["row_count"]
+                                .as_u64()
+                                .is_some_and(|n| n as usize <= crate::query_cache::MAX_CACHED_ROWS)
+                    });
+                    Ok::<_, std::convert::Infallible>((out, keep))
+                });
+                match answer {
+                    Ok(answer) => Arc::unwrap_or_clone(answer),
+                    Err(never) => match never {},
+                }
             }
             _ => self.cypher_uncached(query, params, read_only),
         }
