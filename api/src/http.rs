@@ -57,6 +57,20 @@ pub struct ServeOptions {
     pub max_concurrent: usize,
     /// Origins allowed to call the API from a browser (CORS); empty: CORS off.
     pub cors_origins: Vec<String>,
+    /// `Host` names (without port) a request may carry besides the loopback names
+    /// (`localhost`, `127.0.0.1`, `[::1]`) and the bind address; any other `Host` is refused
+    /// with 403 on every route, so a DNS-rebinding page cannot read the map.
+    pub allowed_hosts: Vec<String>,
+    /// Time a client has to send a request's headers, and to start the next request on a
+    /// kept-alive connection; the connection is closed after it (default 10 s).
+    pub header_timeout: Duration,
+    /// Time a client has to send a whole request body (default 10 s); past it: 408 and the
+    /// connection is closed. A request holds no request slot while its body arrives.
+    pub body_timeout: Duration,
+    /// Open connections at most; more are answered 503 and closed at once (default 1024).
+    pub max_connections: usize,
+    /// Open connections from one client address at most (default 256).
+    pub max_connections_per_client: usize,
 }
 
 impl Default for ServeOptions {
@@ -67,6 +81,11 @@ impl Default for ServeOptions {
             body_limit_bytes: 1 << 20,
             max_concurrent: 64,
             cors_origins: Vec::new(),
+            allowed_hosts: Vec::new(),
+            header_timeout: Duration::from_secs(10),
+            body_timeout: Duration::from_secs(10),
+            max_connections: 1024,
+            max_connections_per_client: 256,
         }
     }
 }
@@ -89,8 +108,10 @@ pub fn check_bind(bind: &SocketAddr, token: Option<&str>) -> Result<(), String> 
 /// What a route does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Op {
-    /// Liveness.
+    /// Liveness (outside the request gate).
     Health,
+    /// Readiness (outside the request gate).
+    Ready,
     /// The map's summary.
     Info,
     /// The tool list.
@@ -140,6 +161,12 @@ fn routes() -> Vec<Route> {
             "/healthz",
             Op::Health,
             "Liveness: {\"status\": \"ok\"}.",
+        ),
+        r(
+            Get,
+            "/readyz",
+            Op::Ready,
+            "Readiness: 200 {\"status\": \"ready\"} while a request slot is free, else 503.",
         ),
         r(
             Get,
@@ -272,6 +299,8 @@ struct AppState {
     openapi: Arc<JsonValue>,
     inflight: Arc<Semaphore>,
     body_limit_bytes: usize,
+    body_timeout: Duration,
+    hosts: Arc<Vec<String>>,
 }
 
 /// A JSON error response.
@@ -361,6 +390,16 @@ async fn handle(
     let may_write = svc.writes() && state.gate.allows(authorization);
     let answer = match op {
         Op::Health => Ok(json!({"status": "ok"})),
+        Op::Ready => {
+            if state.inflight.available_permits() == 0 {
+                return plain_error(
+                    StatusCode::SERVICE_UNAVAILABLE,
+                    "busy",
+                    "every request slot is taken; try again shortly".into(),
+                );
+            }
+            Ok(json!({"status": "ready"}))
+        }
         Op::OpenApi => Ok((*state.openapi).clone()),
         Op::Page => {
             return (
@@ -459,14 +498,62 @@ async fn handle(
     }
 }
 
-/// Answers 413 at once for a declared `Content-Length` over the limit (without reading the
-/// body; a body without a length is cut off at the limit by the extractor), and 503 at once
-/// when `max_concurrent` requests are already in progress.
+/// Whether a `Host` header value names this server: a loopback name or one of `allowed`,
+/// with any port. A request without `Host` (HTTP/1.0) passes: browsers always send one.
+fn host_allowed(host: Option<&HeaderValue>, allowed: &[String]) -> bool {
+    let Some(host) = host else {
+        return true;
+    };
+    let Ok(host) = host.to_str() else {
+        return false;
+    };
+    let host = host.trim().to_ascii_lowercase();
+    // strip the port: `name:port`, `[v6]:port`, `[v6]`
+    let name = if let Some(rest) = host.strip_prefix('[') {
+        match rest.split_once(']') {
+            Some((v6, tail)) if tail.is_empty() || tail.starts_with(':') => format!("[{v6}]"),
+            _ => return false,
+        }
+    } else {
+        match host.rsplit_once(':') {
+            Some((n, port)) if port.bytes().all(|b| b.is_ascii_digit()) => n.to_string(),
+            Some(_) => return false,
+            None => host.clone(),
+        }
+    };
+    matches!(name.as_str(), "localhost" | "127.0.0.1" | "[::1]")
+        || allowed.iter().any(|a| a.eq_ignore_ascii_case(&name))
+}
+
+/// In front of every route, in this order: the `Host` check (403); 413 at once for a declared
+/// `Content-Length` over the limit; liveness and readiness answered outside the gate; the
+/// whole body read within the body timeout (408, the connection closed) and the limit (413)
+/// before a request slot is taken, so a slow sender holds none; then 503 at once when
+/// `max_concurrent` requests are already in progress.
 async fn guard(
     State(state): State<AppState>,
     req: axum::extract::Request,
     next: axum::middleware::Next,
 ) -> Response {
+    if !host_allowed(req.headers().get(header::HOST), &state.hosts) {
+        let host = req
+            .headers()
+            .get(header::HOST)
+            .map(|h| {
+                String::from_utf8_lossy(h.as_bytes())
+                    .chars()
+                    .take(100)
+                    .collect::<String>()
+            })
+            .unwrap_or_default();
+        return plain_error(
+            StatusCode::FORBIDDEN,
+            "forbidden_host",
+            format!(
+                "Host {host:?} is not this server's name; use 127.0.0.1 or localhost, or start the server with --allowed-host NAME"
+            ),
+        );
+    }
     let declared = req
         .headers()
         .get(header::CONTENT_LENGTH)
@@ -484,6 +571,39 @@ async fn guard(
             ),
         );
     }
+    let path = req.uri().path();
+    if path == "/healthz" || path == "/readyz" {
+        return next.run(req).await;
+    }
+    let (parts, body) = req.into_parts();
+    let read = axum::body::to_bytes(body, state.body_limit_bytes);
+    let bytes = match tokio::time::timeout(state.body_timeout, read).await {
+        Ok(Ok(b)) => b,
+        Ok(Err(_)) => {
+            return plain_error(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                "payload_too_large",
+                format!(
+                    "the body is over this server's limit of {} bytes (--body-limit-bytes), or broke off",
+                    state.body_limit_bytes
+                ),
+            );
+        }
+        Err(_) => {
+            let mut r = plain_error(
+                StatusCode::REQUEST_TIMEOUT,
+                "request_timeout",
+                format!(
+                    "the request body did not arrive within {:.0} s",
+                    state.body_timeout.as_secs_f64()
+                ),
+            );
+            r.headers_mut()
+                .insert(header::CONNECTION, HeaderValue::from_static("close"));
+            return r;
+        }
+    };
+    let req = axum::extract::Request::from_parts(parts, axum::body::Body::from(bytes));
     let Ok(_permit) = state.inflight.clone().try_acquire_owned() else {
         return plain_error(
             StatusCode::SERVICE_UNAVAILABLE,
@@ -583,6 +703,7 @@ pub fn openapi(service: &Service) -> JsonValue {
             (op, None) => {
                 let name = match op {
                     Op::Health => "Health",
+                    Op::Ready => "Ready",
                     Op::Info => "Info",
                     Op::Tools => "ToolList",
                     Op::OpenApi => "OpenApiDocument",
@@ -659,6 +780,10 @@ pub fn openapi(service: &Service) -> JsonValue {
         json!({"type": "object", "required": ["status"], "properties": {"status": {"const": "ok"}}}),
     );
     schemas.insert(
+        "Ready".into(),
+        json!({"type": "object", "required": ["status"], "properties": {"status": {"const": "ready"}}}),
+    );
+    schemas.insert(
         "Info".into(),
         json!({"type": "object", "required": ["nodes", "relationships"]}),
     );
@@ -713,6 +838,8 @@ pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
         gate: gate.clone(),
         inflight: Arc::new(Semaphore::new(opts.max_concurrent.max(1))),
         body_limit_bytes: opts.body_limit_bytes,
+        body_timeout: opts.body_timeout,
+        hosts: Arc::new(allowed_host_names(opts)),
     };
     let mut app = Router::new();
     for route in routes() {
@@ -737,8 +864,13 @@ pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
     }
     let mut mcp_config =
         rmcp::transport::streamable_http_server::StreamableHttpServerConfig::default();
+    mcp_config.max_request_body_bytes = opts.body_limit_bytes;
+    for h in allowed_host_names(opts) {
+        if !mcp_config.allowed_hosts.contains(&h) {
+            mcp_config.allowed_hosts.push(h);
+        }
+    }
     if !opts.bind.ip().is_loopback() {
-        mcp_config.allowed_hosts.push(opts.bind.ip().to_string());
         mcp_config.allowed_hosts.push(opts.bind.to_string());
     }
     let mcp_service = service.clone();
@@ -749,8 +881,11 @@ pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
         ),
         mcp_config,
     );
+    let mcp_routes = Router::new()
+        .route_service("/mcp", mcp)
+        .layer(axum::middleware::from_fn(crate::mcp::protocol_errors));
     app = app
-        .nest_service("/mcp", mcp)
+        .merge(mcp_routes)
         .fallback(|method: Method, uri: axum::http::Uri| async move {
             plain_error(
                 StatusCode::NOT_FOUND,
@@ -789,18 +924,159 @@ pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
     app.with_state(state)
 }
 
-/// Serves until `shutdown` resolves.
+/// The `Host` names the server answers to besides the loopback names: the bind address
+/// when it is not loopback, and `--allowed-host` names.
+fn allowed_host_names(opts: &ServeOptions) -> Vec<String> {
+    let mut v: Vec<String> = opts
+        .allowed_hosts
+        .iter()
+        .map(|h| h.to_ascii_lowercase())
+        .collect();
+    if !opts.bind.ip().is_loopback() {
+        v.push(match opts.bind.ip() {
+            std::net::IpAddr::V6(a) => format!("[{a}]"),
+            a => a.to_string(),
+        });
+    }
+    v
+}
+
+/// Connections open, in all and per client address.
+#[derive(Default)]
+struct Connections {
+    total: usize,
+    per_client: std::collections::HashMap<std::net::IpAddr, usize>,
+}
+
+/// One open connection's place in [`Connections`], given back on drop.
+struct ConnSlot {
+    table: Arc<std::sync::Mutex<Connections>>,
+    ip: std::net::IpAddr,
+}
+
+impl Drop for ConnSlot {
+    fn drop(&mut self) {
+        let mut t = self
+            .table
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        t.total = t.total.saturating_sub(1);
+        if let Some(n) = t.per_client.get_mut(&self.ip) {
+            *n -= 1;
+            if *n == 0 {
+                t.per_client.remove(&self.ip);
+            }
+        }
+    }
+}
+
+/// A place for a new connection from `ip`, or why not.
+fn take_slot(
+    table: &Arc<std::sync::Mutex<Connections>>,
+    ip: std::net::IpAddr,
+    opts: &ServeOptions,
+) -> Result<ConnSlot, &'static str> {
+    let mut t = table
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if t.total >= opts.max_connections {
+        return Err("too many open connections");
+    }
+    let mine = t.per_client.get(&ip).copied().unwrap_or(0);
+    if mine >= opts.max_connections_per_client {
+        return Err("too many open connections from this address");
+    }
+    t.total += 1;
+    *t.per_client.entry(ip).or_insert(0) += 1;
+    Ok(ConnSlot {
+        table: table.clone(),
+        ip,
+    })
+}
+
+/// Serves until `shutdown` resolves, with the connection limits and the header timeout of
+/// `opts` (the body timeout and the request gate are the router's, see [`router`]). A
+/// connection over a limit is answered 503 and closed at once. On shutdown, connections
+/// finish the request they are serving (10 s at most).
 ///
 /// # Errors
 /// The listener fails.
 pub async fn serve(
     listener: tokio::net::TcpListener,
     app: Router,
+    opts: &ServeOptions,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    axum::serve(listener, app)
-        .with_graceful_shutdown(shutdown)
-        .await
+    let table = Arc::new(std::sync::Mutex::new(Connections::default()));
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let mut tasks = tokio::task::JoinSet::new();
+    let mut http = hyper::server::conn::http1::Builder::new();
+    http.timer(hyper_util::rt::TokioTimer::new())
+        .header_read_timeout(opts.header_timeout)
+        // a client that sends its request and closes its sending side still gets the answer
+        .half_close(true)
+        .keep_alive(true);
+    let mut shutdown = std::pin::pin!(shutdown);
+    loop {
+        let (stream, peer) = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok(a) => a,
+                // out of file descriptors and the like: wait, do not spin or stop serving
+                Err(e) => {
+                    tracing::warn!("accept failed: {e}");
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                    continue;
+                }
+            },
+            () = &mut shutdown => break,
+        };
+        // reap finished connection tasks so the set does not grow
+        while tasks.try_join_next().is_some() {}
+        let slot = match take_slot(&table, peer.ip(), opts) {
+            Ok(s) => s,
+            Err(why) => {
+                tasks.spawn(refuse_connection(stream, why));
+                continue;
+            }
+        };
+        let _ = stream.set_nodelay(true);
+        let service = hyper_util::service::TowerToHyperService::new(app.clone());
+        let conn = http.serve_connection(hyper_util::rt::TokioIo::new(stream), service);
+        let mut stop = stop_rx.clone();
+        tasks.spawn(async move {
+            let _slot = slot;
+            let mut conn = std::pin::pin!(conn);
+            tokio::select! {
+                _ = conn.as_mut() => {}
+                _ = stop.changed() => {
+                    conn.as_mut().graceful_shutdown();
+                    let _ = tokio::time::timeout(Duration::from_secs(10), conn).await;
+                }
+            }
+        });
+    }
+    let _ = stop_tx.send(true);
+    let _ = tokio::time::timeout(Duration::from_secs(11), async {
+        while tasks.join_next().await.is_some() {}
+    })
+    .await;
+    Ok(())
+}
+
+/// Answers a connection over a limit with 503 and closes it (1 s at most to write).
+async fn refuse_connection(mut stream: tokio::net::TcpStream, why: &'static str) {
+    use tokio::io::AsyncWriteExt;
+    let body = json!({"error": {"code": "busy", "message": format!("{why}; try again shortly")}})
+        .to_string();
+    let msg = format!(
+        "HTTP/1.1 503 Service Unavailable\r\ncontent-type: application/json\r\ncontent-length: {}\r\nconnection: close\r\n\r\n{body}",
+        body.len()
+    );
+    let _ = tokio::time::timeout(Duration::from_secs(1), async {
+        let _ = stream.write_all(msg.as_bytes()).await;
+        let _ = stream.shutdown().await;
+    })
+    .await;
 }
 
 /// How long a request may take by default.

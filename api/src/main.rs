@@ -28,6 +28,11 @@ macro_rules! errln {
 
 mod cli;
 
+/// Counts each thread's allocations, so a Cypher statement's memory budget measures what it
+/// holds (see `graphstore::mem`).
+#[global_allocator]
+static ALLOC: graphstore::mem::CountingAlloc = graphstore::mem::CountingAlloc;
+
 use std::process::ExitCode;
 
 use clap::Parser;

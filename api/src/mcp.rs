@@ -3,7 +3,7 @@
 //! [`Service`]. It holds no logic: `tools/list` lists the registry, `tools/call` calls it and
 //! answers the tool's JSON as structured content (and as text). Arguments that break a tool's
 //! schema and failed operations come back as tool errors the client shows (`isError`); an
-//! unknown tool is a JSON-RPC error (method not found); the mapping is
+//! unknown tool is a JSON-RPC error (invalid params, as the MCP specification has it); the mapping is
 //! [`ToolError::mcp_error_code`]. Over HTTP the write tools are listed only when the server
 //! has a token, and a call runs only with `Authorization: Bearer <token>`.
 
@@ -73,6 +73,20 @@ impl ServerHandler for McpServer {
         Ok(ListToolsResult::with_all_items(self.mcp_tools()))
     }
 
+    /// A request rmcp could not read as one of the methods it knows lands here: a method we
+    /// serve (`tools/call` with `arguments` that are not an object, a `name` that is not a
+    /// string, ...) is -32602 (invalid params) with what is wrong; any other method -32601.
+    async fn on_custom_request(
+        &self,
+        request: rmcp::model::CustomRequest,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<rmcp::model::CustomResult, ErrorData> {
+        Err(custom_request_error(
+            &request.method,
+            request.params.as_ref(),
+        ))
+    }
+
     async fn call_tool(
         &self,
         request: CallToolRequestParams,
@@ -107,6 +121,133 @@ impl ServerHandler for McpServer {
             },
         }
     }
+}
+
+/// The methods this server answers; a request for one of them that rmcp could not read
+/// has invalid params.
+const SERVED_METHODS: [&str; 4] = ["initialize", "ping", "tools/list", "tools/call"];
+
+/// The JSON-RPC error for a request rmcp read as a custom one (see `on_custom_request`).
+fn custom_request_error(method: &str, params: Option<&serde_json::Value>) -> ErrorData {
+    if !SERVED_METHODS.contains(&method) {
+        return ErrorData::new(
+            rmcp::model::ErrorCode::METHOD_NOT_FOUND,
+            format!("method not found: {method:.100}; this server answers {SERVED_METHODS:?}"),
+            None,
+        );
+    }
+    let why = match method {
+        "tools/call" => match params {
+            None => "params are required: {\"name\": tool name, \"arguments\": {...}}".to_string(),
+            Some(p) => match serde_json::from_value::<CallToolRequestParams>(p.clone()) {
+                Err(e) => format!("{e}"),
+                Ok(_) => "params are not a tools/call request".into(),
+            },
+        },
+        _ => "params do not match the method".into(),
+    };
+    ErrorData::new(
+        rmcp::model::ErrorCode::INVALID_PARAMS,
+        format!("invalid params for {method}: {why:.300}"),
+        None,
+    )
+}
+
+/// A JSON-RPC error response as HTTP: status, `{"jsonrpc": "2.0", "id", "error"}`.
+fn jsonrpc_error(
+    status: axum::http::StatusCode,
+    id: serde_json::Value,
+    code: i32,
+    message: String,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    (
+        status,
+        axum::Json(serde_json::json!({
+            "jsonrpc": "2.0",
+            "id": id,
+            "error": {"code": code, "message": message},
+        })),
+    )
+        .into_response()
+}
+
+/// In front of `/mcp` (over HTTP): a POST body that is not JSON is JSON-RPC -32700 (parse
+/// error) and one that is JSON but no JSON-RPC message (an array, no `jsonrpc: "2.0"`, no
+/// method or result) -32600 (invalid request), both with status 400 (rmcp answers them 415);
+/// ending a session (DELETE) answers 204 where rmcp answers 202, which clients take for a
+/// failed termination. Everything else goes to rmcp unchanged. The body was already read
+/// within the server's limits by the HTTP guard.
+pub async fn protocol_errors(
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    use axum::http::{Method, StatusCode};
+    let is_json = req
+        .headers()
+        .get(axum::http::header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| {
+            v.split(';')
+                .next()
+                .is_some_and(|e| e.trim().eq_ignore_ascii_case("application/json"))
+        });
+    if req.method() == Method::POST && is_json {
+        let (parts, body) = req.into_parts();
+        let Ok(bytes) = axum::body::to_bytes(body, usize::MAX).await else {
+            return jsonrpc_error(
+                StatusCode::BAD_REQUEST,
+                serde_json::Value::Null,
+                -32700,
+                "Parse error: the body broke off".into(),
+            );
+        };
+        let value: serde_json::Value = match serde_json::from_slice(&bytes) {
+            Ok(v) => v,
+            Err(e) => {
+                return jsonrpc_error(
+                    StatusCode::BAD_REQUEST,
+                    serde_json::Value::Null,
+                    -32700,
+                    format!("Parse error: the body is not JSON: {e}"),
+                );
+            }
+        };
+        let id = value
+            .get("id")
+            .filter(|i| i.is_string() || i.is_number())
+            .cloned()
+            .unwrap_or(serde_json::Value::Null);
+        let shaped = value.get("jsonrpc").and_then(|v| v.as_str()) == Some("2.0")
+            && (value.get("method").is_some_and(|m| m.is_string())
+                || value.get("result").is_some()
+                || value.get("error").is_some());
+        if !value.is_object() || !shaped {
+            return jsonrpc_error(
+                StatusCode::BAD_REQUEST,
+                id,
+                -32600,
+                "Invalid Request: the body must be one JSON-RPC 2.0 message (an object with \"jsonrpc\": \"2.0\" and a \"method\"); batches are not supported".into(),
+            );
+        }
+        // from the bytes, as rmcp reads them (a duplicate key passes as a Value, not here)
+        if serde_json::from_slice::<rmcp::model::ClientJsonRpcMessage>(&bytes).is_err() {
+            return jsonrpc_error(
+                StatusCode::BAD_REQUEST,
+                id,
+                -32600,
+                "Invalid Request: not a JSON-RPC request, notification or response this server reads (check id, method and params)".into(),
+            );
+        }
+        let req = axum::extract::Request::from_parts(parts, axum::body::Body::from(bytes));
+        return next.run(req).await;
+    }
+    let deleting = req.method() == Method::DELETE;
+    let mut res = next.run(req).await;
+    if deleting && res.status() == StatusCode::ACCEPTED {
+        *res.status_mut() = StatusCode::NO_CONTENT;
+    }
+    res
 }
 
 /// Serves the toolbox over stdin/stdout until the client closes the stream.

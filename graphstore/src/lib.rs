@@ -8,6 +8,7 @@ mod error;
 pub mod export;
 mod index;
 mod integrity;
+pub mod mem;
 mod model;
 mod payload;
 mod read;
@@ -17,6 +18,11 @@ mod store;
 mod tokens;
 mod txn;
 mod value;
+
+/// Unit tests count allocations, as the `opengraph` binary does.
+#[cfg(test)]
+#[global_allocator]
+static TEST_ALLOC: mem::CountingAlloc = mem::CountingAlloc;
 
 pub use error::{Error, Result};
 pub use index::text::tokenize;

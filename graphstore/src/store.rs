@@ -261,9 +261,10 @@ impl Store {
                 });
             }
         };
-        let wtx = db.begin_write().map_err(storage)?;
+        // look with a read transaction: opening a store that is already one writes nothing
         let fresh = {
-            let names: Vec<String> = wtx
+            let rtx = db.begin_read().map_err(storage)?;
+            let names: Vec<String> = rtx
                 .list_tables()
                 .map_err(storage)?
                 .map(|h| h.name().to_string())
@@ -280,6 +281,7 @@ impl Store {
             }
         };
         if fresh {
+            let wtx = db.begin_write().map_err(storage)?;
             {
                 let mut meta = wtx.open_table(META).map_err(storage)?;
                 meta.insert(K_MAGIC, MAGIC).map_err(storage)?;
@@ -301,8 +303,6 @@ impl Store {
                 wtx.open_table(PAYLOADS).map_err(storage)?;
             }
             wtx.commit().map_err(storage)?;
-        } else {
-            drop(wtx);
         }
         Self::finish_open(Db::Rw(db), path)
     }

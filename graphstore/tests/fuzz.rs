@@ -1,13 +1,19 @@
 //! Time-boxed fuzz targets (`og-fuzz`; `OG_FUZZ_SECS=600 cargo test -p graphstore --test fuzz
 //! -- --nocapture` runs each for ten minutes): the Cypher parser and executor on a small graph,
 //! and the value codec. Any outcome but a panic is fine; a panicking input is saved under
-//! `tests/fuzz-regressions/TARGET/` and replayed on every run once committed.
+//! `tests/fuzz-regressions/TARGET/` and replayed on every run once committed. The Cypher
+//! target runs under a 256 MiB statement budget, counted by the allocator `opengraph` uses;
+//! as a soak with the process capped at 4 GiB of address space:
+//! `OG_FUZZ_SECS=600 prlimit --as=4294967296 cargo test --release -p graphstore --test fuzz -- --nocapture`.
 
 use std::path::Path;
 use std::time::Duration;
 
 use graphstore::cypher::QueryOptions;
 use graphstore::{Store, Value};
+
+#[global_allocator]
+static ALLOC: graphstore::mem::CountingAlloc = graphstore::mem::CountingAlloc;
 
 fn regressions() -> &'static Path {
     Path::new(concat!(
@@ -33,6 +39,9 @@ const QUERIES: &[&str] = &[
     "CALL db.labels() YIELD label RETURN label ORDER BY label",
     "RETURN CASE WHEN $x IS NULL THEN [y IN range(0, 4) WHERE y % 2 = 0 | y * 2] ELSE reduce(s = 0, z IN [1, 2] | s + z) END",
     "MATCH (a:Lane) RETURN a.id =~ '1.*', a.id IN [1, 2], a.x STARTS WITH 'x', a {.id, .x}",
+    "RETURN size(reduce(s = 'ab', i IN range(1, 30) | s + s)), split('a,b', ','), replace('aa', 'a', 'bb')",
+    "CALL db.index.vector.queryNodes('v', 9223372036854775807, [0.1, 0.2]) YIELD node RETURN node",
+    "MATCH p = (a)-[*]-(b) RETURN count(p), [x IN range(1, 100) | [y IN range(1, 100) | {k: y}]][0][0]",
 ];
 
 fn small_graph(dir: &Path) -> Store {
@@ -65,6 +74,7 @@ fn fuzz_cypher_parser_and_executor() {
             // writes too, now and then (they commit on this scratch store)
             read_only: !n.is_multiple_of(4),
             max_intermediate_rows: 100_000,
+            max_memory_bytes: 256 << 20,
             ..QueryOptions::default()
         };
         if s.query(&text, &opts).is_ok() {

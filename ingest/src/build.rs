@@ -966,6 +966,19 @@ fn resume_config(cfg: &BuildConfig) -> Result<serde_json::Value> {
     Ok(v)
 }
 
+/// How a map names an input path: relative to `base` when it lies inside it, else by its
+/// last component alone (a map never holds the build machine's absolute paths).
+fn display_name(path: &Path, base: Option<&Path>) -> String {
+    if let Some(rel) = base.and_then(|b| path.strip_prefix(b).ok())
+        && !rel.as_os_str().is_empty()
+    {
+        return rel.display().to_string();
+    }
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
 /// Runs (or, with `resume`, continues) a build into `store`.
 pub fn build(
     store: &Store,
@@ -980,13 +993,39 @@ pub fn build(
     cfg.dynamic.validate()?;
     let seq = Sequence::open(&args.sequence, args.poses.as_deref())?;
     let frames = key_frames(&seq, &args.source, args.frames.as_ref(), args.stride)?;
+    // the map is readable by anyone it is served to, and exported: it names its inputs
+    // relative to the sequence directory (or by file name alone), never by absolute path; a
+    // digest of the absolute paths tells a resume with other inputs apart
+    let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let seq_dir = canonical(&seq.dir);
+    let poses = canonical(&seq.poses_path);
+    let detections = match &args.source {
+        Source::Oracle => None,
+        Source::Detections(d) => Some(canonical(d)),
+    };
+    let inputs_sha256 = {
+        use sha2::Digest as _;
+        let mut h = sha2::Sha256::new();
+        for p in [Some(&seq_dir), Some(&poses), detections.as_ref()]
+            .into_iter()
+            .flatten()
+        {
+            h.update(p.as_os_str().as_encoded_bytes());
+            h.update([0u8]);
+        }
+        h.finalize()
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>()
+    };
     let args_json = serde_json::json!({
-        "sequence": std::fs::canonicalize(&seq.dir).unwrap_or_else(|_| seq.dir.clone()),
-        "poses": std::fs::canonicalize(&seq.poses_path).unwrap_or_else(|_| seq.poses_path.clone()),
-        "source": match &args.source {
-            Source::Oracle => "oracle".to_string(),
-            Source::Detections(d) => format!("detections:{}", std::fs::canonicalize(d).unwrap_or_else(|_| d.clone()).display()),
+        "sequence": display_name(&seq_dir, None),
+        "poses": display_name(&poses, Some(&seq_dir)),
+        "source": match &detections {
+            None => "oracle".to_string(),
+            Some(d) => format!("detections:{}", display_name(d, Some(&seq_dir))),
         },
+        "inputs_sha256": inputs_sha256,
         "frames": frames,
         "config": resume_config(cfg)?,
         "environment": args.environment,

@@ -47,7 +47,7 @@ pub struct Tool {
 ///
 /// | kind | exit | HTTP | MCP |
 /// |---|---|---|---|
-/// | `Unknown` | 2 | 404 | JSON-RPC error -32601 (method not found) |
+/// | `Unknown` | 2 | 404 | JSON-RPC error -32602 (invalid params: the MCP specification's code for an unknown tool) |
 /// | `BadArguments` | 2 | 400 | tool result with `isError` |
 /// | `NotFound` | 2 | 404 | tool result with `isError` |
 /// | `Forbidden` | 2 | 401 | tool result with `isError` |
@@ -122,7 +122,7 @@ impl ToolError {
     /// `isError` (which the model sees and can act on).
     pub fn mcp_error_code(&self) -> Option<i32> {
         match self {
-            ToolError::Unknown(_) => Some(-32601),
+            ToolError::Unknown(_) => Some(-32602),
             _ => None,
         }
     }
@@ -147,6 +147,14 @@ pub const MAX_ROWS: usize = 1000;
 /// 600 bytes each, so about 600 MB at most per statement, against 6 GB at graphstore's own
 /// default of 10 million).
 pub const MAX_INTERMEDIATE_ROWS: usize = 1_000_000;
+
+/// Bytes one tool's Cypher statement may hold at once (rows, paths, lists, strings, maps;
+/// counted by the binary's allocator, see `graphstore::mem`): a statement past it is refused
+/// with 400 `MemoryLimit`, and two readers and the writer together stay under 1.5 GiB.
+pub const MAX_STATEMENT_BYTES: u64 = 512 << 20;
+
+/// The largest Cypher answer a tool returns, estimated before it is turned into JSON.
+pub const MAX_ANSWER_BYTES: u64 = 32 << 20;
 
 /// Time a Cypher call may take.
 pub const CYPHER_TIMEOUT: Duration = Duration::from_secs(10);
@@ -460,6 +468,30 @@ fn registry() -> &'static [(Tool, jsonschema::Validator)] {
 
 /// Validates tool arguments against a schema with `jsonschema`; the message names each
 /// offending place (`/k: 0 is less than the minimum of 1`).
+/// An integer argument read strictly: absent or null is `None`; anything that is not an
+/// integer from 0 to 2^64 - 1 (a float such as `5.5` or `1e308`, a negative or larger number,
+/// a string) is [`ToolError::BadArguments`] naming the argument. JSON Schema counts `1e308`
+/// and `5.0` as integers, so the schema alone does not keep them out.
+pub fn int_arg(args: &Json, key: &str, what: &str) -> ToolResult<Option<u64>> {
+    match args.get(key) {
+        None | Some(Json::Null) => Ok(None),
+        Some(v) => match v.as_u64() {
+            Some(n) => Ok(Some(n)),
+            None => {
+                let mut shown = v.to_string();
+                if shown.len() > 40 {
+                    shown.truncate(40);
+                    shown.push('…');
+                }
+                Err(ToolError::BadArguments(format!(
+                    "{key}: {shown} is not {what} (an integer from 0 to {})",
+                    u64::MAX
+                )))
+            }
+        },
+    }
+}
+
 fn check_args(args: &Json, v: &jsonschema::Validator) -> ToolResult<()> {
     let errors: Vec<String> = v
         .iter_errors(args)
@@ -570,7 +602,13 @@ impl Toolbox {
         check_args(&args, validator)?;
         let name = tool.name;
         let s = |k: &str| args[k].as_str().unwrap_or_default().to_string();
-        let n = |k: &str, d: u64| args[k].as_u64().unwrap_or(d) as usize;
+        let n = |k: &str, d: u64| -> ToolResult<usize> {
+            Ok(int_arg(&args, k, "a count")?.unwrap_or(d) as usize)
+        };
+        let id = |k: &str| -> ToolResult<u64> {
+            int_arg(&args, k, "a node id")?
+                .ok_or_else(|| ToolError::BadArguments(format!("{k} is required")))
+        };
         match name {
             "get_schema" => self.get_schema(),
             "read_cypher" => self.cypher(&s("query"), args.get("params"), true),
@@ -581,7 +619,7 @@ impl Toolbox {
                     &r,
                     &FindRequest {
                         text: s("text"),
-                        k: n("k", 5),
+                        k: n("k", 5)?,
                         class: args["class"].as_str().map(str::to_string),
                         near: None,
                         ranking: Ranking::Graph {
@@ -599,7 +637,7 @@ impl Toolbox {
                     &r,
                     &LocateRequest {
                         text: s("text"),
-                        k: n("k", 3),
+                        k: n("k", 3)?,
                         parser: ParserKind::Rules,
                     },
                 )?;
@@ -642,12 +680,11 @@ impl Toolbox {
                 serde_json::to_value(a).map_err(failed)
             }
             "undo_map_edit" => {
-                let a =
-                    crate::update::undo(&self.store, args["edit_id"].as_u64().unwrap_or_default())?;
+                let a = crate::update::undo(&self.store, id("edit_id")?)?;
                 serde_json::to_value(a).map_err(failed)
             }
-            "describe_area" => self.describe_area(args["segment_id"].as_u64()),
-            "get_instance" => self.get_instance(args["id"].as_u64().unwrap_or_default()),
+            "describe_area" => self.describe_area(int_arg(&args, "segment_id", "a node id")?),
+            "get_instance" => self.get_instance(id("id")?),
             other => Err(ToolError::Unknown(other.to_string())),
         }
     }
@@ -742,6 +779,7 @@ impl Toolbox {
             row_limit: Some(MAX_ROWS),
             read_only,
             max_intermediate_rows: MAX_INTERMEDIATE_ROWS,
+            max_memory_bytes: MAX_STATEMENT_BYTES,
             ..graphstore::cypher::QueryOptions::default()
         };
         let r = self.store.query(query, &opts).map_err(|e| match e {
@@ -757,6 +795,20 @@ impl Toolbox {
             graphstore::Error::Query(_) => ToolError::BadArguments(e.to_string()),
             other => failed(other),
         })?;
+        let answer_bytes: u64 = r
+            .rows
+            .iter()
+            .flatten()
+            .map(graphstore::cypher::Val::approx_bytes)
+            .sum::<u64>()
+            + 4096 * (r.nodes.len() + r.rels.len()) as u64;
+        if answer_bytes > MAX_ANSWER_BYTES {
+            return Err(ToolError::BadArguments(format!(
+                "the answer would be about {} MiB, over the {} MiB a tool answer may be; return fewer or smaller values (LIMIT, size(), properties instead of whole nodes)",
+                answer_bytes >> 20,
+                MAX_ANSWER_BYTES >> 20
+            )));
+        }
         let mut out = json!({
             "columns": r.columns,
             "rows": r.rows_json(),

@@ -446,6 +446,21 @@ pub(crate) enum Command {
         /// A browser origin allowed to call the API (CORS); repeat for more. Default: CORS off.
         #[arg(long)]
         cors_origin: Vec<String>,
+        /// A `Host` name the server answers to besides localhost, 127.0.0.1, [::1] and the bind
+        /// address (behind a proxy or a DNS name); repeat for more. Requests with any other
+        /// Host get 403, on every route (a DNS-rebinding page cannot read the map).
+        #[arg(long)]
+        allowed_host: Vec<String>,
+        /// Seconds a client has to send a request's headers (and to start its next request on
+        /// a kept-alive connection), and again its body; slower connections are closed.
+        #[arg(long, default_value_t = 10.0, value_parser = in_range(0.1, 3600.0), allow_hyphen_values = true)]
+        client_timeout_secs: f64,
+        /// Open connections at most; more are answered 503 and closed.
+        #[arg(long, default_value_t = 1024)]
+        max_connections: usize,
+        /// Open connections from one client address at most.
+        #[arg(long, default_value_t = 256)]
+        max_connections_per_client: usize,
         /// A language model for POST /api/ask (default: none).
         #[command(flatten)]
         llm: LlmArgs,

@@ -20,6 +20,10 @@ pub(crate) struct ServeArgs {
     pub(crate) embedding_cache: u32,
     pub(crate) query_cache: u32,
     pub(crate) cors_origin: Vec<String>,
+    pub(crate) allowed_host: Vec<String>,
+    pub(crate) client_timeout_secs: f64,
+    pub(crate) max_connections: usize,
+    pub(crate) max_connections_per_client: usize,
     pub(crate) llm: LlmArgs,
 }
 
@@ -52,9 +56,34 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         ("--body-limit-bytes", a.body_limit_bytes, 1usize << 30),
         ("--max-concurrent", a.max_concurrent, 100_000),
         ("--workers", a.workers.unwrap_or(1), 256),
+        ("--max-connections", a.max_connections, 1_000_000),
+        (
+            "--max-connections-per-client",
+            a.max_connections_per_client,
+            1_000_000,
+        ),
     ] {
         if v == 0 || v > max {
             return Err(UsageError(format!("{name} must be between 1 and {max} (got {v})")).into());
+        }
+    }
+    if !(a.client_timeout_secs.is_finite() && (0.1..=3600.0).contains(&a.client_timeout_secs)) {
+        return Err(UsageError(format!(
+            "--client-timeout-secs must be between 0.1 and 3600 (got {})",
+            a.client_timeout_secs
+        ))
+        .into());
+    }
+    for h in &a.allowed_host {
+        if h.is_empty()
+            || !h
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b"-.[]:".contains(&b))
+        {
+            return Err(UsageError(format!(
+                "--allowed-host takes a host name or address without port or scheme (got {h:?})"
+            ))
+            .into());
         }
     }
     let token = a.token_file.as_deref().map(read_token).transpose()?;
@@ -117,6 +146,11 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         body_limit_bytes: a.body_limit_bytes,
         max_concurrent: a.max_concurrent,
         cors_origins: a.cors_origin,
+        allowed_hosts: a.allowed_host,
+        header_timeout: std::time::Duration::from_secs_f64(a.client_timeout_secs),
+        body_timeout: std::time::Duration::from_secs_f64(a.client_timeout_secs),
+        max_connections: a.max_connections,
+        max_connections_per_client: a.max_connections_per_client,
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -146,7 +180,7 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
                 "read-only"
             }
         );
-        api::http::serve(listener, app, async {
+        api::http::serve(listener, app, &opts, async {
             shutdown_signal().await;
         })
         .await?;
@@ -196,6 +230,10 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         embedding_cache,
         query_cache,
         cors_origin,
+        allowed_host,
+        client_timeout_secs,
+        max_connections,
+        max_connections_per_client,
         llm,
     } = cmd
     else {
@@ -213,6 +251,10 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         embedding_cache,
         query_cache,
         cors_origin,
+        allowed_host,
+        client_timeout_secs,
+        max_connections,
+        max_connections_per_client,
         llm,
     })
 }

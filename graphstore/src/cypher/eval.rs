@@ -58,6 +58,22 @@ fn int_overflow() -> QueryError {
     arg_err("NumberOutOfRange", "integer overflow")
 }
 
+/// Bytes of one runtime value's own slot (a list of `n` values holds `n` of these).
+pub(crate) const VAL_BYTES: u64 = std::mem::size_of::<Val>() as u64;
+
+/// About the bytes `a + b` builds: the joined string, or the joined list's slots.
+fn concat_bytes(a: &Val, b: &Val) -> u64 {
+    let own = |v: &Val| match v {
+        Val::Str(s) => s.len() as u64,
+        Val::List(l) => l.len() as u64 * VAL_BYTES,
+        _ => VAL_BYTES,
+    };
+    match (a, b) {
+        (Val::Str(_) | Val::List(_), _) | (_, Val::Str(_) | Val::List(_)) => own(a) + own(b),
+        _ => 0,
+    }
+}
+
 pub(crate) fn arith(op: BinOp, a: &Val, b: &Val) -> R<Val> {
     use Val::*;
     if a.is_null() || b.is_null() {
@@ -237,7 +253,18 @@ impl Ctx<'_, '_> {
                 }
             },
             Expr::Var(v, pos) => match row.get(v) {
-                Some(x) => x.clone(),
+                Some(x) => {
+                    // a large list or string is copied here: check the copy fits first
+                    let copy = match x {
+                        Val::List(l) if l.len() > 4096 => l.len() as u64 * VAL_BYTES,
+                        Val::Str(t) if t.len() > 1 << 16 => t.len() as u64,
+                        _ => 0,
+                    };
+                    if copy > 0 {
+                        self.reserve(copy, "a copy of a variable")?;
+                    }
+                    x.clone()
+                }
                 None => {
                     return Err(QueryError::new(
                         super::ErrorKind::Semantic,
@@ -700,7 +727,12 @@ impl Ctx<'_, '_> {
                     }
                     _ => Ok(Val::Null),
                 },
-                _ => arith(op, x, y),
+                _ => {
+                    if op == BinOp::Add {
+                        self.reserve(concat_bytes(x, y), "a concatenation")?;
+                    }
+                    arith(op, x, y)
+                }
             },
         }
     }
@@ -975,9 +1007,10 @@ impl Ctx<'_, '_> {
                 if count > 10_000_000 {
                     return Err(arg_err(
                         "NumberOutOfRange",
-                        format!("range() would make {count} elements"),
+                        format!("range() would make {count} elements (at most 10,000,000)"),
                     ));
                 }
+                self.reserve(count as u64 * VAL_BYTES, "range()")?;
                 Ok(List((0..count as i64).map(|k| Int(s + k * step)).collect()))
             }
             "tostring" => {
@@ -1052,7 +1085,19 @@ impl Ctx<'_, '_> {
                 arity(3, 3)?;
                 Ok(match (&a[0], &a[1], &a[2]) {
                     (Null, _, _) | (_, Null, _) | (_, _, Null) => Null,
-                    (Str(s), Str(f), Str(t)) => Str(s.replace(f.as_str(), t)),
+                    (Str(s), Str(f), Str(t)) => {
+                        let hits = if f.is_empty() {
+                            s.chars().count() + 1
+                        } else {
+                            s.matches(f.as_str()).count()
+                        };
+                        self.reserve(
+                            (s.len() as u64)
+                                .saturating_add((hits as u64).saturating_mul(t.len() as u64)),
+                            "replace()",
+                        )?;
+                        Str(s.replace(f.as_str(), t))
+                    }
                     _ => return Err(type_err("replace() expects strings")),
                 })
             }
@@ -1061,6 +1106,15 @@ impl Ctx<'_, '_> {
                 Ok(match (&a[0], &a[1]) {
                     (Null, _) | (_, Null) => Null,
                     (Str(s), Str(d)) => {
+                        let pieces = if d.is_empty() {
+                            s.chars().count()
+                        } else {
+                            s.matches(d.as_str()).count() + 1
+                        };
+                        self.reserve(
+                            (pieces as u64).saturating_mul(VAL_BYTES + 8) + s.len() as u64,
+                            "split()",
+                        )?;
                         if d.is_empty() {
                             List(s.chars().map(|c| Str(c.to_string())).collect())
                         } else {

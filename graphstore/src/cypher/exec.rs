@@ -48,6 +48,14 @@ pub(crate) struct Ctx<'a, 'b> {
     pub clause_pos: Option<super::Pos>,
     /// Cap on the rows any clause may produce.
     pub max_rows: usize,
+    /// Cap on the bytes the statement may hold at once (see [`crate::mem`]); `u64::MAX`: none.
+    pub max_memory: u64,
+    /// This thread's net allocation when the statement started.
+    mem_start: i64,
+    /// Bytes announced by [`Ctx::reserve`] (the measure where allocations are not counted).
+    mem_reserved: Cell<u64>,
+    /// The most the statement was seen to hold, in bytes.
+    mem_peak: Cell<u64>,
     /// Nodes per label, read once per statement when the planner compares label scans.
     label_counts: std::cell::OnceCell<BTreeMap<String, u64>>,
     /// Decoded nodes of a read-only statement, most recently used kept: a pattern checks
@@ -81,6 +89,10 @@ impl<'a, 'b> Ctx<'a, 'b> {
             deleted_rel_types: BTreeMap::new(),
             clause_pos: None,
             max_rows: usize::MAX,
+            max_memory: u64::MAX,
+            mem_start: crate::mem::thread_net_bytes(),
+            mem_reserved: Cell::new(0),
+            mem_peak: Cell::new(0),
             label_counts: std::cell::OnceCell::new(),
             node_cache: std::cell::RefCell::new(lru::LruCache::new(NODE_CACHE)),
             stats: Stats::default(),
@@ -122,7 +134,63 @@ impl<'a, 'b> Ctx<'a, 'b> {
         }
     }
 
+    /// Bytes the statement holds now: this thread's allocations since it started where
+    /// [`crate::mem::CountingAlloc`] counts them, else what [`Ctx::reserve`] was told.
+    fn mem_used(&self) -> u64 {
+        if crate::mem::counting() {
+            (crate::mem::thread_net_bytes() - self.mem_start).max(0) as u64
+        } else {
+            self.mem_reserved.get()
+        }
+    }
+
+    /// The most the statement was seen to hold, in bytes.
+    pub fn mem_peak(&self) -> u64 {
+        self.mem_peak.get().max(self.mem_used())
+    }
+
+    /// Fails when the statement holds, or with `extra` more bytes would hold, more than its
+    /// memory budget.
+    fn check_mem(&self, extra: u64, what: &str) -> R<()> {
+        if self.max_memory == u64::MAX {
+            return Ok(());
+        }
+        let used = self.mem_used();
+        if used > self.mem_peak.get() {
+            self.mem_peak.set(used);
+        }
+        if used.saturating_add(extra) > self.max_memory {
+            return Err(QueryError::new(
+                ErrorKind::MemoryLimit,
+                "MemoryLimitExceeded",
+                format!(
+                    "the statement would hold more than its memory limit of {} MiB{}; narrow the pattern, add LIMIT, or aggregate earlier",
+                    self.max_memory >> 20,
+                    if what.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" ({what})")
+                    }
+                ),
+                None,
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks that a value of about `bytes` bytes may be built before building it (a size
+    /// that could not be allocated at all fails here instead of aborting the process).
+    pub(crate) fn reserve(&self, bytes: u64, what: &str) -> R<()> {
+        self.check_mem(bytes, what)?;
+        if !crate::mem::counting() {
+            self.mem_reserved
+                .set(self.mem_reserved.get().saturating_add(bytes));
+        }
+        Ok(())
+    }
+
     pub fn tick(&self) -> R<()> {
+        self.check_mem(0, "")?;
         let t = self.ticks.get().wrapping_add(1);
         self.ticks.set(t);
         if t.is_multiple_of(1024)

@@ -66,6 +66,9 @@ pub enum ErrorKind {
     RowLimit,
     /// A write in read-only mode.
     ReadOnly,
+    /// The statement would hold more memory than its budget
+    /// ([`QueryOptions::max_memory_bytes`]).
+    MemoryLimit,
 }
 
 impl ErrorKind {
@@ -83,6 +86,7 @@ impl ErrorKind {
             ErrorKind::Timeout => "Timeout",
             ErrorKind::RowLimit => "RowLimit",
             ErrorKind::ReadOnly => "ReadOnly",
+            ErrorKind::MemoryLimit => "MemoryLimit",
         }
     }
 }
@@ -181,6 +185,12 @@ pub struct QueryOptions {
     /// Fail with [`ErrorKind::RowLimit`] when any clause produces more rows than this
     /// (a memory guard for runaway patterns; default 10 million).
     pub max_intermediate_rows: usize,
+    /// Fail with [`ErrorKind::MemoryLimit`] when the statement would hold more bytes than
+    /// this at once: rows, paths, lists, strings, maps, aggregation state (measured with
+    /// [`crate::mem::CountingAlloc`] where the binary installs it; default 1 GiB). Sizes that
+    /// could never be allocated (a `range` of 10^15 elements, `k` of a vector search) are
+    /// refused before allocating whether or not allocations are counted.
+    pub max_memory_bytes: u64,
     /// Seed of `rand()`.
     pub seed: u64,
 }
@@ -193,6 +203,7 @@ impl Default for QueryOptions {
             row_limit: None,
             read_only: false,
             max_intermediate_rows: 10_000_000,
+            max_memory_bytes: 1 << 30,
             seed: 0,
         }
     }
@@ -535,6 +546,18 @@ fn run_statement(
     })
 }
 
+/// A statement that held more than this at its peak hands freed memory back to the system
+/// when it ends, so a server's resident size returns to its baseline.
+const TRIM_AFTER_BYTES: u64 = 64 << 20;
+
+/// Releases a large statement's freed memory (its intermediate values are dropped by now).
+fn after_statement<T>(res: R<T>, peak: u64) -> R<T> {
+    if peak > TRIM_AFTER_BYTES {
+        crate::mem::release_free_memory();
+    }
+    res
+}
+
 impl Store {
     /// Runs a Cypher statement. Reads run in a read transaction; a statement that writes runs
     /// in one write transaction and leaves the store unchanged when it fails.
@@ -574,8 +597,11 @@ impl Store {
                 let mut ctx =
                     exec::Ctx::new(exec::Tx::Write(&mut *tx), &opts.params, deadline, opts.seed);
                 ctx.max_rows = opts.max_intermediate_rows;
-                let mut res = run_statement(&mut ctx, &stmt, opts)?;
+                ctx.max_memory = opts.max_memory_bytes;
+                let res = run_statement(&mut ctx, &stmt, opts);
+                let peak = ctx.mem_peak();
                 drop(ctx);
+                let mut res = after_statement(res, peak)?;
                 resolve(&*tx, &mut res)?;
                 Ok(res)
             })
@@ -583,7 +609,11 @@ impl Store {
             let txn = self.read()?;
             let mut ctx = exec::Ctx::new(exec::Tx::Read(&txn), &opts.params, deadline, opts.seed);
             ctx.max_rows = opts.max_intermediate_rows;
-            let mut res = run_statement(&mut ctx, &stmt, opts)?;
+            ctx.max_memory = opts.max_memory_bytes;
+            let res = run_statement(&mut ctx, &stmt, opts);
+            let peak = ctx.mem_peak();
+            drop(ctx);
+            let mut res = after_statement(res, peak)?;
             resolve(&txn, &mut res)?;
             Ok(res)
         }
@@ -687,5 +717,59 @@ pub fn from_json(j: &serde_json::Value) -> Val {
         serde_json::Value::Object(o) => {
             Val::Map(o.iter().map(|(k, v)| (k.clone(), from_json(v))).collect())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn store() -> (tempfile::TempDir, Store) {
+        let dir = tempfile::tempdir().unwrap();
+        let s = Store::create(dir.path().join("m.og")).unwrap();
+        (dir, s)
+    }
+
+    fn run(s: &Store, q: &str, budget: u64) -> crate::Result<QueryResult> {
+        s.query(
+            q,
+            &QueryOptions {
+                max_memory_bytes: budget,
+                ..QueryOptions::default()
+            },
+        )
+    }
+
+    fn kind(r: crate::Result<QueryResult>) -> Option<ErrorKind> {
+        match r {
+            Err(crate::Error::Query(q)) => Some(q.kind),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn a_statement_over_its_memory_budget_is_refused_and_one_under_it_runs() {
+        // the lib's tests count allocations (lib.rs), as the binary does
+        assert!(crate::mem::counting());
+        let (_d, s) = store();
+        let q = "RETURN size([x IN range(1, 1000000) | [x, toString(x)]]) AS n";
+        assert_eq!(kind(run(&s, q, 16 << 20)), Some(ErrorKind::MemoryLimit));
+        let r = run(&s, q, 1 << 30).unwrap();
+        assert_eq!(r.rows[0][0], Val::Int(1_000_000));
+        // strings and lists that double are stopped before the allocation that breaks it
+        for q in [
+            "RETURN size(reduce(s = 'x', i IN range(1, 60) | s + s)) AS n",
+            "RETURN size(reduce(l = [1], i IN range(1, 60) | l + l)) AS n",
+            "WITH reduce(s = 'x', i IN range(1, 16) | s + s) AS s RETURN size(replace(s, 'x', s)) AS n",
+        ] {
+            assert_eq!(
+                kind(run(&s, q, 64 << 20)),
+                Some(ErrorKind::MemoryLimit),
+                "{q}"
+            );
+        }
+        // a range that could never be allocated is an argument error at once
+        let q = "RETURN size(range(0, 9223372036854775807)) AS n";
+        assert_eq!(kind(run(&s, q, u64::MAX)), Some(ErrorKind::Argument));
     }
 }

@@ -44,6 +44,25 @@ pub enum Val {
     Bytes(Vec<u8>),
 }
 
+impl Val {
+    /// About the bytes this value holds, its own slot included (for size limits on answers).
+    pub fn approx_bytes(&self) -> u64 {
+        let slot = std::mem::size_of::<Val>() as u64;
+        slot + match self {
+            Val::Str(s) => s.len() as u64,
+            Val::List(l) => l.iter().map(Val::approx_bytes).sum(),
+            Val::Map(m) => m
+                .iter()
+                .map(|(k, v)| k.len() as u64 + 48 + v.approx_bytes())
+                .sum(),
+            Val::Path { nodes, rels } => 8 * (nodes.len() + rels.len()) as u64,
+            Val::Vector(v) => 4 * v.len() as u64,
+            Val::Bytes(b) => b.len() as u64,
+            _ => 0,
+        }
+    }
+}
+
 impl From<Value> for Val {
     fn from(v: Value) -> Val {
         match v {

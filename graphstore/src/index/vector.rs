@@ -134,7 +134,8 @@ impl TopK {
     fn new(k: usize) -> Self {
         TopK {
             k,
-            heap: BinaryHeap::with_capacity(k + 1),
+            // the heap grows to at most the entries seen; `k` is the caller's and may be huge
+            heap: BinaryHeap::with_capacity(k.min(1024) + 1),
         }
     }
     /// Whether (score, node) would enter.
