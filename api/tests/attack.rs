@@ -595,6 +595,17 @@ fn slow_clients_are_closed_and_do_not_starve_others() {
     for _ in 0..100 {
         slow.push(TcpStream::connect(&a).unwrap());
     }
+    // 5 that send one whole request, read its answer and then idle on the kept-alive connection
+    for _ in 0..5 {
+        let mut s = TcpStream::connect(&a).unwrap();
+        s.write_all(b"GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+            .unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let mut buf = [0u8; 1024];
+        let n = s.read(&mut buf).unwrap();
+        assert!(buf[..n].starts_with(b"HTTP/1.1 200"));
+        slow.push(s);
+    }
     std::thread::sleep(Duration::from_millis(300));
     // a normal client is served at once, however many slow ones wait
     for _ in 0..5 {
@@ -716,4 +727,21 @@ fn the_map_names_no_absolute_input_path() {
     );
     assert_eq!(st, 200);
     assert!(!String::from_utf8_lossy(&export).contains(&dir));
+}
+
+#[test]
+fn the_official_mcp_client_ends_its_session_cleanly() {
+    let Some(py) = common::python_with_mcp() else {
+        eprintln!("skipping: no Python with the mcp package (run scripts/setup.sh)");
+        return;
+    };
+    let server = serve(map(), &[]);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/mcp_session_end.py");
+    let mut cmd = std::process::Command::new(py);
+    cmd.arg(&script).arg(format!("{}/mcp", server.url));
+    let r = common::json_of_run(cmd, 120);
+    // an unknown tool is invalid params, as the MCP specification has it
+    assert_eq!(r["unknown_tool_code"], -32602, "{r}");
+    // and ending the session logs no "Session termination failed"
+    assert_eq!(r["warnings"], json!([]), "{r}");
 }

@@ -208,6 +208,18 @@ fn reads_leave_the_file_as_it_was_and_need_no_write_permission() {
     let w = og(&["query", "--db", s(&db), "--read-only", "CREATE (:X)"]);
     assert_eq!(w.status.code(), Some(2));
     assert_eq!(std::fs::read(&db).unwrap(), before);
+    // without --read-only, a statement that does not write leaves the file as it was too
+    ok(&og(&[
+        "query",
+        "--db",
+        s(&db),
+        "MATCH (n) RETURN count(n) AS n",
+    ]));
+    assert_eq!(
+        std::fs::read(&db).unwrap(),
+        before,
+        "a read without --read-only changed the file"
+    );
 }
 
 /// An integer parameter is an INTEGER exactly at the ends of the 64-bit range, and one beyond

@@ -23,7 +23,11 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let store = open_store(&db, !read_only)?;
+    // a statement that does not write (the parser decides) opens the map read-only: opening
+    // a redb file for writing rewrites its header and allocator state even when nothing
+    // changes; a statement that does not parse is refused by the query below as before
+    let writes = !read_only && graphstore::cypher::is_write(&cypher).unwrap_or(true);
+    let store = open_store(&db, writes)?;
     let opts = graphstore::cypher::QueryOptions {
         params: params.into_iter().collect(),
         timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
