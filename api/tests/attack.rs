@@ -6,7 +6,7 @@
 //! resident memory is back near its baseline and the map file is unchanged.
 
 mod common;
-use common::{Server, serve, sim_map};
+use common::{Server, serve};
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -20,16 +20,7 @@ use serde_json::{Value, json};
 /// One small simulated city mapped once for all tests here.
 fn map() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
-    let dir = DIR.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
-        sim_map(
-            dir.path(),
-            &["--seed", "5", "--frames", "24"],
-            &["--embedder", "hash"],
-        );
-        dir
-    });
-    Box::leak(dir.path().join("city.og").into_boxed_path())
+    common::map_once(&DIR, "5")
 }
 
 fn addr(server: &Server) -> String {

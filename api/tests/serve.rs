@@ -6,7 +6,7 @@
 //! official Python client.
 
 mod common;
-use common::{json, json_of_run, og, python_with_mcp, s, serve, sim_map};
+use common::{json, json_of_run, og, python_with_mcp, s, serve};
 
 use std::path::Path;
 use std::process::Command;
@@ -96,17 +96,8 @@ fn post(url: &str, body: &Value, token: Option<&str>) -> (u16, Value) {
 /// One small simulated city mapped once for all tests here (hash embedder: no model files).
 fn map() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
-    let dir = DIR.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
-        sim_map(
-            dir.path(),
-            &["--seed", "3", "--frames", "24"],
-            &["--embedder", "hash"],
-        );
-        dir
-    });
     // each test copies what it writes to
-    Box::leak(dir.path().join("city.og").into_boxed_path())
+    common::map_once(&DIR, "3")
 }
 
 /// A copy of the map in a fresh folder (for servers that write).

@@ -252,3 +252,21 @@ pub fn point_clouds(db: &Path) -> Vec<(i64, Vec<[f32; 3]>)> {
     v.sort_by_key(|x| x.0);
     v
 }
+
+/// A small simulated city (`sim --seed SEED --frames 24`, hash embedder: no model files),
+/// mapped once into `cell` for every test of one test binary; the map's path.
+pub fn map_once(
+    cell: &'static std::sync::OnceLock<tempfile::TempDir>,
+    seed: &str,
+) -> &'static Path {
+    let dir = cell.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        sim_map(
+            dir.path(),
+            &["--seed", seed, "--frames", "24"],
+            &["--embedder", "hash"],
+        );
+        dir
+    });
+    Box::leak(dir.path().join("city.og").into_boxed_path())
+}
