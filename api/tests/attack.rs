@@ -167,7 +167,15 @@ fn hostile_reads_are_refused_without_taking_the_server_down_or_holding_its_memor
     }
     let (base_rss, _) = rss_mib(server.pid());
     let watch = HealthWatch::start(&a);
-    let zeros = format!("[{}]", vec!["0.1"; 384].join(","));
+    // a vector as a client writes one: 384 numbers, about 4 KB of statement
+    let zeros = format!(
+        "[{}]",
+        (0..384)
+            .map(|i| format!("{:.7}", 0.05 + f64::from(i) * 1e-7))
+            .collect::<Vec<_>>()
+            .join(",")
+    );
+    assert!(zeros.len() > 3000);
     let big = i64::MAX.to_string();
     // (what, statement): each must be refused (400 with an error class) or stopped by the
     // time limit (504), never crash the server or make it hold gigabytes
@@ -297,6 +305,13 @@ fn hostile_reads_are_refused_without_taking_the_server_down_or_holding_its_memor
         }
         assert!(t.elapsed() < Duration::from_secs(9), "{what}");
     }
+    // a statement over the length limit is refused saying so, not with its own text cut off
+    let long = format!("RETURN '{}' AS s", "x".repeat(100_001));
+    let (st, v) = post_json(&a, "/api/cypher", &json!({"query": long}), 30);
+    assert_eq!(st, 400, "{v}");
+    let msg = v["error"]["message"].as_str().unwrap_or_default();
+    assert!(msg.contains("longer than 100000"), "{msg}");
+    assert!(msg.len() < 400, "{msg}");
     let (slowest, failures) = watch.finish();
     eprintln!("healthz: slowest {slowest} ms, {failures} failures");
     assert_eq!(failures, 0);

@@ -156,6 +156,9 @@ pub const MAX_STATEMENT_BYTES: u64 = 512 << 20;
 /// The largest Cypher answer a tool returns, estimated before it is turned into JSON.
 pub const MAX_ANSWER_BYTES: u64 = 32 << 20;
 
+/// The longest Cypher statement a tool takes, in characters (the body limit bounds it too).
+pub const MAX_CYPHER_CHARS: u64 = 100_000;
+
 /// Time a Cypher call may take.
 pub const CYPHER_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -172,6 +175,8 @@ the ids every tool takes and returns.";
 pub fn tools(writes: bool) -> Vec<Tool> {
     let text =
         |d: &str| json!({"type": "string", "minLength": 1, "maxLength": 2000, "description": d});
+    // a Cypher statement may carry a literal vector (384 numbers take about 3 KB)
+    let cypher_text = |d: &str| json!({"type": "string", "minLength": 1, "maxLength": MAX_CYPHER_CHARS, "description": d});
     let mut v = vec![
         Tool {
             name: "describe_area",
@@ -234,7 +239,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
             name: "read_cypher",
             description: "Run a read-only Cypher query (openCypher; writes are refused by the parser) with a 10 s time limit and at most 1000 rows. Spatial and vector procedures: db.index.spatial.withinDistance('instance_space', point, metres), db.index.vector.queryNodes.",
             input_schema: json!({"type": "object", "properties": {
-                "query": text("the Cypher statement"),
+                "query": cypher_text("the Cypher statement"),
                 "params": {"type": "object", "description": "values for $name parameters"}},
                 "required": ["query"], "additionalProperties": false}),
             writes: false,
@@ -265,7 +270,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
             name: "write_cypher",
             description: "Run a Cypher statement that may write (CREATE, SET, DELETE, MERGE), as one transaction: a failure changes nothing. 10 s time limit.",
             input_schema: json!({"type": "object", "properties": {
-                "query": text("the Cypher statement"),
+                "query": cypher_text("the Cypher statement"),
                 "params": {"type": "object", "description": "values for $name parameters"}},
                 "required": ["query"], "additionalProperties": false}),
             writes: true,
@@ -497,16 +502,22 @@ fn check_args(args: &Json, v: &jsonschema::Validator) -> ToolResult<()> {
         .iter_errors(args)
         .map(|e| {
             let at = e.instance_path().to_string();
-            // the message quotes the value: a huge value must not come back whole
-            let mut msg = e.to_string();
-            if msg.len() > 300 {
-                let mut cut = 300;
-                while !msg.is_char_boundary(cut) {
-                    cut -= 1;
+            // the message quotes the value and then says what is wrong: a huge value must not
+            // come back whole, and the reason after it must not be cut off
+            let full = e.to_string();
+            let msg = if full.len() > 300 {
+                let mut head = 100;
+                while !full.is_char_boundary(head) {
+                    head -= 1;
                 }
-                msg.truncate(cut);
-                msg.push('…');
-            }
+                let mut tail = full.len() - 150;
+                while !full.is_char_boundary(tail) {
+                    tail += 1;
+                }
+                format!("{}…{}", &full[..head], &full[tail..])
+            } else {
+                full
+            };
             format!("{}: {msg}", if at.is_empty() { "arguments" } else { &at })
         })
         .collect();
