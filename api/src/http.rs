@@ -832,6 +832,7 @@ pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
         Some(t) => WriteGate::Token(Arc::from(t.as_str())),
         None => WriteGate::Token(Arc::from("")), // nothing matches an empty token
     };
+    let hosts = Arc::new(allowed_host_names(opts));
     let state = AppState {
         openapi: Arc::new(openapi(&service)),
         service: service.clone(),
@@ -839,7 +840,7 @@ pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
         inflight: Arc::new(Semaphore::new(opts.max_concurrent.max(1))),
         body_limit_bytes: opts.body_limit_bytes,
         body_timeout: opts.body_timeout,
-        hosts: Arc::new(allowed_host_names(opts)),
+        hosts: hosts.clone(),
     };
     let mut app = Router::new();
     for route in routes() {
@@ -865,12 +866,14 @@ pub fn router(service: Arc<Service>, opts: &ServeOptions) -> Router {
     let mut mcp_config =
         rmcp::transport::streamable_http_server::StreamableHttpServerConfig::default();
     mcp_config.max_request_body_bytes = opts.body_limit_bytes;
-    for h in allowed_host_names(opts) {
-        if !mcp_config.allowed_hosts.contains(&h) {
-            mcp_config.allowed_hosts.push(h);
+    for h in hosts.iter() {
+        if !mcp_config.allowed_hosts.contains(h) {
+            mcp_config.allowed_hosts.push(h.clone());
         }
     }
     if !opts.bind.ip().is_loopback() {
+        // rmcp's own check, as before: the bare address and address:port
+        mcp_config.allowed_hosts.push(opts.bind.ip().to_string());
         mcp_config.allowed_hosts.push(opts.bind.to_string());
     }
     let mcp_service = service.clone();
