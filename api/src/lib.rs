@@ -5,5 +5,6 @@ pub mod mcp;
 
 // the service layer, under the names the adapters and the CLI use
 pub use opengraph_service::{
-    ask, commit_cache, demo, find, info, plan, query_cache, service, tools, update, view,
+    area, ask, builder, commit_cache, demo, error, find, info, ops, plan, query_cache, service,
+    tools, update, view,
 };

@@ -260,8 +260,14 @@ pub fn serve_stdio(toolbox: Toolbox) -> std::io::Result<()> {
         .enable_all()
         .build()?;
     // one client: one worker, no timeout beyond the tools' own (a Cypher call stops at 10 s)
-    let service = Service::new(vec![toolbox], std::time::Duration::from_secs(3600))
-        .ok_or_else(|| std::io::Error::other("no toolbox"))?;
+    let service = crate::builder::ServiceBuilder::new()
+        .timeout(std::time::Duration::from_secs(3600))
+        .build(toolbox, |_| {
+            Err(crate::error::ToolError::Failed(
+                "one worker has no second finder".into(),
+            ))
+        })
+        .map_err(|e| std::io::Error::other(e.to_string()))?;
     rt.block_on(async move {
         let running = McpServer::new(service, WriteGate::Open)
             .serve(rmcp::transport::stdio())

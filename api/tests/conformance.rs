@@ -129,6 +129,79 @@ fn cli_http_and_mcp_give_the_same_answers() {
         }
     }
     assert_eq!(refusals, 4);
+
+    // navigate: the CLI's command and the plan_route tool are one service operation
+    let nav = og(&[
+        "navigate",
+        "--db",
+        s(&db),
+        "--from",
+        "the T-junction",
+        "--to",
+        "a bus stop",
+        "--json",
+    ]);
+    assert_eq!(
+        nav.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&nav.stderr)
+    );
+    let tool = og(&[
+        "tool",
+        "--db",
+        s(&db),
+        "plan_route",
+        &json!({"from": "the T-junction", "to": "a bus stop", "poses": true}).to_string(),
+    ]);
+    assert_eq!(
+        stable(json(&nav)),
+        stable(json(&tool)),
+        "navigate and plan_route differ"
+    );
+    // and they refuse an end that names nothing alike
+    let bad = json!({"from": "lane:999999999", "to": "a bus stop"});
+    let mut resp = agent
+        .post(format!("{}/api/tools/plan_route", srv.url))
+        .header("Content-Type", "application/json")
+        .send(bad.to_string().as_bytes())
+        .unwrap();
+    assert_eq!(resp.status().as_u16(), 400);
+    let http: Value = serde_json::from_slice(&resp.body_mut().read_to_vec().unwrap()).unwrap();
+    let msg = http["error"]["message"].as_str().unwrap().to_string();
+    let cli = og(&[
+        "navigate",
+        "--db",
+        s(&db),
+        "--from",
+        "lane:999999999",
+        "--to",
+        "a bus stop",
+    ]);
+    assert_eq!(cli.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&cli.stderr);
+    assert!(err.contains(&msg), "navigate says {err}, HTTP says {msg}");
+
+    // ask: the service checks the request for every adapter (a server without a model
+    // refuses a bad question for the question, before it says it has no model)
+    for (question, why) in [
+        ("   ".to_string(), "empty"),
+        ("x".repeat(2001), "longer than 2000"),
+    ] {
+        let mut resp = agent
+            .post(format!("{}/api/ask", srv.url))
+            .header("Content-Type", "application/json")
+            .send(json!({"question": question}).to_string().as_bytes())
+            .unwrap();
+        assert_eq!(resp.status().as_u16(), 400, "{why}");
+        let http: Value = serde_json::from_slice(&resp.body_mut().read_to_vec().unwrap()).unwrap();
+        let msg = http["error"]["message"].as_str().unwrap().to_string();
+        assert!(msg.contains("question"), "{why}: {msg}");
+        let cli = og(&["ask", "--db", s(&db), &question]);
+        assert_eq!(cli.status.code(), Some(2), "{why}");
+        let err = String::from_utf8_lossy(&cli.stderr);
+        assert!(err.contains(&msg), "{why}: ask says {err}, HTTP says {msg}");
+    }
 }
 
 /// Runs the Python MCP client over HTTP with these calls; one answer per call.

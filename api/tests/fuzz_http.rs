@@ -34,7 +34,7 @@ fn served(
     api::demo::build(&store).unwrap();
     let finder = || {
         Finder::new(
-            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+            Box::new(llm_tools::HashEmbedder::new(scene::FEATURE_DIM)),
             None,
         )
     };

@@ -25,7 +25,7 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
     let dir = tempfile::tempdir().unwrap();
     let (sim, db) = sim_map(dir.path(), &["--size", "small", "--seed", "0"], &[]);
     let queries = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../ingest/data/retrieval_small_city.jsonl");
+        .join("../ingest/eval/data/retrieval_small_city.jsonl");
     let eval = |extra: &[&str]| {
         let mut args = vec![
             "eval",
@@ -185,9 +185,9 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
     {
         let store = graphstore::Store::open_read_only(&db).unwrap();
         let r = store.read().unwrap();
-        let ground = planner::graph::ground_of_store(&r).unwrap();
+        let ground = scene::records::ground_frame(&r).unwrap();
         let areas = planner::motion::drivable_of_store(&r, ground).unwrap();
-        let index = planner::area::DrivableIndex::new(&areas);
+        let index = scene::area::DrivableIndex::new(&areas);
         let poses = n["plan"]["path"]["poses"].as_array().unwrap();
         let off: Vec<&serde_json::Value> = poses
             .iter()

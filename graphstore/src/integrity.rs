@@ -3,8 +3,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use crate::error::Result;
+use crate::layout::{EntryLists, Mem};
 use crate::read::{GraphRead, Raw};
-use crate::store::{EntryLists, Mem};
 use crate::txn::ReadTxn;
 
 /// Returns a list of problems (empty when the store is consistent).

@@ -8,6 +8,7 @@ mod error;
 pub mod export;
 mod index;
 mod integrity;
+mod layout;
 pub mod mem;
 mod model;
 mod payload;
@@ -26,14 +27,15 @@ static TEST_ALLOC: mem::CountingAlloc = mem::CountingAlloc;
 
 pub use error::{Error, Result};
 pub use index::text::tokenize;
+pub use layout::{Committed, FORMAT_VERSION, GraphCounts};
 pub use model::{Adjacent, Direction, Node, Relationship};
 pub use payload::{DEFAULT_RESOLUTION_M, PointCloud};
 pub use read::{FlatVectorIndex, GraphRead, Hit, ValueBound, VectorSearch, View};
 pub use schema::{
-    FEATURE_DIM, LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec,
-    TextIndexSpec, VectorIndexSpec, opengraph_schema,
+    LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec, TextIndexSpec,
+    VectorIndexSpec, VectorMethod,
 };
-pub use store::{Committed, FORMAT_VERSION, GraphCounts, Store};
+pub use store::Store;
 pub use tokens::{LabelId, PropKey, RelType};
 pub use txn::{ReadTxn, WriteTxn};
 pub use value::{Value, ValueType, float_json};

@@ -6,11 +6,10 @@ use std::sync::Arc;
 use crate::codec::{K_BOOL, K_NUMBER, K_STRING, int_exact_in_f64, sort_key};
 use crate::error::{Error, Result};
 use crate::index::{spatial, text, vector};
+use crate::layout::{Committed, GraphCounts, NodeRec, PendingMem};
 use crate::model::{Adjacent, Direction, Node, Relationship, typed_props};
 use crate::payload::PointCloud;
-use crate::store::{Committed, GraphCounts, PendingMem};
 use crate::tokens::{LabelId, PropKey, RelType, TokenKind};
-use crate::txn::NodeRec;
 use crate::value::Value;
 
 /// An adjacency row: `(node, direction, type, rel)` and the node at the other end.

@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use graphstore::cypher::{ErrorKind, QueryError, QueryOptions, Val};
-use graphstore::{Error, Store, Value, opengraph_schema};
+use graphstore::{Error, Store, Value};
 use proptest::prelude::*;
+use scene::opengraph_schema;
 
 fn store() -> (tempfile::TempDir, Store) {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -40,7 +41,7 @@ fn city() -> (tempfile::TempDir, Store) {
         for i in 0..50i64 {
             let x = (i % 10) as f64 * 10.0;
             let y = (i / 10) as f64 * 10.0;
-            let mut feature = vec![0.0f32; graphstore::FEATURE_DIM];
+            let mut feature = vec![0.0f32; scene::FEATURE_DIM];
             feature[(i % 7) as usize] = 1.0;
             let class = ["bench", "car", "pole", "bus shelter", "tree"][(i % 5) as usize];
             tx.create_node_named(
@@ -303,7 +304,7 @@ fn the_planner_uses_indexes_and_explain_shows_it() {
 fn procedures_query_the_vector_spatial_and_text_indexes() {
     let (_d, s) = city();
     let mut o = QueryOptions::default();
-    let mut query = vec![Val::Float(0.0); graphstore::FEATURE_DIM];
+    let mut query = vec![Val::Float(0.0); scene::FEATURE_DIM];
     query[3] = Val::Float(1.0);
     o.params.insert("q".into(), Val::List(query));
     let r = s
@@ -361,7 +362,7 @@ fn procedures_query_the_vector_spatial_and_text_indexes() {
     assert_eq!(e.code, "ProcedureNotFound");
     // a list of numbers written to a schema vector property becomes a vector the index sees
     let mut o = QueryOptions::default();
-    let mut v = vec![Val::Float(0.0); graphstore::FEATURE_DIM];
+    let mut v = vec![Val::Float(0.0); scene::FEATURE_DIM];
     v[100] = Val::Float(1.0);
     o.params.insert("v".into(), Val::List(v));
     s.query("MATCH (i:Instance {instance_id: 9}) SET i.feature = $v", &o)

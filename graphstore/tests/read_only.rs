@@ -2,7 +2,8 @@
 //! several read-only handles read at once, a writer elsewhere is named, and writes through a
 //! read-only handle are refused with the store unchanged.
 
-use graphstore::{Error, GraphRead, Store, Value, opengraph_schema};
+use graphstore::{Error, GraphRead, Store, Value};
+use scene::opengraph_schema;
 
 fn sha(path: &std::path::Path) -> Vec<u8> {
     std::fs::read(path).unwrap()

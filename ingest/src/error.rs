@@ -38,6 +38,9 @@ pub enum Error {
     /// The store refused a write or a read failed.
     #[error(transparent)]
     Store(#[from] graphstore::Error),
+    /// The map model cannot be read (no ground frame, a malformed record).
+    #[error(transparent)]
+    Scene(#[from] scene::Error),
     /// A language model or embedder failed.
     #[error(transparent)]
     Llm(#[from] llm_tools::Error),
@@ -49,7 +52,7 @@ pub enum Error {
 /// Result alias for ingest.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
-pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
+pub fn read_text(path: &std::path::Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|error| Error::Io {
         path: path.to_path_buf(),
         error,
@@ -57,7 +60,7 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
 }
 
 /// Reads and parses a JSON file; a parse error names the file.
-pub(crate) fn read_json(path: &std::path::Path) -> Result<serde_json::Value> {
+pub fn read_json(path: &std::path::Path) -> Result<serde_json::Value> {
     serde_json::from_str(&read_text(path)?).map_err(|e| Error::File {
         path: path.to_path_buf(),
         detail: format!("invalid JSON: {e}"),
@@ -65,6 +68,6 @@ pub(crate) fn read_json(path: &std::path::Path) -> Result<serde_json::Value> {
 }
 
 /// A ground point written as a JSON pair `[x, z]`.
-pub(crate) fn json_xy(p: &serde_json::Value) -> Option<[f64; 2]> {
+pub fn json_xy(p: &serde_json::Value) -> Option<[f64; 2]> {
     Some([p.get(0)?.as_f64()?, p.get(1)?.as_f64()?])
 }

@@ -30,8 +30,10 @@ use crate::hierarchy::relations::{
 };
 use scene::GroundFrame;
 
-/// Classes that are surfaces, never one side of an LLM relation.
-pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
+use scene::classes::SURFACE_CLASSES;
+
+/// `RELATED.source` of the relations an LLM labelled.
+pub const LLM_SOURCE: &str = "llm";
 
 /// The cached answers of a map, by key.
 #[derive(Debug, Default)]
@@ -43,7 +45,7 @@ impl LlmCache {
     /// Reads every `LlmAnswer` node.
     pub fn load(r: &impl GraphRead) -> Result<LlmCache> {
         let mut answers = HashMap::new();
-        for id in r.nodes_with_label("LlmAnswer")? {
+        for id in r.nodes_with_label(scene::label::LLM_ANSWER)? {
             let key = r
                 .node_prop(id, "key")?
                 .and_then(|v| v.as_str().map(str::to_string));
@@ -119,7 +121,7 @@ fn write_answers(
 ) -> graphstore::Result<()> {
     for (k, v) in answers {
         tx.create_node_named(
-            &["LlmAnswer"],
+            &[scene::label::LLM_ANSWER],
             &[
                 ("key", Value::String(k.clone())),
                 ("model", Value::String(model.to_string())),
@@ -132,13 +134,13 @@ fn write_answers(
 }
 
 /// A string property of a node (None when missing or not a string).
-pub(crate) fn str_prop(r: &impl GraphRead, id: u64, key: &str) -> Result<Option<String>> {
+pub fn str_prop(r: &impl GraphRead, id: u64, key: &str) -> Result<Option<String>> {
     Ok(r.node_prop(id, key)?
         .and_then(|v| v.as_str().map(str::to_string)))
 }
 
 /// Whether an instance is an object (not a surface or a background tile).
-pub(crate) fn is_object(r: &impl GraphRead, id: u64) -> Result<bool> {
+pub fn is_object(r: &impl GraphRead, id: u64) -> Result<bool> {
     let class = str_prop(r, id, "class")?.unwrap_or_default();
     Ok(!SURFACE_CLASSES.contains(&class.as_str()) && r.node_prop(id, "tile")?.is_none())
 }
@@ -219,7 +221,7 @@ pub fn merge_captions(
         let r = store.read()?;
         let mut todo = Vec::new();
         let mut already = 0;
-        for id in r.nodes_with_label("Instance")? {
+        for id in r.nodes_with_label(scene::label::INSTANCE)? {
             if !is_object(&r, id)? {
                 continue;
             }
@@ -393,11 +395,7 @@ pub fn instance_feature(e: &[f32], d: &[f32]) -> Vec<f32> {
 }
 
 fn ground_frame_of(r: &impl GraphRead) -> Result<GroundFrame> {
-    match planner::graph::ground_of_store(r) {
-        Ok(planner::GroundFrame::KittiCam) => Ok(GroundFrame::KittiCam),
-        Ok(planner::GroundFrame::Enu) => Ok(GroundFrame::Enu),
-        Err(e) => Err(Error::Invalid(e.to_string())),
-    }
+    scene::records::ground_frame(r).map_err(|e| Error::Invalid(e.to_string()))
 }
 
 /// The question for one pair: both captions, A's box centre relative to B's and both sizes
@@ -462,7 +460,7 @@ pub fn relation_pairs(r: &impl GraphRead, cfg: &RelationConfig) -> Result<Relati
     let mut ids = Vec::new();
     let mut boxes = Vec::new();
     let mut info = HashMap::new();
-    for id in r.nodes_with_label("Instance")? {
+    for id in r.nodes_with_label(scene::label::INSTANCE)? {
         if !is_object(r, id)? {
             continue;
         }
@@ -498,12 +496,12 @@ pub fn infer_relations(
         let r = store.read()?;
         let (pairs, info, frame) = relation_pairs(&r, cfg)?;
         let mut done: BTreeSet<(u64, u64)> = BTreeSet::new();
-        if let Some(t) = r.rel_type("RELATED") {
+        if let Some(t) = r.rel_type(scene::rel::RELATED) {
             for &a in info.keys() {
                 for adj in r.neighbours(a, Direction::Outgoing, Some(t))? {
                     let Some(rel) = r.rel(adj.rel)? else { continue };
                     let get = |k: &str| r.prop_key(k).and_then(|k| rel.get(k).cloned());
-                    if get("source") == Some(Value::from("llm"))
+                    if get(scene::key::SOURCE) == Some(Value::from(LLM_SOURCE))
                         && get("model") == Some(Value::String(model_id.clone()))
                         && get("prompt") == Some(Value::String(prompt.id()))
                     {
@@ -562,19 +560,17 @@ pub fn infer_relations(
         },
         |tx, writes| {
             for (a, b, relation, confidence, d) in writes {
-                tx.create_rel_named(
-                    *a,
-                    "RELATED",
-                    *b,
-                    &[
-                        ("relation", Value::String(relation.clone())),
-                        ("confidence", Value::Float(*confidence)),
-                        ("distance_m", Value::Float(*d)),
-                        ("source", Value::from("llm")),
-                        ("model", Value::String(model_id.clone())),
-                        ("prompt", Value::String(prompt.id())),
-                    ],
-                )?;
+                // the relation, with the model and prompt that made it
+                let mut props = scene::records::RelationRecord {
+                    relation: relation.clone(),
+                    distance_m: *d,
+                    source: LLM_SOURCE.into(),
+                    confidence: *confidence,
+                }
+                .props();
+                props.push(("model", Value::String(model_id.clone())));
+                props.push(("prompt", Value::String(prompt.id())));
+                tx.create_rel_named(*a, scene::rel::RELATED, *b, &props)?;
             }
             Ok(())
         },

@@ -21,8 +21,8 @@ use crate::hierarchy::relations::{RelationConfig, label_pair, read_instance_box}
 use crate::{Error, Result};
 use scene::GroundFrame;
 
-/// The label of an edit record.
-pub const MAP_EDIT: &str = "MapEdit";
+use scene::label::MAP_EDIT;
+use scene::records::{EditRecord, GEOMETRIC, InSegmentRecord, InstanceRecord, RelationRecord};
 
 /// One change to apply. Positions are on the ground plane of the map's frame (metres).
 #[derive(Debug, Clone, PartialEq)]
@@ -266,7 +266,7 @@ fn relink(
     cfg: &RelationConfig,
     diff: &mut Diff,
 ) -> graphstore::Result<()> {
-    for ty in ["IN_SEGMENT", "RELATED"] {
+    for ty in [scene::rel::IN_SEGMENT, scene::rel::RELATED] {
         let Some(t) = tx.rel_type(ty) else { continue };
         let mut rels: Vec<u64> = tx
             .neighbours(id, Direction::Both, Some(t))?
@@ -291,13 +291,13 @@ fn relink(
         diff.create_rel(
             tx,
             id,
-            "IN_SEGMENT",
+            scene::rel::IN_SEGMENT,
             seg,
-            &[("distance_m", Value::Float(d))],
+            &InSegmentRecord { distance_m: d }.props(),
         )?;
     }
     let mut others = Vec::new();
-    for other in tx.nodes_with_label("Instance")? {
+    for other in tx.nodes_with_label(scene::label::INSTANCE)? {
         if other == id {
             continue;
         }
@@ -310,7 +310,7 @@ fn relink(
     let road_dir = |g: [f64; 2]| {
         segments
             .iter()
-            .filter(|s| matches!(s.area, planner::area::SegmentArea::Corridor { .. }))
+            .filter(|s| matches!(s.area, scene::area::SegmentArea::Corridor { .. }))
             .min_by(|a, b| a.area.distance(g).total_cmp(&b.area.distance(g)))
             .and_then(|s| s.area.direction_near(g))
     };
@@ -323,14 +323,15 @@ fn relink(
             diff.create_rel(
                 tx,
                 a,
-                "RELATED",
+                scene::rel::RELATED,
                 b,
-                &[
-                    ("relation", r.relation.into()),
-                    ("distance_m", Value::Float(r.distance_m)),
-                    ("source", "geometric".into()),
-                    ("confidence", Value::Float(r.confidence)),
-                ],
+                &RelationRecord {
+                    relation: r.relation.to_string(),
+                    distance_m: r.distance_m,
+                    source: GEOMETRIC.into(),
+                    confidence: r.confidence,
+                }
+                .props(),
             )?;
         }
     }
@@ -340,7 +341,7 @@ fn relink(
 fn is_instance(tx: &WriteTxn<'_>, id: u64) -> graphstore::Result<()> {
     let node = tx.node(id)?.ok_or(graphstore::Error::NodeNotFound(id))?;
     if !tx
-        .label("Instance")
+        .label(scene::label::INSTANCE)
         .is_some_and(|l| node.labels.contains(&l))
     {
         return Err(invalid(format!("node {id} is not an Instance")));
@@ -360,7 +361,7 @@ fn now_unix_s() -> f64 {
 /// # Errors
 /// No Environment node or no `ground_frame`.
 pub fn ground_frame(r: &impl GraphRead) -> Result<GroundFrame> {
-    planner::graph::ground_of_store(r).map_err(|e| Error::Invalid(e.to_string()))
+    scene::records::ground_frame(r).map_err(|e| Error::Invalid(e.to_string()))
 }
 
 /// Applies a change as one transaction and records it as a `MapEdit` node. `text` is what the
@@ -372,7 +373,7 @@ pub fn ground_frame(r: &impl GraphRead) -> Result<GroundFrame> {
 pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Result<Applied> {
     let (frame, segments) = {
         let r = store.read()?;
-        let g = planner::graph::ground_of_store(&r).map_err(|e| Error::Invalid(e.to_string()))?;
+        let g = scene::records::ground_frame(&r).map_err(|e| Error::Invalid(e.to_string()))?;
         (ground_frame(&r)?, llm_tools::locate::load_segments(&r, g)?)
     };
     let cfg = RelationConfig::default();
@@ -427,7 +428,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                     let mut o = b.obb;
                     o.center = [o.center[0] + dg[0], o.center[1] + dg[1]];
                     let k = tx.prop_key_id("obb")?;
-                    tx.set_node_prop(*id, k, crate::build::obb_value(&o))?;
+                    tx.set_node_prop(*id, k, scene::records::obb_value(&o))?;
                 }
                 if let Some(bytes) = tx.payload(*id, "points")? {
                     let mut pc = PointCloud::decode(&bytes)?;
@@ -479,7 +480,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 size_m,
             } => {
                 let mut next = 0i64;
-                for i in tx.nodes_with_label("Instance")? {
+                for i in tx.nodes_with_label(scene::label::INSTANCE)? {
                     if let Some(Value::Int(n)) = tx.node_prop(i, "instance_id")? {
                         next = next.max(n + 1);
                     }
@@ -497,24 +498,24 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 let min = [0, 1, 2].map(|k| a[k].min(b[k]));
                 let max = [0, 1, 2].map(|k| a[k].max(b[k]));
                 let centroid = [0, 1, 2].map(|k| (min[k] + max[k]) / 2.0);
-                let id = tx.create_node_named(
-                    &["Instance"],
-                    &[
-                        ("instance_id", Value::Int(next)),
-                        ("caption", Value::String(caption.clone())),
-                        ("captions", Value::List(vec![Value::String(caption.clone())])),
-                        ("class", Value::String(class.clone())),
-                        ("centroid", Value::Point3D(centroid)),
-                        (
-                            "bbox",
-                            Value::List(vec![Value::Point3D(min), Value::Point3D(max)]),
-                        ),
-                        ("feature", Value::Vector(feature.clone())),
-                        ("point_count", Value::Int(0)),
-                        ("detection_count", Value::Int(0)),
-                        ("source", "map_edit".into()),
-                    ],
-                )?;
+                let id = InstanceRecord {
+                    instance_id: next,
+                    caption: caption.clone(),
+                    class: class.clone(),
+                    centroid,
+                    bbox: (min, max),
+                    captions: Some(vec![caption.clone()]),
+                    feature: Some(feature.clone()),
+                    point_count: Some(0),
+                    detection_count: Some(0),
+                    first_frame: None,
+                    last_frame: None,
+                    source: Some("map_edit".into()),
+                    detection_feature: None,
+                    obb: None,
+                    tile: None,
+                }
+                .create(tx)?;
                 diff.created_nodes.push(id);
                 diff.touched.push(id);
                 relink(tx, id, frame, &segments, &cfg, &mut diff)?;
@@ -556,22 +557,18 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
             "relationships".into(),
             serde_json::json!({"created": diff.created_rels.len(), "deleted": diff.deleted_rels.len()}),
         );
-        let mut props: Vec<(&str, Value)> = vec![
-            ("text", Value::String(text.to_string())),
-            ("kind", change.kind().into()),
-            ("time_unix_s", Value::Float(now_unix_s())),
-            ("parsed_by", Value::String(parsed_by.to_string())),
-            (
-                "summary",
-                Value::String(serde_json::Value::Object(summary).to_string()),
-            ),
-            ("touched", ids(&diff.touched)),
-            ("undone", Value::Bool(false)),
-        ];
-        if let Some(t) = target {
-            props.push(("target", Value::Int(t as i64)));
+        let edit = EditRecord {
+            text: text.to_string(),
+            kind: change.kind().into(),
+            time_unix_s: now_unix_s(),
+            undone: false,
+            parsed_by: Some(parsed_by.to_string()),
+            summary: Some(serde_json::Value::Object(summary).to_string()),
+            touched: diff.touched.iter().map(|t| *t as i64).collect(),
+            target: target.map(|t| t as i64),
+            undone_unix_s: None,
         }
-        let edit = tx.create_node_named(&[MAP_EDIT], &props)?;
+        .create(tx)?;
         tx.put_payload(edit, "diff", &record.to_bytes())?;
         Ok(Applied {
             edit_id: edit,

@@ -1,9 +1,9 @@
 //! How well the class assignment by caption embedding recovers the oracle's true class, with
 //! the real MiniLM (skips when the model files are not installed).
 
-use ingest::classes::{CLASSES, prompts};
 use ingest::sources::oracle::caption;
 use llm_tools::{Embedder, MiniLm};
+use scene::classes::{CLASSES, prompts};
 
 fn cos(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -28,7 +28,7 @@ fn oracle_captions_map_back_to_their_class() {
         let caps: Vec<String> = (0..20).map(|i| caption(class, i, i as u32)).collect();
         let refs: Vec<&str> = caps
             .iter()
-            .map(|c| ingest::classes::subject_phrase(c))
+            .map(|c| llm_tools::vocab::subject_phrase(c))
             .collect();
         let embs = m.embed(&refs).unwrap();
         let mut ok = 0;

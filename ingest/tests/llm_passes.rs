@@ -3,13 +3,14 @@
 //! answers from the map's cache, that budgets and limits leave the rest for later, that
 //! surfaces are never related, and that a model failure leaves the store as it was.
 
-use graphstore::{GraphRead, Store, Value, opengraph_schema};
+use graphstore::{GraphRead, Store, Value};
 use ingest::hierarchy::relations::RelationConfig;
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
 use ingest::llm::{PassOptions, infer_relations, merge_captions};
 use llm_tools::chat::scripted::{Reply, Scripted};
 use llm_tools::{Embedder, HashEmbedder};
 use scene::GroundFrame;
+use scene::opengraph_schema;
 
 fn object(
     tx: &mut graphstore::WriteTxn<'_>,
@@ -179,7 +180,7 @@ fn llm_edges(r: &impl GraphRead) -> Vec<(i64, i64, String, String)> {
 fn caption_merge_writes_provenance_and_never_asks_twice() {
     let dir = tempfile::tempdir().unwrap();
     let store = map(dir.path());
-    let mut emb = HashEmbedder::new(graphstore::FEATURE_DIM);
+    let mut emb = HashEmbedder::new(scene::FEATURE_DIM);
     let mut m = merger();
     let r = merge_captions(&store, &mut m, &mut emb, 4, &PassOptions::default()).unwrap();
     // objects with several captions: shelter, bench, lamp post, car 3 (not the road, not the lone car)
@@ -323,7 +324,7 @@ fn a_failing_model_leaves_the_store_as_it_was() {
         "{r:?}"
     );
     // a model that fails outright stops the pass
-    let mut emb = HashEmbedder::new(graphstore::FEATURE_DIM);
+    let mut emb = HashEmbedder::new(scene::FEATURE_DIM);
     let mut bad = Scripted::new("empty", vec![]);
     assert!(merge_captions(&store, &mut bad, &mut emb, 4, &PassOptions::default()).is_err());
     assert_eq!(store.read().unwrap().counts().unwrap(), before);

@@ -46,7 +46,7 @@ fn bx(c: [f64; 3], half: f64) -> Value {
 fn small_map() -> (tempfile::TempDir, Store, Vec<u64>) {
     let dir = tempfile::tempdir().unwrap();
     let store = Store::create(dir.path().join("m.og")).unwrap();
-    store.set_schema(graphstore::opengraph_schema()).unwrap();
+    store.set_schema(scene::opengraph_schema()).unwrap();
     let ids = store
         .write(|tx| {
             let env = tx.create_node_named(

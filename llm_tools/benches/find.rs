@@ -9,12 +9,13 @@
 
 use std::time::Instant;
 
-use graphstore::{FEATURE_DIM, Store, Value, opengraph_schema};
+use graphstore::{Store, Value};
 use llm_tools::HashEmbedder;
 use llm_tools::embed::{Embedder, MiniLm, default_models_dir};
 use llm_tools::retrieve::{FindOptions, find};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use scene::{FEATURE_DIM, opengraph_schema};
 
 fn pct(v: &mut [f64], p: f64) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));

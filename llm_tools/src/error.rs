@@ -47,9 +47,9 @@ pub enum Error {
     /// The store failed.
     #[error(transparent)]
     Store(#[from] graphstore::Error),
-    /// The planner's view of the map failed (e.g. no ground frame).
+    /// The map model cannot be read (e.g. no ground frame).
     #[error(transparent)]
-    Planner(#[from] planner::Error),
+    Scene(#[from] scene::Error),
 }
 
 /// Result alias for llm_tools.

@@ -19,10 +19,9 @@
 //! its evidence. [`rerank_llm`] lets a language model pick the best three of the top N
 //! (OpenGraph-LLM).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 
-use graphstore::{Direction, GraphRead, Value};
-use scene::GroundFrame;
+use graphstore::{Direction, GraphRead};
 
 use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::embed::{Embedder, cosine};
@@ -33,120 +32,7 @@ use crate::vocab::{colour_agreement, names_surface, words};
 /// Cosine taken off a candidate per unit of colour disagreement ([`colour_agreement`]).
 pub const COLOUR_PENALTY: f64 = 0.25;
 
-/// The surface classes: never answers unless asked for.
-pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
-
-/// One instance as retrieval sees it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SceneObject {
-    /// Node id.
-    pub id: u64,
-    /// Class name.
-    pub class: String,
-    /// Caption.
-    pub caption: String,
-    /// Centroid, world frame, metres.
-    pub centroid: [f64; 3],
-    /// Ground-plane bounds (min, max) of the box, metres.
-    pub ground_min: [f64; 2],
-    /// See `ground_min`.
-    pub ground_max: [f64; 2],
-    /// Height range (bottom, top) along the frame's up axis, metres.
-    pub heights: (f64, f64),
-    /// Fused feature.
-    pub feature: Vec<f32>,
-    /// A ground-surface tile or class.
-    pub surface: bool,
-    /// Its segment (node id, kind), from `IN_SEGMENT`.
-    pub segment: Option<(u64, String)>,
-}
-
-/// The instance layer of a map, loaded once for many requests.
-#[derive(Debug, Clone)]
-pub struct Scene {
-    /// The ground frame.
-    pub ground: GroundFrame,
-    /// Instances, ascending id.
-    pub objects: Vec<SceneObject>,
-    /// Road segments with their areas.
-    pub segments: Vec<crate::locate::SegmentInfo>,
-}
-
-impl Scene {
-    /// Reads every `Instance` with its box, feature and segment.
-    ///
-    /// # Errors
-    /// The store fails, or it has no ground frame (`planner::Error::NoGroundFrame`).
-    pub fn load(r: &impl GraphRead) -> Result<Scene> {
-        let ground = planner::graph::ground_of_store(r)?;
-        let in_segment = r.rel_type("IN_SEGMENT");
-        let mut seg_kind: BTreeMap<u64, String> = BTreeMap::new();
-        for s in r.nodes_with_label("Segment")? {
-            if let Some(Value::String(k)) = r.node_prop(s, "kind")? {
-                seg_kind.insert(s, k);
-            }
-        }
-        let mut objects = Vec::new();
-        for id in r.nodes_with_label("Instance")? {
-            let Some(node) = r.node(id)? else { continue };
-            let get = |k: &str| r.prop_key(k).and_then(|k| node.get(k));
-            let Some(Value::Vector(feature)) = get("feature") else {
-                continue;
-            };
-            let Some(centroid) = get("centroid").and_then(Value::as_point3) else {
-                continue;
-            };
-            let (lo, hi) = get("bbox")
-                .and_then(Value::as_box3d)
-                .unwrap_or((centroid, centroid));
-            let (g0, g1) = (ground.ground(lo), ground.ground(hi));
-            let (h0, h1) = (ground.height(lo), ground.height(hi));
-            let class = get("class")
-                .and_then(Value::as_str)
-                .unwrap_or_default()
-                .to_string();
-            let segment = match in_segment {
-                Some(t) => r
-                    .neighbours(id, Direction::Outgoing, Some(t))?
-                    .first()
-                    .and_then(|a| seg_kind.get(&a.other).map(|k| (a.other, k.clone()))),
-                None => None,
-            };
-            objects.push(SceneObject {
-                id,
-                surface: SURFACE_CLASSES.contains(&class.as_str()) || get("tile").is_some(),
-                class,
-                caption: get("caption")
-                    .and_then(Value::as_str)
-                    .unwrap_or_default()
-                    .to_string(),
-                centroid,
-                ground_min: [g0[0].min(g1[0]), g0[1].min(g1[1])],
-                ground_max: [g0[0].max(g1[0]), g0[1].max(g1[1])],
-                heights: (h0.min(h1), h0.max(h1)),
-                feature: feature.clone(),
-                segment,
-            });
-        }
-        let segments = crate::locate::load_segments(r, ground)?;
-        Ok(Scene {
-            ground,
-            objects,
-            segments,
-        })
-    }
-
-    /// Ground-plane gap between two boxes (0 when their footprints overlap), metres.
-    pub fn gap_m(a: &SceneObject, b: &SceneObject) -> f64 {
-        let dx = (a.ground_min[0] - b.ground_max[0])
-            .max(b.ground_min[0] - a.ground_max[0])
-            .max(0.0);
-        let dz = (a.ground_min[1] - b.ground_max[1])
-            .max(b.ground_min[1] - a.ground_max[1])
-            .max(0.0);
-        dx.hypot(dz)
-    }
-}
+pub use scene::view::{MapView, SceneObject};
 
 /// How well a pair (target `t`, anchor `b`) fits a relation, in [0, 1]. Distances are
 /// footprint gaps; "in front of", "behind", "left of" and "right of" count as near (the
@@ -157,7 +43,7 @@ pub fn relation_fit(
     t: &SceneObject,
     b: &SceneObject,
 ) -> f64 {
-    let d = Scene::gap_m(t, b);
+    let d = MapView::gap_m(t, b);
     let within = |limit: f64, fall: f64| {
         if d <= limit {
             1.0
@@ -306,7 +192,7 @@ pub struct GraphFound {
 
 /// Cosines of every object with the best of `phrases`, and the best cosine over `allowed`.
 fn similarities(
-    scene: &Scene,
+    scene: &MapView,
     embedder: &mut dyn Embedder,
     phrases: &[&str],
     allowed: impl Fn(&SceneObject) -> bool,
@@ -339,7 +225,7 @@ fn similarities(
 /// in the caption takes up to [`COLOUR_PENALTY`] off the cosine ([`colour_agreement`], the best
 /// over the phrases). Anchors and landmarks are matched with it.
 fn colour_checked_similarities(
-    scene: &Scene,
+    scene: &MapView,
     embedder: &mut dyn Embedder,
     phrases: &[&str],
     allowed: impl Fn(&SceneObject) -> bool,
@@ -369,7 +255,7 @@ fn colour_checked_similarities(
 /// # Errors
 /// The embedder fails or disagrees with the map's features.
 pub fn similarity_gates(
-    scene: &Scene,
+    scene: &MapView,
     embedder: &mut dyn Embedder,
     phrases: &[&str],
     allowed: impl Fn(&SceneObject) -> bool,
@@ -385,7 +271,7 @@ pub fn similarity_gates(
 /// # Errors
 /// The embedder fails or disagrees with the map's features.
 pub fn similarity_gates_and_best(
-    scene: &Scene,
+    scene: &MapView,
     embedder: &mut dyn Embedder,
     phrases: &[&str],
     allowed: impl Fn(&SceneObject) -> bool,
@@ -477,7 +363,7 @@ pub fn caption_places_by(caption: &str, rel: Relation, phrase: &str) -> bool {
 /// The request names no target, the embedder fails or disagrees with the map's features.
 pub fn find_graph(
     r: &impl GraphRead,
-    scene: &Scene,
+    scene: &MapView,
     embedder: &mut dyn Embedder,
     req: &Request,
     opts: &GraphFindOptions,
@@ -512,7 +398,7 @@ pub fn find_graph(
         let (idx, best) = top(&sims, opts.anchor_candidates);
         anchors.push((idx, sims, best));
     }
-    let related = r.rel_type("RELATED");
+    let related = r.rel_type(scene::rel::RELATED);
     let k_relation = r.prop_key("relation");
     let k_source = r.prop_key("source");
     let mut out = Vec::with_capacity(targets.len());
@@ -598,7 +484,7 @@ pub fn find_graph(
                     relation: a.relation.as_str().into(),
                     anchor_id: b.id,
                     anchor_caption: b.caption.clone(),
-                    distance_m: (Scene::gap_m(t, b) * 100.0).round() / 100.0,
+                    distance_m: (MapView::gap_m(t, b) * 100.0).round() / 100.0,
                     similarity: s_b,
                     fit,
                     related: edges.get(&b.id).cloned(),
@@ -817,7 +703,7 @@ mod tests {
         let bench_near = obj(3, [5.0, 0.0], [6.0, 1.0], (0.0, 0.5));
         let bench_far = obj(4, [30.0, 0.0], [31.0, 1.0], (0.0, 0.5));
         let eps = 1e-9;
-        assert!((Scene::gap_m(&bench_near, &shelter) - 1.0).abs() < eps);
+        assert!((MapView::gap_m(&bench_near, &shelter) - 1.0).abs() < eps);
         assert!((relation_fit(Relation::Near, None, &bench_near, &shelter) - 1.0).abs() < 1e-12);
         assert!(relation_fit(Relation::Near, None, &bench_far, &shelter) < 0.01);
         assert!((relation_fit(Relation::NextTo, None, &bench_near, &shelter) - 1.0).abs() < 1e-12);

@@ -16,12 +16,10 @@
 //! match within 15 m of a spot). The segment's score is its best spot's weighted mean, plus
 //! 0.5 when its kind is the said one; the position estimate is that spot.
 
-use graphstore::{GraphRead, Value};
-
 use crate::chat::ChatModel;
 use crate::embed::Embedder;
 use crate::error::{Error, Result};
-use crate::graph_find::{Scene, SceneObject, similarity_gates_and_best};
+use crate::graph_find::{MapView, SceneObject, similarity_gates_and_best};
 use crate::request::{self, SegmentConstraint};
 use crate::vocab::{colour_agreement, names_surface, without_colours};
 
@@ -31,81 +29,7 @@ type Pick = (usize, f64, f64);
 /// Landmarks of one description stand within this distance of the speaker's spot.
 const TOGETHER_M: f64 = 15.0;
 
-pub use planner::area::SegmentArea;
-
-/// A road segment of the map.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SegmentInfo {
-    /// Node id.
-    pub id: u64,
-    /// `Segment.kind`.
-    pub kind: String,
-    /// Ground-plane centroid.
-    pub centroid: [f64; 2],
-    /// Its area from the trajectory.
-    pub area: SegmentArea,
-    /// Its drivable area measured from the map (`Segment.polygon`), when it has one.
-    pub drivable: Option<planner::area::Drivable>,
-}
-
-impl SegmentInfo {
-    /// Distance from `p` to the segment for membership
-    /// ([`planner::area::membership_distance`]): its drivable polygon when it has one.
-    pub fn distance(&self, p: [f64; 2]) -> f64 {
-        planner::area::membership_distance(&self.area, self.drivable.as_ref(), p)
-    }
-}
-
-/// Reads the map's segments with their areas.
-///
-/// # Errors
-/// The store fails or has no ground frame.
-pub fn load_segments(r: &impl GraphRead, g: scene::GroundFrame) -> Result<Vec<SegmentInfo>> {
-    let mut out = Vec::new();
-    for id in r.nodes_with_label("Segment")? {
-        let kind = r
-            .node_prop(id, "kind")?
-            .and_then(|v| v.as_str().map(str::to_string))
-            .unwrap_or_default();
-        let Some(c) = r.node_prop(id, "centroid")?.and_then(|v| v.as_point3()) else {
-            continue;
-        };
-        let centroid = g.ground(c);
-        let area = match (
-            r.node_prop(id, "radius_m")?,
-            r.node_prop(id, "centerline")?,
-            r.node_prop(id, "half_width_m")?,
-        ) {
-            (Some(Value::Float(radius_m)), _, _) => SegmentArea::Disc {
-                centre: centroid,
-                radius_m,
-            },
-            (_, Some(Value::List(line)), Some(Value::Float(half_width_m))) => {
-                SegmentArea::Corridor {
-                    centreline: line
-                        .iter()
-                        .filter_map(Value::as_point3)
-                        .map(|p| g.ground(p))
-                        .collect(),
-                    half_width_m,
-                }
-            }
-            _ => SegmentArea::Disc {
-                centre: centroid,
-                radius_m: 12.0,
-            },
-        };
-        let drivable = planner::area::Drivable::of_segment(r, id, g)?;
-        out.push(SegmentInfo {
-            id,
-            kind,
-            centroid,
-            area,
-            drivable,
-        });
-    }
-    Ok(out)
-}
+pub use scene::view::{SegmentInfo, load_segments};
 
 /// What a description says: the segment kind and the landmarks.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
@@ -313,7 +237,7 @@ pub struct UnmatchedLandmark {
 /// # Errors
 /// The embedder fails or disagrees with the map's features.
 pub fn locate(
-    scene: &Scene,
+    scene: &MapView,
     segments: &[SegmentInfo],
     embedder: &mut dyn Embedder,
     desc: &Description,
@@ -329,7 +253,7 @@ pub fn locate(
 /// # Errors
 /// The embedder fails or disagrees with the map's features.
 pub fn locate_with_floor(
-    scene: &Scene,
+    scene: &MapView,
     segments: &[SegmentInfo],
     embedder: &mut dyn Embedder,
     desc: &Description,
@@ -530,6 +454,7 @@ fn assign(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use scene::area::SegmentArea;
 
     #[test]
     fn descriptions_become_a_segment_and_landmarks() {
@@ -568,7 +493,7 @@ mod tests {
     }
 
     /// A scene of captioned objects (hash-embedded) on the XY ground plane.
-    fn scene_of(objects: &[(u64, &str, [f64; 2])]) -> (Scene, crate::hash_embed::HashEmbedder) {
+    fn scene_of(objects: &[(u64, &str, [f64; 2])]) -> (MapView, crate::hash_embed::HashEmbedder) {
         let mut emb = crate::hash_embed::HashEmbedder::new(256);
         let captions: Vec<&str> = objects.iter().map(|o| o.1).collect();
         let features = emb.embed(&captions).unwrap();
@@ -588,8 +513,8 @@ mod tests {
                 segment: None,
             })
             .collect();
-        let scene = Scene {
-            ground: planner::GroundFrame::Enu,
+        let scene = MapView {
+            ground: scene::GroundFrame::Enu,
             objects,
             segments: Vec::new(),
         };
@@ -609,7 +534,12 @@ mod tests {
         }
     }
 
-    fn ranked(scene: &Scene, emb: &mut dyn Embedder, segs: &[SegmentInfo], text: &str) -> Vec<u64> {
+    fn ranked(
+        scene: &MapView,
+        emb: &mut dyn Embedder,
+        segs: &[SegmentInfo],
+        text: &str,
+    ) -> Vec<u64> {
         let d = parse_description_rules(text).unwrap();
         locate(scene, segs, emb, &d, 3)
             .unwrap()

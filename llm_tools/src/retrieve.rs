@@ -56,7 +56,7 @@ pub struct FindTimings {
 /// The embedder the map was built with (`"minilm"`, `"hash"`), from its `Build` node, if
 /// the map records one.
 pub fn map_embedder<R: GraphRead>(r: &R) -> Result<Option<String>> {
-    for id in r.nodes_with_label("Build")? {
+    for id in r.nodes_with_label(scene::label::BUILD)? {
         if let Some(Value::String(args)) = r.node_prop(id, "args")?
             && let Ok(v) = serde_json::from_str::<serde_json::Value>(&args)
             && let Some(e) = v.get("embedder").and_then(|e| e.as_str())
@@ -200,7 +200,7 @@ fn scan<R: GraphRead>(r: &R, q: &[f32], opts: &FindOptions) -> Result<Vec<(f64, 
     );
     // only the scores are kept while scanning; the k winners are read again afterwards
     let mut scored: Vec<(f64, u64)> = Vec::new();
-    for id in r.nodes_with_label("Instance")? {
+    for id in r.nodes_with_label(scene::label::INSTANCE)? {
         let Some(node) = r.node(id)? else { continue };
         let get = |k: Option<PropKey>| {
             let k = k?;
@@ -239,7 +239,7 @@ mod tests {
                 for (cap, class, c) in captions {
                     let f = e.embed(&[cap]).unwrap().pop().unwrap();
                     tx.create_node_named(
-                        &["Instance"],
+                        &[scene::label::INSTANCE],
                         &[
                             ("caption", Value::String(cap.to_string())),
                             ("class", Value::String(class.to_string())),
@@ -300,8 +300,8 @@ mod tests {
     fn the_vector_index_path_ranks_exactly_like_the_full_scan() {
         let dir = tempfile::tempdir().unwrap();
         let store = Store::create(dir.path().join("ix.og")).unwrap();
-        store.set_schema(graphstore::opengraph_schema()).unwrap();
-        let mut e = HashEmbedder::new(graphstore::FEATURE_DIM);
+        store.set_schema(scene::opengraph_schema()).unwrap();
+        let mut e = HashEmbedder::new(scene::FEATURE_DIM);
         let words = [
             "bench", "car", "tree", "pole", "shelter", "lamp", "bin", "sign",
         ];
@@ -316,7 +316,7 @@ mod tests {
                     let f = e.embed(&[caption.as_str()]).unwrap().pop().unwrap();
                     let (x, z) = ((i % 20) as f64 * 5.0, (i / 20) as f64 * 5.0);
                     tx.create_node_named(
-                        &["Instance"],
+                        &[scene::label::INSTANCE],
                         &[
                             ("instance_id", Value::Int(i)),
                             ("caption", Value::String(caption)),

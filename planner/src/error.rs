@@ -60,11 +60,9 @@ pub enum Error {
         "the store has no lane graph (no LaneNode/LANE); run `opengraph hierarchy` or `build` first"
     )]
     NoLaneGraph,
-    /// The store does not say which world axes are the ground plane; none is guessed.
-    #[error(
-        "{0}: the ground frame is unknown, so positions cannot be placed on the lane graph; run `opengraph hierarchy` (it writes the Environment with its ground_frame) or set Environment.ground_frame to \"kitti_cam\" or \"enu\""
-    )]
-    NoGroundFrame(String),
+    /// The map model cannot be read (no ground frame, a malformed record).
+    #[error(transparent)]
+    Scene(#[from] scene::Error),
     /// A map file that cannot be read.
     #[error("{}: {detail}", path.display())]
     Map {

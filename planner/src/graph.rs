@@ -5,8 +5,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use graphstore::{Direction, GraphRead, Value};
-use scene::GroundFrame;
+use graphstore::{Direction, GraphRead};
 
 use crate::error::{Error, Result};
 
@@ -34,14 +33,6 @@ pub struct RoadEdge {
     pub directed: bool,
 }
 
-/// The oriented box of an `Instance.obb` property value (see
-/// [`OrientedBox::to_values`](scene::OrientedBox::to_values)); `None` for anything else.
-pub fn obb_of(v: &Value) -> Option<scene::OrientedBox> {
-    let Value::List(v) = v else { return None };
-    let f: Option<Vec<f64>> = v.iter().map(Value::as_f64).collect();
-    f.and_then(|f| scene::OrientedBox::from_values(&f))
-}
-
 /// A road graph with adjacency.
 #[derive(Debug, Clone, Default)]
 pub struct RoadGraph {
@@ -54,13 +45,7 @@ pub struct RoadGraph {
     by_key: HashMap<String, usize>,
 }
 
-pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
-pub(crate) fn polyline_length(p: &[[f64; 2]]) -> f64 {
-    p.windows(2).map(|w| dist(w[0], w[1])).sum()
-}
+pub(crate) use scene::geom::{dist, polyline_length};
 
 impl RoadGraph {
     /// Builds adjacency over `nodes` and `edges`.
@@ -106,50 +91,42 @@ impl RoadGraph {
     /// Loads the lane-graph layer of a store (`LaneNode` + `LANE`). Lanes are two-way unless
     /// their `directed` property is true.
     pub fn from_store(r: &impl GraphRead) -> Result<RoadGraph> {
-        let lane_ids = r.nodes_with_label("LaneNode")?;
+        let lane_ids = r.nodes_with_label(scene::label::LANE_NODE)?;
         if lane_ids.is_empty() {
             return Err(Error::NoLaneGraph);
         }
-        let ground = ground_of_store(r)?;
+        let ground = scene::records::ground_frame(r)?;
         let mut nodes = Vec::with_capacity(lane_ids.len());
         let mut index = HashMap::new();
         for id in &lane_ids {
-            let p = r
-                .node_prop(*id, "position")?
-                .and_then(|v| v.as_point3())
-                .ok_or(Error::NoLaneGraph)?;
+            let p = scene::records::LaneNodeRecord::read(r, *id)
+                .ok()
+                .flatten()
+                .ok_or(Error::NoLaneGraph)?
+                .position;
             index.insert(*id, nodes.len());
             nodes.push(RoadNode {
                 key: format!("lane:{id}"),
                 xy: ground.ground(p),
             });
         }
-        let lane = r.rel_type("LANE").ok_or(Error::NoLaneGraph)?;
+        let lane = r.rel_type(scene::rel::LANE).ok_or(Error::NoLaneGraph)?;
         let mut edges = Vec::new();
         for id in &lane_ids {
             for adj in r.neighbours(*id, Direction::Outgoing, Some(lane))? {
                 let rel = r
                     .rel(adj.rel)?
                     .ok_or(graphstore::Error::RelNotFound(adj.rel))?;
-                let get = |k: &str| r.prop_key(k).and_then(|k| rel.get(k).cloned());
-                let polyline: Vec<[f64; 2]> = match get("polyline") {
-                    Some(Value::List(pts)) => pts
-                        .iter()
-                        .filter_map(|p| p.as_point3())
-                        .map(|p| ground.ground(p))
-                        .collect(),
-                    _ => Vec::new(),
-                };
+                let rec = scene::records::LaneEdgeRecord::read(r, adj.rel)?;
+                let polyline: Vec<[f64; 2]> =
+                    rec.polyline.iter().map(|p| ground.ground(*p)).collect();
                 let (from, to) = (index[&rel.start], index[&rel.end]);
                 let polyline = if polyline.len() >= 2 {
                     polyline
                 } else {
                     vec![nodes[from].xy, nodes[to].xy]
                 };
-                let length_m = get("length_m")
-                    .and_then(|v| v.as_f64())
-                    .unwrap_or_else(|| polyline_length(&polyline));
-                let directed = get("directed").is_some_and(|v| v == Value::Bool(true));
+                let (length_m, directed) = (rec.length_m, rec.directed);
                 edges.push(RoadEdge {
                     from,
                     to,
@@ -330,32 +307,6 @@ pub(crate) fn point_at(p: &[[f64; 2]], s: f64) -> [f64; 2] {
         acc += l;
     }
     *p.last().expect("non-empty polyline")
-}
-
-/// The ground plane recorded on the store's Environment node (`ground_frame`).
-///
-/// Errors: [`Error::NoGroundFrame`] when there is no Environment node, or its `ground_frame` is
-/// missing or unknown; no frame is guessed.
-pub fn ground_of_store(r: &impl GraphRead) -> Result<GroundFrame> {
-    let env = r.nodes_with_label("Environment")?;
-    let Some(id) = env.first() else {
-        return Err(Error::NoGroundFrame(
-            "the store has no Environment node".into(),
-        ));
-    };
-    let name = r
-        .node_prop(*id, "ground_frame")?
-        .and_then(|v| v.as_str().map(str::to_string));
-    match name.as_deref() {
-        Some(n) => GroundFrame::from_name(n).ok_or_else(|| {
-            Error::NoGroundFrame(format!(
-                "Environment node {id} has ground_frame {n:?}; known: \"kitti_cam\" (x, z) and \"enu\" (x, y)"
-            ))
-        }),
-        None => Err(Error::NoGroundFrame(format!(
-            "Environment node {id} has no ground_frame"
-        ))),
-    }
 }
 
 #[cfg(test)]

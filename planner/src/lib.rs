@@ -1,6 +1,5 @@
 #![doc = include_str!("../README.md")]
 
-pub mod area;
 mod error;
 mod ffi;
 pub mod graph;
@@ -11,7 +10,5 @@ pub mod route;
 pub use error::{Error, Result};
 pub use graph::{RoadEdge, RoadGraph, RoadNode};
 pub use motion::{MotionConfig, MotionPath, Obstacle, Validity, plan_path};
-pub use route::{
-    Anchor, Route, Spec, Target, astar, closest_on_segment, resolve, snap, target, unit_cost_route,
-};
+pub use route::{Anchor, Route, Spec, Target, astar, resolve, snap, target, unit_cost_route};
 pub use scene::GroundFrame;

@@ -12,12 +12,12 @@ use parry2d::math::{Pose, Vector};
 use parry2d::query::PointQuery;
 use parry2d::shape::{Cuboid, Polyline};
 
-use crate::area::{Drivable, DrivableIndex};
 use crate::error::{Error, Result};
 use crate::ffi::{Checker, bridge};
 use crate::graph::{dist, point_at, polyline_length};
 use crate::route::Route;
 use scene::OrientedBox;
+use scene::area::{Drivable, DrivableIndex};
 
 /// The drivable areas of the store's segments (`Segment.polygon`), in node order; segments
 /// without one are left out.
@@ -29,7 +29,7 @@ pub fn drivable_of_store(
     ground: scene::GroundFrame,
 ) -> Result<Vec<Drivable>> {
     let mut out = Vec::new();
-    for id in r.nodes_with_label("Segment")? {
+    for id in r.nodes_with_label(scene::label::SEGMENT)? {
         out.extend(Drivable::of_segment(r, id, ground)?);
     }
     Ok(out)
@@ -471,7 +471,7 @@ pub fn blocking_instances(
 ) -> Result<Vec<Obstacle>> {
     let corridor = Validity::new(&route.polyline, half_width_m, &[], 0.0);
     let mut out = Vec::new();
-    for id in r.nodes_with_label("Instance")? {
+    for id in r.nodes_with_label(scene::label::INSTANCE)? {
         // ground surfaces are driven over, not around; background classes fused per ground
         // tile (`tile` set) have the box of a 20 m tile's worth of points, not an obstacle's
         if let Some(graphstore::Value::String(c)) = r.node_prop(id, "class")?
@@ -487,7 +487,7 @@ pub fn blocking_instances(
         };
         let o = match r
             .node_prop(id, "obb")?
-            .and_then(|v| crate::graph::obb_of(&v))
+            .and_then(|v| scene::records::obb_of(&v))
         {
             Some(b) => Obstacle::oriented(b),
             None => {

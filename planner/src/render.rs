@@ -29,39 +29,13 @@ pub struct Footprint {
 /// Points drawn per instance (surface tiles get twice as many).
 pub const POINTS_PER_INSTANCE: usize = 64;
 
-/// SemanticKITTI's colour (RGB) for a class name; grey for others.
-pub fn class_colour(class: &str) -> (u8, u8, u8) {
-    match class {
-        "car" => (100, 150, 245),
-        "bicycle" => (100, 230, 245),
-        "motorcycle" => (30, 60, 150),
-        "truck" => (80, 30, 180),
-        "other-vehicle" => (100, 80, 250),
-        "person" => (255, 30, 30),
-        "bicyclist" => (255, 40, 200),
-        "motorcyclist" => (150, 30, 90),
-        "road" => (255, 0, 255),
-        "parking" => (255, 150, 255),
-        "sidewalk" => (75, 0, 75),
-        "other-ground" => (175, 0, 75),
-        "building" => (255, 200, 0),
-        "fence" => (255, 120, 50),
-        "vegetation" => (0, 175, 0),
-        "trunk" => (135, 60, 0),
-        "terrain" => (150, 240, 80),
-        "pole" => (255, 240, 150),
-        "traffic-sign" => (255, 0, 0),
-        _ => (128, 128, 128),
-    }
-}
-
 /// Every instance of the store that is not a ground surface, as footprints, by id.
 pub fn instance_footprints(
     r: &impl graphstore::GraphRead,
     ground: scene::GroundFrame,
 ) -> Result<Vec<Footprint>> {
     let mut out = Vec::new();
-    for id in r.nodes_with_label("Instance")? {
+    for id in r.nodes_with_label(scene::label::INSTANCE)? {
         let class = match r.node_prop(id, "class")? {
             Some(graphstore::Value::String(c)) => c,
             _ => String::new(),
@@ -162,7 +136,7 @@ pub fn write_map_png(
     // surfaces first and faint, then objects: points where there are, else the filled box
     for pass in [true, false] {
         for f in instances.iter().filter(|f| f.surface == pass) {
-            let (r, gr, b) = class_colour(&f.class);
+            let (r, gr, b) = scene::classes::class_colour(&f.class);
             let mut paint = Paint::default();
             paint.set_color(Color::from_rgba8(r, gr, b, if pass { 70 } else { 220 }));
             if f.points.is_empty() {

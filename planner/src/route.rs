@@ -32,10 +32,14 @@ pub enum Spec {
 /// The labels a spec kind accepts, by kind name.
 fn labels_of(kind: &str) -> &'static [&'static str] {
     match kind {
-        "lane" => &["LaneNode"],
-        "segment" => &["Segment"],
-        "instance" => &["Instance"],
-        _ => &["LaneNode", "Segment", "Instance"],
+        "lane" => &[scene::label::LANE_NODE],
+        "segment" => &[scene::label::SEGMENT],
+        "instance" => &[scene::label::INSTANCE],
+        _ => &[
+            scene::label::LANE_NODE,
+            scene::label::SEGMENT,
+            scene::label::INSTANCE,
+        ],
     }
 }
 
@@ -118,17 +122,7 @@ pub struct Route {
     pub length_m: f64,
 }
 
-/// The point of segment `ab` nearest to `p`: (its parameter `t` in [0, 1], the point).
-pub fn closest_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, [f64; 2]) {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (t, [a[0] + t * d[0], a[1] + t * d[1]])
-}
+use scene::geom::closest_on_segment;
 
 /// Projection of `p` on a polyline: (arc length, point, distance).
 fn project(poly: &[[f64; 2]], p: [f64; 2]) -> (f64, [f64; 2], f64) {
@@ -218,7 +212,7 @@ pub fn target(r: &impl GraphRead, ground: GroundFrame, spec: &Spec) -> Result<Ta
                 names.join(":")
             },
         })?;
-    let key = if *label == "LaneNode" {
+    let key = if *label == scene::label::LANE_NODE {
         "position"
     } else {
         "centroid"
@@ -248,7 +242,7 @@ pub fn resolve(
     let t = target(r, ground, spec)?;
     let anchor = match (t.node, t.kind.as_str()) {
         (None, _) => snap(g, t.xy, snap_limit_m)?,
-        (Some(id), "LaneNode") => g
+        (Some(id), scene::label::LANE_NODE) => g
             .node_by_key(&format!("lane:{id}"))
             .map(Anchor::Node)
             .ok_or(Error::UnknownId { kind: "lane", id })?,

@@ -295,7 +295,7 @@ fn a_path_keeps_to_the_drivable_area() {
     };
     let mut tris = half(-5.0, 49.5);
     tris.extend(half(50.5, 105.0));
-    let area = planner::area::Drivable::from_triangles(&tris);
+    let area = scene::area::Drivable::from_triangles(&tris);
     let v = Validity::new(&[[0.0, 2.0], [100.0, 2.0]], 6.0, &[], 0.0).within(&[area], 0.2);
     assert!(v.is_valid([20.0, 2.0]) && v.is_valid([20.0, -0.1]));
     assert!(
@@ -316,7 +316,7 @@ fn a_path_keeps_to_the_drivable_area() {
         budget_ms: 3000.0,
         ..MotionConfig::default()
     };
-    let whole = planner::area::Drivable::from_triangles(&[
+    let whole = scene::area::Drivable::from_triangles(&[
         [[-5.0, -3.0], [105.0, -3.0], [105.0, 1.5]],
         [[-5.0, -3.0], [105.0, 1.5], [-5.0, 1.5]],
     ]);

@@ -5,10 +5,11 @@
 
 use std::time::Instant;
 
-use graphstore::{Store, opengraph_schema};
+use graphstore::Store;
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
 use planner::{Anchor, MotionConfig, RoadGraph, astar, plan_path, unit_cost_route};
 use scene::GroundFrame;
+use scene::opengraph_schema;
 
 fn p(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(f64::total_cmp);

@@ -1,9 +1,10 @@
 //! The hierarchy written into a store: five layers, relations, idempotent re-runs, and the
 //! real seq 00 trajectory.
 
-use graphstore::{GraphRead, Store, Value, opengraph_schema};
+use graphstore::{GraphRead, Store, Value};
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
 use scene::GroundFrame;
+use scene::opengraph_schema;
 
 /// A drive in ENU at 1 m per pose, 1.7 m above ground.
 fn drive(waypoints: &[[f64; 2]]) -> Vec<[f64; 3]> {

@@ -2,10 +2,11 @@
 //! graph store: routes exist between far-apart lane nodes, are never longer than the
 //! reference unit-cost route, and OMPL refines them into valid paths.
 
-use graphstore::{Store, opengraph_schema};
+use graphstore::Store;
 use ingest::hierarchy::{HierarchyConfig, build_hierarchy};
 use planner::{Anchor, MotionConfig, RoadGraph, Validity, astar, plan_path, unit_cost_route};
 use scene::GroundFrame;
+use scene::opengraph_schema;
 
 #[test]
 fn real_lane_graph_routes_and_paths() {
@@ -34,8 +35,8 @@ fn real_lane_graph_routes_and_paths() {
         let r = store.read().unwrap();
         let g = RoadGraph::from_store(&r).unwrap();
         assert_eq!(
-            planner::graph::ground_of_store(&r).unwrap(),
-            planner::GroundFrame::KittiCam
+            scene::records::ground_frame(&r).unwrap(),
+            scene::GroundFrame::KittiCam
         );
         // every pair of lane nodes is connected (one continuous drive), and A* is never longer
         // than the fewest-hops route

@@ -6,7 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use graphstore::export::{ExportFormat, export};
-use graphstore::{Error, GraphRead, Store, Value, VectorSearch, opengraph_schema};
+use graphstore::{Error, GraphRead, Store, Value, VectorSearch};
+use scene::opengraph_schema;
 
 fn instance(i: i64, x: f64) -> Vec<(&'static str, Value)> {
     vec![

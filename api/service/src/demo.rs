@@ -1,19 +1,25 @@
 //! A small hand-made graph in the OpenGraph schema, for the README's main job until the
 //! simulator exists. Nothing here is perception output: every value is written by hand.
 
-use graphstore::{Store, Value};
+use graphstore::Store;
+use scene::records::{
+    EnvironmentRecord, InSegmentRecord, InstanceRecord, LaneEdgeRecord, LaneNodeRecord,
+    RelationRecord, SegmentRecord,
+};
+
+/// The `source` of everything the demo writes.
+const DEMO: &str = "hand-made demo";
 
 /// Writes one environment, four segments, a lane graph, a few instances and their relations.
 pub fn build(store: &Store) -> graphstore::Result<()> {
-    store.set_schema(graphstore::opengraph_schema())?;
+    store.set_schema(scene::opengraph_schema())?;
     store.write(|tx| {
-        let env = tx.create_node_named(
-            &["Environment"],
-            &[
-                ("name", "demo block".into()),
-                ("source", "hand-made demo".into()),
-            ],
-        )?;
+        let env = EnvironmentRecord {
+            name: "demo block".into(),
+            source: Some(DEMO.into()),
+            ground_frame: None,
+        }
+        .create(tx)?;
         // a crossing at the origin, a T-junction 80 m east, an L-bend 60 m north of it
         let lanes = [
             (0, "intersection", [0.0, 0.0, 0.0]),
@@ -26,30 +32,25 @@ pub fn build(store: &Store) -> graphstore::Result<()> {
         ];
         let mut lane_ids = Vec::new();
         for (i, kind, p) in lanes {
-            lane_ids.push(tx.create_node_named(
-                &["LaneNode"],
-                &[
-                    ("lane_id", Value::Int(i)),
-                    ("kind", kind.into()),
-                    ("position", Value::Point3D(p)),
-                ],
-            )?);
+            lane_ids.push(
+                LaneNodeRecord {
+                    lane_id: i,
+                    kind: kind.into(),
+                    position: p,
+                }
+                .create(tx)?,
+            );
         }
         for (a, b) in [(0, 1), (1, 2), (0, 3), (0, 4), (1, 5), (2, 6)] {
             let (pa, pb) = (lanes[a].2, lanes[b].2);
             let len = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2)).sqrt();
-            tx.create_rel_named(
-                lane_ids[a],
-                "LANE",
-                lane_ids[b],
-                &[
-                    ("length_m", Value::Float(len)),
-                    (
-                        "polyline",
-                        Value::List(vec![Value::Point3D(pa), Value::Point3D(pb)]),
-                    ),
-                ],
-            )?;
+            LaneEdgeRecord {
+                length_m: len,
+                polyline: vec![pa, pb],
+                frames: Vec::new(),
+                directed: false,
+            }
+            .create(tx, lane_ids[a], lane_ids[b])?;
         }
         let segments = [
             (0, "intersection", [0.0, 0.0, 0.0]),
@@ -59,26 +60,24 @@ pub fn build(store: &Store) -> graphstore::Result<()> {
         ];
         let mut seg_ids = Vec::new();
         for (i, kind, c) in segments {
-            let s = tx.create_node_named(
-                &["Segment"],
-                &[
-                    ("segment_id", Value::Int(i)),
-                    ("kind", kind.into()),
-                    ("centroid", Value::Point3D(c)),
-                    (
-                        "bbox",
-                        Value::box3d(
-                            [c[0] - 10.0, c[1] - 10.0, -1.0],
-                            [c[0] + 10.0, c[1] + 10.0, 4.0],
-                        ),
-                    ),
-                ],
-            )?;
-            tx.create_rel_named(env, "CONTAINS", s, &[])?;
+            let s = SegmentRecord {
+                segment_id: i,
+                kind: kind.into(),
+                centroid: c,
+                shape: None,
+                bbox: Some((
+                    [c[0] - 10.0, c[1] - 10.0, -1.0],
+                    [c[0] + 10.0, c[1] + 10.0, 4.0],
+                )),
+                polygon: Vec::new(),
+                drivable_area_m2: None,
+            }
+            .create(tx)?;
+            tx.create_rel_named(env, scene::rel::CONTAINS, s, &[])?;
             seg_ids.push(s);
         }
         for (a, b) in [(0, 1), (1, 2), (2, 3)] {
-            tx.create_rel_named(seg_ids[a], "CONNECTS", seg_ids[b], &[])?;
+            tx.create_rel_named(seg_ids[a], scene::rel::CONNECTS, seg_ids[b], &[])?;
         }
         let objects = [
             (
@@ -119,38 +118,37 @@ pub fn build(store: &Store) -> graphstore::Result<()> {
         ];
         let mut inst = Vec::new();
         for (i, class, caption, c, seg) in objects {
-            let n = tx.create_node_named(
-                &["Instance"],
-                &[
-                    ("instance_id", Value::Int(i)),
-                    ("class", class.into()),
-                    ("caption", caption.into()),
-                    ("captions", Value::List(vec![caption.into()])),
-                    ("centroid", Value::Point3D(c)),
-                    (
-                        "bbox",
-                        Value::box3d(
-                            [c[0] - 0.8, c[1] - 0.4, 0.0],
-                            [c[0] + 0.8, c[1] + 0.4, 2.0 * c[2]],
-                        ),
-                    ),
-                    ("source", "hand-made demo".into()),
-                ],
-            )?;
-            tx.create_rel_named(n, "IN_SEGMENT", seg_ids[seg], &[])?;
+            let n = InstanceRecord {
+                instance_id: i,
+                caption: caption.into(),
+                class: class.into(),
+                centroid: c,
+                bbox: (
+                    [c[0] - 0.8, c[1] - 0.4, 0.0],
+                    [c[0] + 0.8, c[1] + 0.4, 2.0 * c[2]],
+                ),
+                captions: Some(vec![caption.into()]),
+                feature: None,
+                point_count: None,
+                detection_count: None,
+                first_frame: None,
+                last_frame: None,
+                source: Some(DEMO.into()),
+                detection_feature: None,
+                obb: None,
+                tile: None,
+            }
+            .create(tx)?;
+            InSegmentRecord { distance_m: 0.0 }.create(tx, n, seg_ids[seg])?;
             inst.push(n);
         }
-        tx.create_rel_named(
-            inst[4],
-            "RELATED",
-            inst[0],
-            &[
-                ("relation", "next_to".into()),
-                ("distance_m", Value::Float(1.8)),
-                ("source", "geometric".into()),
-                ("confidence", Value::Float(1.0)),
-            ],
-        )?;
+        RelationRecord {
+            relation: "next_to".into(),
+            distance_m: 1.8,
+            source: scene::records::GEOMETRIC.into(),
+            confidence: 1.0,
+        }
+        .create(tx, inst[4], inst[0])?;
         Ok(())
     })?;
     Ok(())

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use graphstore::GraphRead;
-use llm_tools::graph_find::{self, GraphFindOptions, GraphFound, Scene};
+use llm_tools::graph_find::{self, GraphFindOptions, GraphFound, MapView};
 use llm_tools::locate::{self, Description, Located};
 use llm_tools::request::{self, Request};
 use llm_tools::retrieve::{self, FindOptions};
@@ -92,7 +92,7 @@ pub struct Finder {
     embedder: Box<dyn Embedder + Send>,
     llm: Option<Box<dyn ChatModel>>,
     /// The loaded scene and the commit it was loaded at.
-    scene: Option<(u64, Arc<Scene>)>,
+    scene: Option<(u64, Arc<MapView>)>,
     /// A scene shared with other finders (a server's workers), loaded once per commit.
     shared_scene: Option<Arc<SharedScene>>,
 }
@@ -100,7 +100,7 @@ pub struct Finder {
 /// The scene of the latest commit, shared by finders (a server's workers): after a write
 /// the first request loads it, one that asks meanwhile waits for that load, and the others
 /// take it. Make it with `SharedScene::new(1)`.
-pub type SharedScene = crate::commit_cache::CommitCache<(), Scene>;
+pub type SharedScene = crate::commit_cache::CommitCache<(), MapView>;
 
 /// How long a finder waits for another's load of the same scene before loading it itself.
 const SCENE_WAIT: std::time::Duration = std::time::Duration::from_secs(30);
@@ -168,9 +168,9 @@ impl Finder {
     ///
     /// # Errors
     /// The store fails or has no ground frame.
-    pub fn scene(&mut self, r: &impl GraphRead) -> Result<Arc<Scene>> {
+    pub fn scene(&mut self, r: &impl GraphRead) -> Result<Arc<MapView>> {
         let Some(seq) = r.commit_seq() else {
-            return Ok(Arc::new(Scene::load(r)?));
+            return Ok(Arc::new(MapView::load(r)?));
         };
         if let Some((s, scene)) = &self.scene
             && *s == seq
@@ -179,9 +179,9 @@ impl Finder {
         }
         let scene = match &self.shared_scene {
             Some(sh) => sh.get_or_compute((), seq, SCENE_WAIT, || {
-                Ok::<_, llm_tools::Error>((Scene::load(r)?, true))
+                Ok::<_, llm_tools::Error>((MapView::load(r)?, true))
             })?,
-            None => Arc::new(Scene::load(r)?),
+            None => Arc::new(MapView::load(r)?),
         };
         self.scene = Some((seq, scene.clone()));
         Ok(scene)
@@ -300,11 +300,11 @@ impl Finder {
     pub fn find(&mut self, r: &impl GraphRead, req: &FindRequest) -> Result<FindAnswer> {
         check_text(&req.text, "query")?;
         if let Some(c) = &req.class
-            && !ingest::classes::CLASSES.contains(&c.as_str())
+            && !scene::classes::CLASSES.contains(&c.as_str())
         {
             return Err(llm_tools::Error::Invalid(format!(
                 "class {c:?} is not one of the 19 SemanticKITTI classes a map's instances carry: {}",
-                ingest::classes::CLASSES.join(", ")
+                scene::classes::CLASSES.join(", ")
             )));
         }
         self.check_embedder(r)?;

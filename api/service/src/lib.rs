@@ -1,13 +1,19 @@
 #![doc = include_str!("../README.md")]
 
+pub mod area;
 pub mod ask;
+pub mod builder;
 pub mod commit_cache;
+mod cypher;
 pub mod demo;
+pub mod error;
 pub mod find;
 pub mod info;
+pub mod ops;
 pub mod plan;
 pub mod query_cache;
 pub mod service;
+pub mod toolbox;
 pub mod tools;
 pub mod update;
 pub mod view;

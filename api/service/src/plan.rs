@@ -12,6 +12,7 @@ use llm_tools::graph_find::GraphFound;
 use llm_tools::locate::Located;
 use planner::{MotionPath, Route, Spec, Target};
 
+use crate::error::{ToolError, ToolResult};
 use crate::find::{FindRequest, Finder, LocateRequest, ParserKind, Ranking};
 
 /// Planner settings of one request.
@@ -30,6 +31,16 @@ pub struct PlanOptions {
 }
 
 impl PlanOptions {
+    /// The defaults every front end uses (the CLI's flag defaults, the `plan_route` tool):
+    /// 5 m turning radius, 200 ms of OMPL, a 6 m corridor, points snapped within 15 m, no PNG.
+    pub const DEFAULT: PlanOptions = PlanOptions {
+        turning_radius_m: 5.0,
+        budget_ms: 200.0,
+        corridor_m: 6.0,
+        snap_m: 15.0,
+        png: None,
+    };
+
     /// The OMPL refinement's settings from these options.
     fn motion(&self) -> planner::MotionConfig {
         planner::MotionConfig {
@@ -38,6 +49,12 @@ impl PlanOptions {
             corridor_half_width_m: self.corridor_m,
             ..planner::MotionConfig::default()
         }
+    }
+}
+
+impl Default for PlanOptions {
+    fn default() -> PlanOptions {
+        PlanOptions::DEFAULT
     }
 }
 
@@ -75,7 +92,7 @@ pub fn plan(
 ) -> planner::Result<PlanAnswer> {
     let t0 = Instant::now();
     let g = planner::RoadGraph::from_store(r)?;
-    let ground = planner::graph::ground_of_store(r)?;
+    let ground = scene::records::ground_frame(r)?;
     let ((a, from_t), (b, to_t)) = (
         planner::resolve(&g, r, ground, from, opts.snap_m)?,
         planner::resolve(&g, r, ground, to, opts.snap_m)?,
@@ -87,7 +104,7 @@ pub fn plan(
     // the drivable areas the corridor reaches; where they have gaps across the road (sparse
     // scans), OMPL cannot stay on them, and the corridor alone bounds the path
     let corridor = planner::Validity::new(&route.polyline, opts.corridor_m, &[], 0.0);
-    let drivable: Vec<planner::area::Drivable> = planner::motion::drivable_of_store(r, ground)?
+    let drivable: Vec<scene::area::Drivable> = planner::motion::drivable_of_store(r, ground)?
         .into_iter()
         .filter(|d| {
             route.polyline.iter().any(|q| d.contains(*q))
@@ -222,6 +239,61 @@ pub struct NavigateAnswer {
     pub goal: Resolved,
     /// The route and path.
     pub plan: PlanAnswer,
+}
+
+/// A navigation request: free text ("from the bus stop by the crossroads to somewhere I can
+/// post a letter") or two ends, each in words or as a spec; an end given on its own wins over
+/// the text's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NavigateRequest {
+    /// "from A to B" (or "to B" with `from` given).
+    pub text: Option<String>,
+    /// The start, in words or as a spec.
+    pub from: Option<String>,
+    /// The goal, in words or as a spec.
+    pub to: Option<String>,
+    /// How words are understood.
+    pub parser: ParserKind,
+    /// The planner's settings.
+    pub options: PlanOptions,
+}
+
+/// Navigates: both ends resolved from words or specs ([`resolve_end`]), then [`plan`].
+///
+/// # Errors
+/// [`ToolError::BadArguments`] when an end is missing or cannot be resolved or routed;
+/// [`ToolError::Failed`] when the store or a model fails.
+pub fn navigate(
+    finder: &mut Finder,
+    r: &impl GraphRead,
+    req: &NavigateRequest,
+) -> ToolResult<NavigateAnswer> {
+    let words = match &req.text {
+        Some(t) => Some(llm_tools::request::parse_route(t)?),
+        None => None,
+    };
+    let from = req
+        .from
+        .clone()
+        .or_else(|| words.as_ref().and_then(|w| w.from.clone()));
+    let to = req
+        .to
+        .clone()
+        .or_else(|| words.as_ref().map(|w| w.to.clone()));
+    let (Some(from), Some(to)) = (from, to) else {
+        return Err(ToolError::BadArguments(
+            "say where to start and where to go: \"from A to B\" in the text, or both ends (from and to; --from and --to on the command line), each in words or as a spec such as lane:ID".into(),
+        ));
+    };
+    // what cannot be resolved or routed comes from the arguments
+    let bad = |e: &dyn std::fmt::Display| ToolError::BadArguments(e.to_string());
+    let (a, start) = resolve_end(finder, r, &from, req.parser).map_err(|e| bad(&e))?;
+    let (b, goal) = resolve_end(finder, r, &to, req.parser).map_err(|e| bad(&e))?;
+    let plan = plan(r, &a, &b, &req.options).map_err(|e| match e {
+        planner::Error::Render(_) => ToolError::Failed(e.to_string()),
+        other => bad(&other),
+    })?;
+    Ok(NavigateAnswer { start, goal, plan })
 }
 
 /// Whether `text` is only a place on the road network ("the crossroads", "a T-junction") or

@@ -12,7 +12,7 @@
 
 use serde_json::Value as Json;
 
-use crate::tools::ToolResult;
+use crate::error::ToolResult;
 
 /// Answers with more rows are not kept (they are rare and large).
 pub const MAX_CACHED_ROWS: usize = 1000;

@@ -25,15 +25,15 @@ type SharedModel = Arc<Mutex<Box<dyn llm_tools::ChatModel>>>;
 pub const ASK_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// Toolboxes that take turns: a permit for each.
-struct Lane {
+struct WorkerPool {
     idle: Arc<Mutex<Vec<Toolbox>>>,
     permits: Arc<Semaphore>,
     size: usize,
 }
 
-impl Lane {
-    fn new(toolboxes: Vec<Toolbox>) -> Lane {
-        Lane {
+impl WorkerPool {
+    fn new(toolboxes: Vec<Toolbox>) -> WorkerPool {
+        WorkerPool {
             size: toolboxes.len(),
             permits: Arc::new(Semaphore::new(toolboxes.len())),
             idle: Arc::new(Mutex::new(toolboxes)),
@@ -45,9 +45,9 @@ impl Lane {
 pub struct Service {
     llm: Option<SharedModel>,
     store: Store,
-    readers: Lane,
+    readers: WorkerPool,
     /// The write tools' own toolbox, when the service has one.
-    writer: Option<Lane>,
+    writer: Option<WorkerPool>,
     writes: bool,
     timeout: Duration,
 }
@@ -79,7 +79,7 @@ impl Service {
         Some(Arc::new(Service {
             llm: None,
             store,
-            readers: Lane::new(toolboxes),
+            readers: WorkerPool::new(toolboxes),
             writer: None,
             writes,
             timeout,
@@ -103,7 +103,7 @@ impl Service {
     /// `None` when the service is already shared.
     pub fn with_writer(self: Arc<Self>, writer: Toolbox) -> Option<Arc<Service>> {
         let mut s = Arc::into_inner(self)?;
-        s.writer = Some(Lane::new(vec![writer]));
+        s.writer = Some(WorkerPool::new(vec![writer]));
         Some(Arc::new(s))
     }
 
@@ -121,12 +121,9 @@ impl Service {
     /// # Errors
     /// [`ToolError::BadArguments`] for an empty question or a service without a model; the
     /// model's failures; [`ToolError::TimedOut`] past [`ASK_TIMEOUT`].
-    pub async fn ask(
-        self: &Arc<Self>,
-        question: String,
-        max_steps: usize,
-        may_write: bool,
-    ) -> ToolResult<Json> {
+    pub async fn ask(self: &Arc<Self>, args: &Json, may_write: bool) -> ToolResult<Json> {
+        let req = crate::ops::check_ask(args)?;
+        let (question, max_steps) = (req.question, req.max_steps as usize);
         let Some(llm) = self.llm.clone() else {
             return Err(ToolError::BadArguments(
                 "this server has no language model: start it with --llm local (or openai with --llm-url)"
@@ -187,11 +184,11 @@ impl Service {
             )));
         }
         let name = name.to_string();
-        let lane = match &self.writer {
+        let pool = match &self.writer {
             Some(w) if writes => w,
             _ => &self.readers,
         };
-        self.run_on(lane, self.timeout, move |tb| tb.call(&name, &args))
+        self.run_on(pool, self.timeout, move |tb| tb.call(&name, &args))
             .await
     }
 
@@ -256,7 +253,7 @@ impl Service {
         self.run(move |tb| {
             let failed = |e: graphstore::Error| ToolError::Failed(e.to_string());
             let r = tb.store().read().map_err(failed)?;
-            crate::tools::instance_node(&r, id)?;
+            crate::area::instance_node(&r, id)?;
             let pc = r
                 .point_cloud(id, "points")
                 .map_err(failed)?
@@ -289,25 +286,25 @@ impl Service {
         self.run_on(&self.readers, limit, f).await
     }
 
-    /// Runs `f` on a free toolbox of `lane` off the async workers: the wait for it is bounded
+    /// Runs `f` on a free toolbox of `pool` off the async workers: the wait for it is bounded
     /// by the request timeout, the work by `limit`.
     async fn run_on<T: Send + 'static>(
         &self,
-        lane: &Lane,
+        pool: &WorkerPool,
         limit: Duration,
         f: impl FnOnce(&mut Toolbox) -> ToolResult<T> + Send + 'static,
     ) -> ToolResult<T> {
         let secs = self.timeout.as_secs_f64();
-        let permit = tokio::time::timeout(self.timeout, lane.permits.clone().acquire_owned())
+        let permit = tokio::time::timeout(self.timeout, pool.permits.clone().acquire_owned())
             .await
             .map_err(|_| {
                 ToolError::Busy(format!(
                     "all {} workers stayed busy for {secs:.0} s; try again later",
-                    lane.size
+                    pool.size
                 ))
             })?
             .map_err(|_| ToolError::Failed("the service is shutting down".into()))?;
-        let idle = lane.idle.clone();
+        let idle = pool.idle.clone();
         let job = tokio::task::spawn_blocking(move || {
             let mut tb = idle
                 .lock()
@@ -420,7 +417,10 @@ mod tests {
         // the request the model gets does not offer write_cypher (the scripted model checks
         // its calls against the offered tools, as a grammar-constrained local model must)
         let e = rt
-            .block_on(svc.ask("make a node".into(), 3, false))
+            .block_on(svc.ask(
+                &serde_json::json!({"question": "make a node", "max_steps": 3}),
+                false,
+            ))
             .unwrap_err();
         assert!(e.to_string().contains("does not offer"), "{e}");
         assert_eq!(count(&store), 0);
@@ -429,7 +429,12 @@ mod tests {
         let finder = hash_finder();
         let tb = Toolbox::new(store.clone(), finder, true);
         let svc = Service::with_llm(vec![tb], Duration::from_secs(30), script()).unwrap();
-        let a = rt.block_on(svc.ask("make a node".into(), 3, true)).unwrap();
+        let a = rt
+            .block_on(svc.ask(
+                &serde_json::json!({"question": "make a node", "max_steps": 3}),
+                true,
+            ))
+            .unwrap();
         assert_eq!(a["steps"][0]["is_error"], false, "{a}");
         assert_eq!(count(&store), 1);
         // without a model, ask is the caller's error
@@ -439,7 +444,12 @@ mod tests {
             Duration::from_secs(5),
         )
         .unwrap();
-        let e = rt.block_on(svc.ask("hi".into(), 2, false)).unwrap_err();
+        let e = rt
+            .block_on(svc.ask(
+                &serde_json::json!({"question": "hi", "max_steps": 2}),
+                false,
+            ))
+            .unwrap_err();
         assert_eq!(e.http_status(), 400);
         assert!(e.to_string().contains("--llm"), "{e}");
     }

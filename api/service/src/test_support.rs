@@ -15,7 +15,7 @@ pub(crate) fn demo_store() -> (tempfile::TempDir, Store) {
 /// A finder with the deterministic hash embedder and no language model.
 pub(crate) fn hash_finder() -> Finder {
     Finder::new(
-        Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+        Box::new(llm_tools::HashEmbedder::new(scene::FEATURE_DIM)),
         None,
     )
 }

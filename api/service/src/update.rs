@@ -13,8 +13,8 @@ use llm_tools::edit::{EditKind, EditRequest, parse_edit_rules, recaption};
 use llm_tools::graph_find::GraphFound;
 use serde::Serialize;
 
+use crate::error::{ToolError, ToolResult};
 use crate::find::{FindRequest, Finder, ParserKind, Ranking};
-use crate::tools::{ToolError, ToolResult};
 
 /// Who parses change descriptions with rules, recorded with every edit.
 pub const PARSED_BY: &str = "rules (edit_rules@v1)";
@@ -138,10 +138,10 @@ fn toward_road(p: [f64; 2], segments: &[llm_tools::locate::SegmentInfo]) -> [f64
     let mut best: Option<(f64, [f64; 2])> = None;
     for s in segments {
         let q = match &s.area {
-            planner::area::SegmentArea::Disc { centre, .. } => *centre,
-            planner::area::SegmentArea::Corridor { centreline, .. } => centreline
+            scene::area::SegmentArea::Disc { centre, .. } => *centre,
+            scene::area::SegmentArea::Corridor { centreline, .. } => centreline
                 .windows(2)
-                .map(|w| planner::route::closest_on_segment(p, w[0], w[1]).1)
+                .map(|w| scene::geom::closest_on_segment(p, w[0], w[1]).1)
                 .min_by(|a, b| {
                     (a[0] - p[0])
                         .hypot(a[1] - p[1])
@@ -215,7 +215,7 @@ fn clear_spot(
 
 /// The SemanticKITTI class whose prompts are nearest to `caption` (as the build assigns).
 fn class_for(finder: &mut Finder, caption: &str) -> ToolResult<String> {
-    let prompts = ingest::classes::prompts();
+    let prompts = scene::classes::prompts();
     let mut texts: Vec<&str> = prompts.iter().map(|p| p.1).collect();
     texts.push(caption);
     let v = finder.embed(&texts).map_err(failed)?;
@@ -227,7 +227,7 @@ fn class_for(finder: &mut Finder, caption: &str) -> ToolResult<String> {
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map(|x| x.1)
         .unwrap_or(0);
-    Ok(ingest::classes::class_name(best)
+    Ok(scene::classes::class_name(best)
         .unwrap_or("unlabeled")
         .to_string())
 }
@@ -511,16 +511,16 @@ mod tests {
     /// features the hash embedder's of their captions.
     fn small_map(dir: &std::path::Path) -> Store {
         let store = Store::create(dir.join("m.og")).unwrap();
-        store.set_schema(graphstore::opengraph_schema()).unwrap();
-        let mut hash = llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM);
+        store.set_schema(scene::opengraph_schema()).unwrap();
+        let mut hash = llm_tools::HashEmbedder::new(scene::FEATURE_DIM);
         store
             .write(|tx| {
                 let env = tx.create_node_named(
-                    &["Environment"],
+                    &[scene::label::ENVIRONMENT],
                     &[("name", "t".into()), ("ground_frame", "kitti_cam".into())],
                 )?;
                 let seg = tx.create_node_named(
-                    &["Segment"],
+                    &[scene::label::SEGMENT],
                     &[
                         ("segment_id", Value::Int(0)),
                         ("kind", "straight_roadway".into()),
@@ -536,14 +536,14 @@ mod tests {
                         ("bbox", Value::box3d([-6.0, -3.0, 0.0], [6.0, 3.0, 100.0])),
                     ],
                 )?;
-                tx.create_rel_named(env, "CONTAINS", seg, &[])?;
+                tx.create_rel_named(env, scene::rel::CONTAINS, seg, &[])?;
                 for (i, caption, c) in [
                     (0, "a brown wooden bench", [4.0, 0.5, 20.0]),
                     (1, "a green litter bin", [4.0, 0.5, 60.0]),
                 ] {
                     let feature = hash.embed(&[caption]).unwrap().remove(0);
                     let id = tx.create_node_named(
-                        &["Instance"],
+                        &[scene::label::INSTANCE],
                         &[
                             ("instance_id", Value::Int(i)),
                             ("caption", caption.into()),
@@ -559,7 +559,7 @@ mod tests {
                             ("feature", Value::Vector(feature)),
                         ],
                     )?;
-                    tx.create_rel_named(id, "IN_SEGMENT", seg, &[])?;
+                    tx.create_rel_named(id, scene::rel::IN_SEGMENT, seg, &[])?;
                 }
                 Ok(())
             })
@@ -578,7 +578,7 @@ mod tests {
             "target": "the brown wooden bench"});
         let model = Scripted::new("script", vec![Reply::Text(reading.to_string())]);
         let mut finder = Finder::new(
-            Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+            Box::new(llm_tools::HashEmbedder::new(scene::FEATURE_DIM)),
             Some(Box::new(model)),
         );
         let a = update(

@@ -32,8 +32,8 @@ fn subsample<T: Copy>(v: &[T], max: usize) -> Vec<T> {
 /// The store fails or has no ground frame.
 pub fn view(store: &Store) -> Result<Json, String> {
     let r = store.read().map_err(|e| e.to_string())?;
-    let g = planner::graph::ground_of_store(&r).map_err(|e| e.to_string())?;
-    let surfaces = llm_tools::graph_find::SURFACE_CLASSES;
+    let g = scene::records::ground_frame(&r).map_err(|e| e.to_string())?;
+    let surfaces = scene::classes::SURFACE_CLASSES;
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
     let mut grow = |p: [f64; 2]| {
@@ -44,7 +44,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
     };
     let err = |e: graphstore::Error| e.to_string();
     let mut instances = Vec::new();
-    for id in r.nodes_with_label("Instance").map_err(err)? {
+    for id in r.nodes_with_label(scene::label::INSTANCE).map_err(err)? {
         let text = |k: &str| -> Result<String, String> {
             Ok(match r.node_prop(id, k).map_err(err)? {
                 Some(Value::String(s)) => s,
@@ -88,8 +88,8 @@ pub fn view(store: &Store) -> Result<Json, String> {
         }));
     }
     let mut lanes = Vec::new();
-    if let Some(lane) = r.rel_type("LANE") {
-        for n in r.nodes_with_label("LaneNode").map_err(err)? {
+    if let Some(lane) = r.rel_type(scene::rel::LANE) {
+        for n in r.nodes_with_label(scene::label::LANE_NODE).map_err(err)? {
             for adj in r
                 .neighbours(n, Direction::Outgoing, Some(lane))
                 .map_err(err)?
@@ -134,7 +134,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
     let mut colours = serde_json::Map::new();
     for i in &instances {
         let c = i["class"].as_str().unwrap_or_default();
-        let (r8, g8, b8) = planner::render::class_colour(c);
+        let (r8, g8, b8) = scene::classes::class_colour(c);
         colours.insert(c.to_string(), json!(format!("#{r8:02x}{g8:02x}{b8:02x}")));
     }
     if !lo[0].is_finite() {
@@ -142,7 +142,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
         hi = [1.0, 1.0];
     }
     Ok(json!({
-        "ground": match g { planner::GroundFrame::KittiCam => "xz", planner::GroundFrame::Enu => "xy" },
+        "ground": match g { scene::GroundFrame::KittiCam => "xz", scene::GroundFrame::Enu => "xy" },
         "bounds": [r2(lo[0]), r2(lo[1]), r2(hi[0]), r2(hi[1])],
         "instances": instances,
         "lanes": lanes,

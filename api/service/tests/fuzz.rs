@@ -15,7 +15,7 @@ fn fuzz_tool_arguments() {
     let store = graphstore::Store::create(dir.path().join("d.og")).unwrap();
     opengraph_service::demo::build(&store).unwrap();
     let finder = Finder::new(
-        Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+        Box::new(llm_tools::HashEmbedder::new(scene::FEATURE_DIM)),
         None,
     );
     let mut tb = Toolbox::new(store.clone(), finder, true);

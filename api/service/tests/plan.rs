@@ -9,7 +9,7 @@ use opengraph_service::plan::{PlanOptions, plan};
 /// polygon covers y in -2..4 along the road, or, with `gap`, leaves x in 49..51 out.
 fn road_map(dir: &std::path::Path, gap: bool) -> Store {
     let store = Store::create(dir.join(if gap { "gap.og" } else { "whole.og" })).unwrap();
-    store.set_schema(graphstore::opengraph_schema()).unwrap();
+    store.set_schema(scene::opengraph_schema()).unwrap();
     store
         .write(|tx| {
             let env = tx.create_node_named(

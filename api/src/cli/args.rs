@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand};
 
 use super::common::ranking_of;
+pub(crate) use super::values::*;
 
 /// OpenGraph: an open-vocabulary hierarchical 3D scene graph for outdoor environments.
 #[derive(Debug, Parser)]
@@ -563,7 +564,7 @@ pub(crate) enum EvalCommand {
     },
     /// Retrieval R@1/2/3 per query type (named, relational, functional) against the
     /// simulator's objects: a hit is a returned instance lying on an object that satisfies
-    /// the query's predicate. Queries: JSON Lines (see ingest/data/retrieval_small_city.jsonl).
+    /// the query's predicate. Queries: JSON Lines (see ingest/eval/data/retrieval_small_city.jsonl).
     Retrieval {
         /// The store file (built from the simulator's detections).
         #[arg(long)]
@@ -695,18 +696,18 @@ impl RankArgs {
 #[derive(clap::Args, Debug, Clone)]
 pub(crate) struct PlanArgs {
     /// Minimum turning radius of the vehicle, metres, in [0.5, 100].
-    #[arg(long, default_value_t = 5.0, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
+    #[arg(long, default_value_t = api::plan::PlanOptions::DEFAULT.turning_radius_m, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
     pub(crate) turning_radius_m: f64,
     /// Time budget for OMPL, milliseconds, in [0, 60000]; 0 returns the route polyline as a
     /// fallback.
-    #[arg(long, default_value_t = 200.0, value_parser = in_range(0.0, 60000.0), allow_hyphen_values = true)]
+    #[arg(long, default_value_t = api::plan::PlanOptions::DEFAULT.budget_ms, value_parser = in_range(0.0, 60000.0), allow_hyphen_values = true)]
     pub(crate) budget_ms: f64,
     /// Half-width of the corridor around the route the path must stay in, metres, in
     /// [0.5, 100].
-    #[arg(long, default_value_t = 6.0, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
+    #[arg(long, default_value_t = api::plan::PlanOptions::DEFAULT.corridor_m, value_parser = in_range(0.5, 100.0), allow_hyphen_values = true)]
     pub(crate) corridor_m: f64,
     /// Points farther than this from every lane are refused, metres, in [0, 1000].
-    #[arg(long, default_value_t = 15.0, value_parser = in_range(0.0, 1000.0), allow_hyphen_values = true)]
+    #[arg(long, default_value_t = api::plan::PlanOptions::DEFAULT.snap_m, value_parser = in_range(0.0, 1000.0), allow_hyphen_values = true)]
     pub(crate) snap_m: f64,
     /// Draw the map (instances in SemanticKITTI class colours), the lane graph, the route
     /// (blue), the path, the boxes that block it, the start (green) and the goal (red).
@@ -722,67 +723,6 @@ impl PlanArgs {
             corridor_m: self.corridor_m,
             snap_m: self.snap_m,
             png: self.png.clone(),
-        }
-    }
-}
-
-/// A clap parser for a file to write: its folder must exist and it must not be a folder
-/// (checked before any work, so a long run never fails at its last step).
-pub(crate) fn output_file(s: &str) -> Result<PathBuf, String> {
-    let p = PathBuf::from(s);
-    if s.is_empty() {
-        return Err("the path is empty".into());
-    }
-    if s == "-" || p.starts_with("/dev") {
-        return Ok(p);
-    }
-    if p.is_dir() {
-        return Err(format!("{s} is a folder; give a file name"));
-    }
-    let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
-    if let Some(d) = parent
-        && !d.is_dir()
-    {
-        return Err(format!("the folder {} does not exist", d.display()));
-    }
-    Ok(p)
-}
-
-/// A clap parser for a folder to write into: it may exist (as a folder) or be made, with its
-/// missing parents, as long as no part of the path is a file.
-pub(crate) fn output_dir(s: &str) -> Result<PathBuf, String> {
-    let p = PathBuf::from(s);
-    if s.is_empty() {
-        return Err("the path is empty".into());
-    }
-    // the nearest part of the path that exists must be a folder
-    let mut probe = Some(p.as_path());
-    while let Some(q) = probe {
-        if q.as_os_str().is_empty() {
-            break;
-        }
-        if q.exists() {
-            if !q.is_dir() {
-                return Err(format!("{} exists and is not a folder", q.display()));
-            }
-            break;
-        }
-        probe = q.parent();
-    }
-    Ok(p)
-}
-
-/// A clap parser for a finite number in `[lo, hi]`.
-pub(crate) fn in_range(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
-    move |s: &str| {
-        let v: f64 = s
-            .trim()
-            .parse()
-            .map_err(|_| format!("{s:?} is not a number"))?;
-        if v.is_finite() && (lo..=hi).contains(&v) {
-            Ok(v)
-        } else {
-            Err(format!("{s} is outside [{lo}, {hi}]"))
         }
     }
 }
@@ -827,59 +767,6 @@ impl LlmArgs {
         }
         base
     }
-}
-
-pub(crate) fn parse_budget(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .parse()
-        .map_err(|_| format!("{s:?} is not a number of seconds"))?;
-    if v.is_finite() && v > 0.0 && v <= 7.0 * 86400.0 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "{s}: the budget must be a finite number of seconds in (0, 604800]"
-        ))
-    }
-}
-
-pub(crate) fn parse_near(s: &str) -> Result<([f64; 2], f64), String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("expected X,Y,R in metres: {e}"))?;
-    match v[..] {
-        [x, y, r] if v.iter().all(|a| a.is_finite()) && r >= 0.0 => Ok(([x, y], r)),
-        _ => Err("expected X,Y,R: three finite numbers, R >= 0".into()),
-    }
-}
-
-pub(crate) fn parse_range(s: &str) -> Result<std::ops::Range<u32>, String> {
-    let (a, b) = s
-        .split_once("..")
-        .ok_or_else(|| format!("{s:?} is not a range A..B"))?;
-    let n = |x: &str| {
-        x.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("{x:?} is not a frame number"))
-    };
-    let (a, b) = (n(a)?, n(b)?);
-    if a >= b {
-        return Err(format!("{s}: the range is empty (A..B is half-open)"));
-    }
-    Ok(a..b)
-}
-
-pub(crate) fn parse_param(s: &str) -> Result<(String, graphstore::cypher::Val), String> {
-    let (k, v) = s
-        .split_once('=')
-        .ok_or_else(|| format!("--param takes name=value, got {s:?}"))?;
-    let k = k.trim().trim_start_matches('$');
-    if k.is_empty() || !k.chars().all(|c| c.is_alphanumeric() || c == '_') {
-        return Err(format!("--param: {k:?} is not a parameter name"));
-    }
-    let v = graphstore::cypher::param_from_text(v).map_err(|e| format!("--param {k}: {e}"))?;
-    Ok((k.to_string(), v))
 }
 
 #[cfg(test)]

@@ -15,9 +15,17 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     else {
         unreachable!("run dispatches only Command::Ask here")
     };
+    // the service checks the request as it does for HTTP and MCP
+    let req =
+        api::ops::check_ask(&serde_json::json!({"question": question, "max_steps": max_steps}))?;
     let mut model = open_llm(&llm.config(llm_tools::LlmConfig::default(), "local"), "ask")?;
     let mut tb = open_toolbox(&db, false)?;
-    let a = api::ask::ask(model.as_mut(), &mut tb, &question, max_steps as usize)?;
+    let a = api::ask::ask(
+        model.as_mut(),
+        &mut tb,
+        &req.question,
+        req.max_steps as usize,
+    )?;
     if json {
         outln!("{}", serde_json::to_string_pretty(&a)?);
     } else {

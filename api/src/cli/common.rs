@@ -284,7 +284,7 @@ pub(crate) fn finder_for(
 
 pub(crate) fn make_embedder(name: &str) -> anyhow::Result<Box<dyn llm_tools::Embedder + Send>> {
     Ok(match name {
-        "hash" => Box::new(llm_tools::HashEmbedder::new(graphstore::FEATURE_DIM)),
+        "hash" => Box::new(llm_tools::HashEmbedder::new(scene::FEATURE_DIM)),
         _ => Box::new(
             llm_tools::MiniLm::from_dir(&llm_tools::embed::default_models_dir())
                 .context("loading the sentence embedder")?,
@@ -308,60 +308,13 @@ pub(crate) fn is_closed_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// Errors caused by what the user gave us (exit code 2), as opposed to internal failures (1).
+/// Errors caused by what the user gave us (exit code 2), as opposed to internal failures (1):
+/// the service's classification ([`api::error::is_caller_error`]) of each error in the chain,
+/// and the CLI's own usage errors.
 pub(crate) fn is_input_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
-        // the user's paths: missing, not allowed, already there, a folder for a file
-        if let Some(io) = c.downcast_ref::<std::io::Error>() {
-            use std::io::ErrorKind as K;
-            return matches!(
-                io.kind(),
-                K::NotFound
-                    | K::PermissionDenied
-                    | K::AlreadyExists
-                    | K::IsADirectory
-                    | K::NotADirectory
-                    | K::ReadOnlyFilesystem
-            );
-        }
-        if let Some(g) = c.downcast_ref::<graphstore::Error>() {
-            return !matches!(
-                g,
-                graphstore::Error::Storage(_) | graphstore::Error::Io { .. }
-            );
-        }
-        if let Some(p) = c.downcast_ref::<planner::Error>() {
-            return !matches!(
-                p,
-                planner::Error::Render(_) | planner::Error::Store(graphstore::Error::Storage(_))
-            );
-        }
-        if let Some(l) = c.downcast_ref::<llm_tools::Error>() {
-            return llm_input_error(l);
-        }
-        if let Some(i) = c.downcast_ref::<ingest::Error>() {
-            return match i {
-                ingest::Error::Llm(l) => llm_input_error(l),
-                _ => !matches!(
-                    i,
-                    ingest::Error::Render(_) | ingest::Error::Store(graphstore::Error::Storage(_))
-                ),
-            };
-        }
-        c.downcast_ref::<UsageError>().is_some()
+        c.downcast_ref::<UsageError>().is_some() || api::error::is_caller_error(c) == Some(true)
     })
-}
-
-/// Missing or bad model files, bad settings and requests a server refuses are the user's to
-/// fix (exit 2); a model or server failing on a good request is not.
-pub(crate) fn llm_input_error(e: &llm_tools::Error) -> bool {
-    matches!(
-        e,
-        llm_tools::Error::ModelMissing { .. }
-            | llm_tools::Error::BadModel { .. }
-            | llm_tools::Error::Invalid(_)
-            | llm_tools::Error::LlmHttp { .. }
-    )
 }
 
 /// Shortens a rendered cell for the table view; line breaks, tabs and other control

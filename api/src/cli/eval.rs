@@ -20,7 +20,7 @@ pub(crate) fn semseg(cmd: Command) -> anyhow::Result<()> {
         unreachable!("run dispatches only Command::Eval here")
     };
     let store = open_read(&db)?;
-    let r = ingest::eval::eval_semseg(
+    let r = og_eval::semseg::eval_semseg(
         &store,
         &kitti,
         poses.as_deref(),
@@ -63,7 +63,7 @@ pub(crate) fn relations(cmd: Command) -> anyhow::Result<()> {
         unreachable!("run dispatches only Command::Eval here")
     };
     let store = open_read(&db)?;
-    let r = ingest::eval_llm::eval_relations(&store.read()?, &sim)?;
+    let r = og_eval::relations::eval_relations(&store.read()?, &sim)?;
     if json {
         outln!("{}", serde_json::to_string_pretty(&r)?);
     } else {
@@ -108,14 +108,14 @@ pub(crate) fn retrieval(cmd: Command) -> anyhow::Result<()> {
     else {
         unreachable!("run dispatches only Command::Eval here")
     };
-    let qs = ingest::eval_retrieval::read_queries(&queries)?;
+    let qs = og_eval::retrieval::read_queries(&queries)?;
     let store = open_read(&db)?;
     let r = store.read()?;
     let ranking = rank.ranking();
     let rerank_n = rank.rerank_n;
     let mut finder = finder_for(&r, None, needs_llm(ranking), &llm)?;
     let mut latencies = Vec::new();
-    let report = ingest::eval_retrieval::eval_retrieval(&sim, &qs, |text| {
+    let report = og_eval::retrieval::eval_retrieval(&sim, &qs, |text| {
         let t = std::time::Instant::now();
         let a = finder
             .find(
@@ -166,7 +166,7 @@ pub(crate) fn retrieval(cmd: Command) -> anyhow::Result<()> {
             "R@2",
             "R@3"
         );
-        for t in ingest::eval_retrieval::QUERY_TYPES {
+        for t in og_eval::retrieval::QUERY_TYPES {
             if let Some(s) = report.per_type.get(t) {
                 outln!(
                     "{t:<12} {:>7} {:>6.3} {:>6.3} {:>6.3}",
@@ -219,14 +219,14 @@ pub(crate) fn locate(cmd: Command) -> anyhow::Result<()> {
     else {
         unreachable!("run dispatches only Command::Eval here")
     };
-    let cases = ingest::eval_locate::generate_cases(&sim, per_spot as usize, seed)?;
+    let cases = og_eval::locate::generate_cases(&sim, per_spot as usize, seed)?;
     let store = open_read(&db)?;
     let r = store.read()?;
     let parser = parser_of(&parser);
     let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
     let scene = finder.scene(&r)?;
     let mut latencies = Vec::new();
-    let report = ingest::eval_locate::eval_locate(&cases, &scene.segments, |text| {
+    let report = og_eval::locate::eval_locate(&cases, &scene.segments, |text| {
         let t = std::time::Instant::now();
         let a = finder
             .locate(
@@ -303,7 +303,7 @@ pub(crate) fn instances(cmd: Command) -> anyhow::Result<()> {
         unreachable!("run dispatches only Command::Eval here")
     };
     let store = open_read(&db)?;
-    let r = ingest::eval_instances::eval_instances(&store.read()?, &sim)?;
+    let r = og_eval::instances::eval_instances(&store.read()?, &sim)?;
     if json {
         outln!("{}", serde_json::to_string_pretty(&r)?);
     } else {
@@ -313,14 +313,14 @@ pub(crate) fn instances(cmd: Command) -> anyhow::Result<()> {
             r.surface_tiles,
             r.objects,
             r.matched,
-            ingest::eval_instances::MATCH_IOU,
+            og_eval::instances::MATCH_IOU,
             r.precision,
             r.recall
         );
         if let Some(g) = r.ghosts {
             outln!(
                 "ghost instances (unmatched, within {} m of a mover's line): {g}",
-                ingest::eval_instances::GHOST_M
+                og_eval::instances::GHOST_M
             );
         }
         outln!("recall per true class:");
@@ -345,14 +345,14 @@ pub(crate) fn roads(cmd: Command) -> anyhow::Result<()> {
     };
     let store = open_read(&db)?;
     let gap = ingest::hierarchy::drivable::DrivableConfig::default().max_gap_m;
-    let r = ingest::eval_roads::eval_roads(&store.read()?, &sim, gap)?;
+    let r = og_eval::roads::eval_roads(&store.read()?, &sim, gap)?;
     if json {
         outln!("{}", serde_json::to_string_pretty(&r)?);
     } else {
         outln!(
             "road areas of {} segments against the simulator's roads ({} m raster)",
             r.segments.len(),
-            ingest::eval_roads::CELL_M
+            og_eval::roads::CELL_M
         );
         outln!("segment node  kind               truth m²  IoU before  IoU after  polygon m²");
         for s in &r.segments {
@@ -389,7 +389,7 @@ pub(crate) fn captions(cmd: Command) -> anyhow::Result<()> {
         unreachable!("run dispatches only Command::Eval here")
     };
     let store = open_read(&db)?;
-    let r = ingest::eval_llm::eval_captions(&store.read()?, &sim)?;
+    let r = og_eval::captions::eval_captions(&store.read()?, &sim)?;
     if json {
         outln!("{}", serde_json::to_string_pretty(&r)?);
     } else {
@@ -399,7 +399,7 @@ pub(crate) fn captions(cmd: Command) -> anyhow::Result<()> {
             r.matched,
             r.caption_source
         );
-        let row = |name: &str, c: &ingest::eval_llm::CaptionScores| {
+        let row = |name: &str, c: &og_eval::captions::CaptionScores| {
             outln!(
                 "{name:<8} colour {:.3} (wrong {:.3}, missing {:.3}, n={})  material {:.3} (wrong {:.3}, missing {:.3}, n={})  noun {:.3}  {:.1} words",
                 c.colour.accuracy,

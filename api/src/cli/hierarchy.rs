@@ -20,7 +20,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let store =
         graphstore::Store::create(&db).with_context(|| format!("opening {}", db.display()))?;
     if store.schema() == graphstore::Schema::default() {
-        store.set_schema(graphstore::opengraph_schema())?;
+        store.set_schema(scene::opengraph_schema())?;
     }
     let (_, _, report) = ingest::hierarchy::build_hierarchy(
         &store,

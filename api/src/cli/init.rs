@@ -31,7 +31,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let store =
         graphstore::Store::create(&db).with_context(|| format!("creating {}", db.display()))?;
     if schema == "opengraph" {
-        store.set_schema(graphstore::opengraph_schema())?;
+        store.set_schema(scene::opengraph_schema())?;
     }
     outln!(
         "created {} (schema: {schema}); try: opengraph query --db {} \"CREATE (p:Place {{name: 'home'}}) RETURN p\"",

@@ -29,3 +29,4 @@ pub(crate) mod sim;
 pub(crate) mod tool;
 pub(crate) mod tools;
 pub(crate) mod update;
+pub(crate) mod values;

@@ -2,8 +2,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
-
 use super::args::{Command, LlmArgs};
 use super::common::*;
 
@@ -96,50 +94,28 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .min(8)
     });
     let first = open_toolbox(&a.db, writes)?;
-    // the readers, then (where writes are on) the writer's own toolbox
-    let toolboxes = workers + usize::from(writes);
-    let mut boxes = Vec::with_capacity(toolboxes);
-    for _ in 1..toolboxes {
-        let finder = {
-            let r = first.store().read()?;
-            finder_for(&r, None, false, &LlmArgs::default())?
-        };
-        boxes.push(first.fork(finder));
-    }
-    boxes.push(first);
-    // one query-embedding cache for every worker
-    if a.embedding_cache > 0 {
-        let cache = llm_tools::EmbeddingCache::new(a.embedding_cache as usize);
-        for b in &mut boxes {
-            b.share_embedding_cache(cache.clone());
-        }
-    }
-    // one scene per commit for every worker
-    let scene = api::find::SharedScene::new(1);
-    for b in &mut boxes {
-        b.share_scene(scene.clone());
-    }
-    // one cache of read-only Cypher answers for every worker, kept until the next commit
-    if a.query_cache > 0 {
-        let cache = api::query_cache::QueryCache::new(a.query_cache as usize);
-        for b in &mut boxes {
-            b.share_query_cache(cache.clone());
-        }
-    }
-    let writer = if writes { boxes.pop() } else { None };
-    let timeout = std::time::Duration::from_secs_f64(a.timeout_secs);
     let cfg = a.llm.config(llm_tools::LlmConfig::default(), "none");
-    let service = if cfg.backend == "none" {
-        api::service::Service::new(boxes, timeout)
+    let model = if cfg.backend == "none" {
+        None
     } else {
-        let model = open_llm(&cfg, "serve --llm")?;
-        api::service::Service::with_llm(boxes, timeout, model)
-    }
-    .context("no workers")?;
-    let service = match writer {
-        Some(w) => service.with_writer(w).context("the service is shared")?,
-        None => service,
+        Some(open_llm(&cfg, "serve --llm")?)
     };
+    // the readers, then (where writes are on) the writer's own toolbox, sharing one map view
+    // per commit and the caches
+    let service = api::builder::ServiceBuilder::new()
+        .workers(workers)
+        .writer(writes)
+        .timeout(std::time::Duration::from_secs_f64(a.timeout_secs))
+        .embedding_cache(a.embedding_cache as usize)
+        .query_cache(a.query_cache as usize)
+        .llm(model)
+        .build(first, |store| {
+            let r = store
+                .read()
+                .map_err(|e| api::error::ToolError::Failed(e.to_string()))?;
+            finder_for(&r, None, false, &LlmArgs::default())
+                .map_err(|e| api::error::ToolError::Failed(format!("{e:#}")))
+        })?;
     let opts = api::http::ServeOptions {
         bind: a.bind,
         token,

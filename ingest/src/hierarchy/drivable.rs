@@ -17,7 +17,7 @@ use spade::{DelaunayTriangulation, Point2, Triangulation};
 
 use super::segments::Segments;
 use crate::error::Result;
-pub use planner::area::Drivable;
+use scene::area::Drivable;
 
 /// Road-area parameters (`[hierarchy.drivable]`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -60,7 +60,7 @@ pub fn drivable_points(
     cell_m: f64,
 ) -> Result<Vec<[f64; 2]>> {
     let mut cells: BTreeMap<(i64, i64), ([f64; 2], u32)> = BTreeMap::new();
-    for id in r.nodes_with_label("Instance")? {
+    for id in r.nodes_with_label(scene::label::INSTANCE)? {
         let class = match r.node_prop(id, "class")? {
             Some(Value::String(c)) => c,
             _ => continue,

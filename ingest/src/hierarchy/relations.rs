@@ -98,7 +98,7 @@ pub fn read_instance_box(
     };
     let obb = r
         .node_prop(id, "obb")?
-        .and_then(|v| planner::graph::obb_of(&v));
+        .and_then(|v| scene::records::obb_of(&v));
     Ok(Some(InstanceBox::new(frame, min, max, obb)))
 }
 

@@ -9,8 +9,9 @@ use std::path::Path;
 use tiny_skia::{Color, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 use super::lanes::{LaneGraph, LaneNodeKind};
-use super::segments::{SegmentArea, Segments};
+use super::segments::Segments;
 use crate::error::{Error, Result};
+use scene::area::SegmentArea;
 
 /// Longest image side in pixels.
 const MAX_SIDE_PX: f64 = 1600.0;

@@ -2,7 +2,8 @@
 //! bend node, a road corridor (buffered centreline) for every stretch of lane between them,
 //! `CONNECTS` between segments that join. Containment and distance go through parry2d.
 
-use super::lanes::{LaneGraph, LaneNodeKind, dist, polyline_length};
+use super::lanes::{LaneGraph, LaneNodeKind};
+use scene::geom::{dist, polyline_length};
 
 /// Segment parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -49,7 +50,7 @@ impl SegmentKind {
     }
 }
 
-pub use planner::area::SegmentArea;
+use scene::area::SegmentArea;
 
 /// One segment.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

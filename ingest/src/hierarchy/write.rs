@@ -5,13 +5,18 @@ use std::collections::BTreeMap;
 
 use graphstore::{GraphRead, Store, Value, WriteTxn};
 
-use super::drivable::{Drivable, DrivableConfig};
+use super::drivable::DrivableConfig;
 use super::lanes::{LaneConfig, LaneGraph, LaneNodeKind, extract_lanes};
 use super::relations::{RelationConfig, infer_relations, read_instance_box};
-use super::segments::{SegmentArea, SegmentConfig, Segments, build_segments};
+use super::segments::{SegmentConfig, Segments, build_segments};
 use crate::cluster::Grid2;
 use crate::error::{Error, Result};
 use scene::GroundFrame;
+use scene::area::{Drivable, SegmentArea};
+use scene::records::{
+    EnvironmentRecord, GEOMETRIC, InSegmentRecord, LaneEdgeRecord, LaneNodeRecord, RelationRecord,
+    SegmentRecord, SegmentShape,
+};
 
 /// All hierarchy parameters.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -90,11 +95,11 @@ impl HierarchyConfig {
         if let Some(c) = d
             .classes
             .iter()
-            .find(|c| crate::classes::class_id(c).is_none())
+            .find(|c| scene::classes::class_id(c).is_none())
         {
             return Err(Error::Invalid(format!(
                 "[hierarchy.drivable] classes: {c:?} is not one of the 19 classes ({})",
-                crate::classes::CLASSES.join(", ")
+                scene::classes::CLASSES.join(", ")
             )));
         }
         if l.l_turn_min_deg >= l.l_turn_max_deg {
@@ -184,12 +189,18 @@ impl Heights {
     }
 }
 
-fn world_box(frame: GroundFrame, lo: [f64; 2], hi: [f64; 2], h0: f64, h1: f64) -> Value {
+fn world_box(
+    frame: GroundFrame,
+    lo: [f64; 2],
+    hi: [f64; 2],
+    h0: f64,
+    h1: f64,
+) -> ([f64; 3], [f64; 3]) {
     let a = frame.world(lo, h0);
     let b = frame.world(hi, h1);
     let min = [0, 1, 2].map(|i| a[i].min(b[i]));
     let max = [0, 1, 2].map(|i| a[i].max(b[i]));
-    Value::box3d(min, max)
+    (min, max)
 }
 
 fn bounds(pts: &[[f64; 2]], pad: f64) -> ([f64; 2], [f64; 2]) {
@@ -224,15 +235,12 @@ pub fn build_hierarchy(
     Ok((lanes, segs, report))
 }
 
-/// The `Segment.polygon` property of a drivable area: a list of rings, each a list of
-/// points (`world(g)` of each ground vertex).
-pub fn polygon_value(area: &Drivable, world: impl Fn([f64; 2]) -> Value) -> Value {
-    Value::List(
-        area.rings
-            .iter()
-            .map(|r| Value::List(r.iter().map(|g| world(*g)).collect()))
-            .collect(),
-    )
+/// A drivable area's rings as world points (`Segment.polygon`), lifted by `world`.
+pub fn polygon_points(area: &Drivable, world: impl Fn([f64; 2]) -> [f64; 3]) -> Vec<Vec<[f64; 3]>> {
+    area.rings
+        .iter()
+        .map(|r| r.iter().map(|g| world(*g)).collect())
+        .collect()
 }
 
 fn into_store(e: Error) -> graphstore::Error {
@@ -252,77 +260,75 @@ fn write_all(
     cfg: &HierarchyConfig,
 ) -> Result<HierarchyReport> {
     // replace any previous hierarchy
-    for label in ["Environment", "Segment", "LaneNode"] {
+    for label in [
+        scene::label::ENVIRONMENT,
+        scene::label::SEGMENT,
+        scene::label::LANE_NODE,
+    ] {
         for id in tx.nodes_with_label(label)? {
             tx.detach_delete_node(id)?;
         }
     }
-    let related = tx.rel_type_id("RELATED")?;
-    for inst in tx.nodes_with_label("Instance")? {
+    let related = tx.rel_type_id(scene::rel::RELATED)?;
+    for inst in tx.nodes_with_label(scene::label::INSTANCE)? {
         for adj in tx.neighbours(inst, graphstore::Direction::Outgoing, Some(related))? {
             let rel = tx
                 .rel(adj.rel)?
                 .ok_or(graphstore::Error::RelNotFound(adj.rel))?;
-            let source = tx.prop_key("source").and_then(|k| rel.get(k).cloned());
-            if source == Some(Value::from("geometric")) {
+            let source = tx
+                .prop_key(scene::key::SOURCE)
+                .and_then(|k| rel.get(k).cloned());
+            if source == Some(Value::from(GEOMETRIC)) {
                 tx.delete_rel(adj.rel)?;
             }
         }
     }
     let mut report = HierarchyReport::default();
-    let p3 = |g: [f64; 2]| Value::Point3D(frame.world(g, heights.at(g)));
-    let frame_name = match frame {
-        GroundFrame::KittiCam => "kitti_cam",
-        GroundFrame::Enu => "enu",
-    };
-    let env = tx.create_node_named(
-        &["Environment"],
-        &[
-            ("name", environment.into()),
-            ("source", "trajectory".into()),
-            ("ground_frame", frame_name.into()),
-        ],
-    )?;
+    let w3 = |g: [f64; 2]| frame.world(g, heights.at(g));
+    let env = EnvironmentRecord {
+        name: environment.to_string(),
+        source: Some("trajectory".into()),
+        ground_frame: Some(frame),
+    }
+    .create(tx)?;
     let drivable = super::drivable::measure(&*tx, frame, segs, &cfg.drivable)?;
     let mut seg_ids = Vec::with_capacity(segs.segments.len());
     for (s, area) in segs.segments.iter().zip(&drivable) {
         let h = heights.at(s.centroid);
-        let mut props: Vec<(&str, Value)> = vec![
-            ("segment_id", Value::Int(s.id as i64)),
-            ("kind", s.kind.as_str().into()),
-            ("centroid", p3(s.centroid)),
-        ];
-        match &s.area {
-            SegmentArea::Disc { centre, radius_m } => {
-                props.push(("radius_m", Value::Float(*radius_m)));
-                props.push((
-                    "area",
-                    Value::List(s.area.outline(24).into_iter().map(p3).collect()),
-                ));
-                let (lo, hi) = bounds(&[*centre], *radius_m);
-                props.push(("bbox", world_box(frame, lo, hi, h - 3.0, h + 3.0)));
-            }
+        let (shape, (lo, hi)) = match &s.area {
+            SegmentArea::Disc { centre, radius_m } => (
+                SegmentShape::Disc {
+                    radius_m: *radius_m,
+                    outline: s.area.outline(24).into_iter().map(w3).collect(),
+                },
+                bounds(&[*centre], *radius_m),
+            ),
             SegmentArea::Corridor {
                 centreline,
                 half_width_m,
-            } => {
-                props.push(("half_width_m", Value::Float(*half_width_m)));
-                props.push((
-                    "centerline",
-                    Value::List(centreline.iter().map(|g| p3(*g)).collect()),
-                ));
-                let (lo, hi) = bounds(centreline, *half_width_m);
-                props.push(("bbox", world_box(frame, lo, hi, h - 3.0, h + 3.0)));
-            }
-        }
+            } => (
+                SegmentShape::Corridor {
+                    half_width_m: *half_width_m,
+                    centerline: centreline.iter().map(|g| w3(*g)).collect(),
+                },
+                bounds(centreline, *half_width_m),
+            ),
+        };
+        let record = SegmentRecord {
+            segment_id: s.id as i64,
+            kind: s.kind.as_str().to_string(),
+            centroid: w3(s.centroid),
+            shape: Some(shape),
+            bbox: Some(world_box(frame, lo, hi, h - 3.0, h + 3.0)),
+            polygon: polygon_points(area, w3),
+            drivable_area_m2: (!area.is_empty()).then(|| area.area_m2()),
+        };
         if !area.is_empty() {
-            props.push(("polygon", polygon_value(area, p3)));
-            props.push(("drivable_area_m2", Value::Float(area.area_m2())));
             report.drivable_m2 += area.area_m2();
             report.drivable_segments += 1;
         }
-        let id = tx.create_node_named(&["Segment"], &props)?;
-        tx.create_rel_named(env, "CONTAINS", id, &[])?;
+        let id = record.create(tx)?;
+        tx.create_rel_named(env, scene::rel::CONTAINS, id, &[])?;
         seg_ids.push(id);
         *report
             .segments
@@ -330,18 +336,16 @@ fn write_all(
             .or_default() += 1;
     }
     for (a, b) in &segs.connects {
-        tx.create_rel_named(seg_ids[*a], "CONNECTS", seg_ids[*b], &[])?;
+        tx.create_rel_named(seg_ids[*a], scene::rel::CONNECTS, seg_ids[*b], &[])?;
     }
     let mut lane_ids = Vec::with_capacity(lanes.nodes.len());
     for n in &lanes.nodes {
-        let id = tx.create_node_named(
-            &["LaneNode"],
-            &[
-                ("lane_id", Value::Int(n.id as i64)),
-                ("kind", n.kind.as_str().into()),
-                ("position", p3(n.xy)),
-            ],
-        )?;
+        let id = LaneNodeRecord {
+            lane_id: n.id as i64,
+            kind: n.kind.as_str().to_string(),
+            position: w3(n.xy),
+        }
+        .create(tx)?;
         lane_ids.push(id);
         *report
             .lane_nodes
@@ -358,37 +362,22 @@ fn write_all(
                     .flatten()
             });
         if let Some((sid, d)) = seg {
-            tx.create_rel_named(
-                id,
-                "IN_SEGMENT",
-                seg_ids[sid],
-                &[("distance_m", Value::Float(d))],
-            )?;
+            InSegmentRecord { distance_m: d }.create(tx, id, seg_ids[sid])?;
         }
     }
     for e in &lanes.edges {
-        tx.create_rel_named(
-            lane_ids[e.from],
-            "LANE",
-            lane_ids[e.to],
-            &[
-                ("length_m", Value::Float(e.length_m)),
-                (
-                    "polyline",
-                    Value::List(e.polyline.iter().map(|g| p3(*g)).collect()),
-                ),
-                (
-                    "frames",
-                    Value::List(e.frames.iter().map(|f| Value::Int(i64::from(*f))).collect()),
-                ),
-                ("directed", Value::Bool(false)),
-            ],
-        )?;
+        LaneEdgeRecord {
+            length_m: e.length_m,
+            polyline: e.polyline.iter().map(|g| w3(*g)).collect(),
+            frames: e.frames.iter().map(|f| i64::from(*f)).collect(),
+            directed: false,
+        }
+        .create(tx, lane_ids[e.from], lane_ids[e.to])?;
     }
     report.lane_edges = lanes.edges.len();
     report.trajectory_gaps = lanes.gaps.clone();
     // instances
-    let instances = tx.nodes_with_label("Instance")?;
+    let instances = tx.nodes_with_label(scene::label::INSTANCE)?;
     let mut boxes = Vec::with_capacity(instances.len());
     for &id in &instances {
         let Some(b) = read_instance_box(&*tx, id, frame)? else {
@@ -402,17 +391,12 @@ fn write_all(
             .segments
             .iter()
             .map(|s| {
-                let d = planner::area::membership_distance(&s.area, Some(&drivable[s.id]), c);
+                let d = scene::area::membership_distance(&s.area, Some(&drivable[s.id]), c);
                 (s.id, d)
             })
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         if let Some((sid, d)) = nearest {
-            tx.create_rel_named(
-                id,
-                "IN_SEGMENT",
-                seg_ids[sid],
-                &[("distance_m", Value::Float(d))],
-            )?;
+            InSegmentRecord { distance_m: d }.create(tx, id, seg_ids[sid])?;
             report.instances_linked += 1;
         }
     }
@@ -424,17 +408,13 @@ fn write_all(
             .and_then(|s| s.area.direction_near(g))
     };
     for r in infer_relations(&boxes, frame, road_dir, &cfg.relations) {
-        tx.create_rel_named(
-            instances[r.a],
-            "RELATED",
-            instances[r.b],
-            &[
-                ("relation", r.relation.into()),
-                ("distance_m", Value::Float(r.distance_m)),
-                ("source", "geometric".into()),
-                ("confidence", Value::Float(r.confidence)),
-            ],
-        )?;
+        RelationRecord {
+            relation: r.relation.to_string(),
+            distance_m: r.distance_m,
+            source: GEOMETRIC.into(),
+            confidence: r.confidence,
+        }
+        .create(tx, instances[r.a], instances[r.b])?;
         *report.relations.entry(r.relation.to_string()).or_default() += 1;
     }
     Ok(report)

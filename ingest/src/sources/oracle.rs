@@ -16,10 +16,10 @@ use rand_chacha::ChaCha8Rng;
 use super::detections::{Detection, DetectionFrame, Producer};
 use super::kitti::{PointLabel, Rigid3};
 use super::rle::Rle;
-use crate::classes::{self, class_name};
 use crate::cluster::dbscan;
 use crate::error::{Error, Result};
 use crate::mapping::project::Camera;
+use scene::classes::{self, class_name};
 
 /// Oracle parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

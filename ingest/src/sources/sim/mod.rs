@@ -10,6 +10,7 @@ pub mod movers;
 pub mod roads;
 pub mod scene;
 pub mod sensors;
+pub mod truth;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -21,7 +22,7 @@ use serde_json::json;
 use crate::error::{Error, Result};
 use crate::sources::detections::write_detections;
 use roads::{RoadNetwork, SimSize, camera_pose, sample_path};
-use scene::{Scene, SceneConfig};
+use scene::{City, SceneConfig};
 use sensors::{CameraConfig, DetectionNoise, LidarConfig, calib_text, kitti_calib};
 
 /// The vehicle's speed along the drive.
@@ -182,7 +183,7 @@ pub fn generate(
         return Err(Error::Invalid("the drive is empty".into()));
     }
     let scene =
-        Scene::generate(net, cfg.seed, &SceneConfig::default()).with_movers(&cfg.movers, cfg.seed);
+        City::generate(net, cfg.seed, &SceneConfig::default()).with_movers(&cfg.movers, cfg.seed);
     let scene_secs = t0.elapsed().as_secs_f64();
 
     for d in ["velodyne", "labels", "detections", "ground_truth"] {
@@ -274,7 +275,7 @@ pub fn generate(
         *junctions.entry(n.kind.as_str()).or_insert(0) += 1;
     }
     let drive_length_m =
-        crate::hierarchy::lanes::polyline_length(&samples.iter().map(|s| s.0).collect::<Vec<_>>());
+        ::scene::geom::polyline_length(&samples.iter().map(|s| s.0).collect::<Vec<_>>());
     let report = SimReport {
         out: out.to_path_buf(),
         road_length_m: scene.net.length_m(),
@@ -327,7 +328,7 @@ pub fn generate(
 fn sensor_frame(
     out: &Path,
     cfg: &SimConfig,
-    scene: &Scene,
+    scene: &City,
     calib: &crate::sources::kitti::Calib,
     world_from_cam0: &crate::sources::kitti::Rigid3,
     f: u32,

@@ -5,8 +5,8 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde_json::{Value as Json, json};
 
-use crate::hierarchy::lanes::{dist, polyline_length};
 use crate::sources::kitti::Rigid3;
+use scene::geom::{dist, polyline_length};
 
 /// How big a city to generate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -5,7 +5,7 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::scene::{Attributes, Hit, Kind, Scene, Surface};
+use super::scene::{Attributes, City, Hit, Kind, Surface};
 use crate::sources::detections::{Detection, DetectionFrame, Producer};
 use crate::sources::kitti::{Calib, Projection, Rigid3};
 use crate::sources::rle::Rle;
@@ -189,7 +189,7 @@ pub struct LidarScan {
 
 /// Casts every beam at every azimuth from `world_from_velo`.
 pub fn lidar_scan(
-    scene: &Scene,
+    scene: &City,
     movers: &[super::movers::MoverBox],
     world_from_velo: &Rigid3,
     cfg: &LidarConfig,
@@ -263,7 +263,7 @@ pub struct InstanceImage {
 
 /// Ray casts the instance image of camera P2 at `world_from_cam0`.
 pub fn render(
-    scene: &Scene,
+    scene: &City,
     movers: &[super::movers::MoverBox],
     calib: &Calib,
     world_from_cam0: &Rigid3,
@@ -375,7 +375,7 @@ pub fn morph(mask: &[bool], width: usize, height: usize, r: i32) -> Vec<bool> {
 /// The detections seen in an instance image: one per visible object (within range and
 /// large enough), one per ground surface, and noise.
 pub fn detect(
-    scene: &Scene,
+    scene: &City,
     frame: u32,
     img: &InstanceImage,
     cfg: &CameraConfig,

@@ -1,6 +1,6 @@
 //! Retrieval evaluation against the simulator's ground truth: R@1/2/3 per query type, where a
 //! hit is a returned instance whose centroid lies on a right object (location-strict: the
-//! instance is matched to the true object under it, [`crate::eval_llm::match_truth`], and
+//! instance is matched to the true object under it, [`ingest::sources::sim::truth::match_truth`], and
 //! that object must satisfy the query's predicate).
 //!
 //! A query file is JSON Lines, one query per line:
@@ -14,8 +14,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::error::{Error, Result};
-use crate::eval_llm::{TruthObject, footprint_gap, match_truth, read_truth};
+use crate::{Error, Result};
+use ingest::sources::sim::truth::{TruthObject, footprint_gap, match_truth, read_truth};
 
 /// The anchor part of a predicate.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -58,7 +58,7 @@ pub const QUERY_TYPES: [&str; 3] = ["named", "relational", "functional"];
 /// The file cannot be read, a line is not a query (the message names the line), or a
 /// `type` is not one of [`QUERY_TYPES`].
 pub fn read_queries(path: &Path) -> Result<Vec<Query>> {
-    let text = crate::error::read_text(path)?;
+    let text = ingest::sources::sim::truth::read_text(path)?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let l = line.trim();

@@ -9,11 +9,11 @@ use std::path::Path;
 
 use graphstore::{GraphRead, Store, Value};
 
-use crate::build::Sequence;
-use crate::classes::{self, CLASSES};
-use crate::error::{Error, Result};
-use crate::mapping::geometry::voxel_key;
-use crate::sources::kitti;
+use crate::{Error, Result};
+use ingest::build::Sequence;
+use ingest::mapping::geometry::voxel_key;
+use ingest::sources::kitti;
+use scene::classes::{self, CLASSES};
 
 /// Counts: `m[gt][pred]` with gt in 1..=19 and pred in 0..=19 (0 = no map point near).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -113,7 +113,7 @@ struct MapIndex {
 impl MapIndex {
     fn from_store(r: &impl GraphRead, cell_m: f32) -> Result<MapIndex> {
         let mut cells: HashMap<[i32; 3], Vec<([f32; 3], u8)>> = HashMap::new();
-        for id in r.nodes_with_label("Instance")? {
+        for id in r.nodes_with_label(scene::label::INSTANCE)? {
             let class = match r.node_prop(id, "class")? {
                 Some(Value::String(c)) => classes::class_id(&c).unwrap_or(0),
                 _ => 0,
@@ -167,7 +167,7 @@ pub fn eval_semseg(
     let seq = Sequence::open(sequence, poses)?;
     let r = store.read()?;
     let source = r
-        .find_nodes("Build", "build_id", &Value::Int(0))?
+        .find_nodes(scene::label::BUILD, "build_id", &Value::Int(0))?
         .first()
         .map(|n| r.node_prop(*n, "source"))
         .transpose()?

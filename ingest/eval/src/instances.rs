@@ -17,8 +17,8 @@ use std::path::Path;
 use graphstore::GraphRead;
 use scene::{GroundFrame, OrientedBox};
 
-use crate::error::Result;
-use crate::eval_llm::{TruthObject, read_truth};
+use crate::Result;
+use ingest::sources::sim::truth::{TruthObject, mover_lines, read_truth};
 
 /// Footprint IoU a match needs.
 pub const MATCH_IOU: f64 = 0.5;
@@ -73,62 +73,6 @@ pub struct InstanceEval {
 /// How near a mover's line an unmatched instance counts as its ghost, metres.
 pub const GHOST_M: f64 = 1.5;
 
-/// The lines the simulator's movers keep to (ground plane), from `movers.json`: a car's
-/// two lanes (it keeps right both ways), a walker's sidewalk. Empty without the file.
-fn mover_lines(sim_dir: &Path) -> Result<Option<Vec<Vec<[f64; 2]>>>> {
-    let path = sim_dir.join("ground_truth/movers.json");
-    if !path.exists() {
-        return Ok(None);
-    }
-    let v = crate::error::read_json(&path)?;
-    let bad = |d: String| crate::Error::File {
-        path: path.clone(),
-        detail: d,
-    };
-    let movers = v["movers"]
-        .as_array()
-        .ok_or_else(|| bad("no \"movers\" array".into()))?;
-    let mut out = Vec::new();
-    for (i, m) in movers.iter().enumerate() {
-        let line: Option<Vec<[f64; 2]>> = m["path"]
-            .as_array()
-            .and_then(|a| a.iter().map(crate::error::json_xy).collect());
-        let (Some(line), Some(off), Some(side)) =
-            (line, m["offset_m"].as_f64(), m["side"].as_f64())
-        else {
-            return Err(bad(format!(
-                "mover {i} lacks a path of [x, z] points, offset_m or side"
-            )));
-        };
-        if line.len() < 2 {
-            return Err(bad(format!("mover {i} has a path of fewer than 2 points")));
-        }
-        let off = off * side;
-        let sides: &[f64] = if m["class"] == "car" {
-            &[1.0, -1.0]
-        } else {
-            &[1.0]
-        };
-        for s in sides {
-            out.push(offset_line(&line, off * s));
-        }
-    }
-    Ok((!out.is_empty()).then_some(out))
-}
-
-/// `line` moved sideways by `d` metres (to the right of its direction in KITTI's ground
-/// plane, `(d.z, -d.x)`, for positive `d`), vertex by vertex.
-fn offset_line(line: &[[f64; 2]], d: f64) -> Vec<[f64; 2]> {
-    (0..line.len())
-        .map(|i| {
-            let (a, b) = (line[i.saturating_sub(1)], line[(i + 1).min(line.len() - 1)]);
-            let (dx, dz) = (b[0] - a[0], b[1] - a[1]);
-            let n = dx.hypot(dz).max(1e-9);
-            [line[i][0] + dz / n * d, line[i][1] - dx / n * d]
-        })
-        .collect()
-}
-
 /// IoU of two rectangles (corners in order, either winding) on the ground plane; 0 for
 /// degenerate ones.
 pub fn footprint_iou(a: &[[f64; 2]; 4], b: &[[f64; 2]; 4]) -> f64 {
@@ -144,7 +88,7 @@ fn instance_footprint(
     frame: GroundFrame,
 ) -> Result<Option<[[f64; 2]; 4]>> {
     Ok(
-        crate::hierarchy::relations::read_instance_box(r, id, frame)?
+        ingest::hierarchy::relations::read_instance_box(r, id, frame)?
             .map(|b| b.obb.widened(MIN_SIDE_M).corners()),
     )
 }
@@ -215,8 +159,8 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
     };
     let mut feet = Vec::new();
     let mut classes = Vec::new();
-    for id in r.nodes_with_label("Instance")? {
-        if !crate::llm::is_object(r, id)? {
+    for id in r.nodes_with_label(scene::label::INSTANCE)? {
+        if !ingest::llm::is_object(r, id)? {
             out.surface_tiles += 1;
             continue;
         }
@@ -224,7 +168,7 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
             continue;
         };
         feet.push(f);
-        classes.push(crate::llm::str_prop(r, id, "class")?.unwrap_or_default());
+        classes.push(ingest::llm::str_prop(r, id, "class")?.unwrap_or_default());
     }
     out.instances = feet.len();
     let matches = match_greedy(&feet, &truth);
@@ -237,7 +181,7 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
         let near_line = |c: [f64; 2]| {
             lines.iter().any(|l| {
                 l.windows(2).any(|w| {
-                    let (_, q) = planner::closest_on_segment(c, w[0], w[1]);
+                    let (_, q) = scene::geom::closest_on_segment(c, w[0], w[1]);
                     (c[0] - q[0]).hypot(c[1] - q[1]) <= GHOST_M
                 })
             })
@@ -333,16 +277,6 @@ mod tests {
         let big = rect(0.0, 0.0, 3.0, 2.0);
         assert!((footprint_iou(&widen(&big, 1.0), &big) - 1.0).abs() < 1e-9);
         assert!((area(&widen(&big, 1.0)) - 6.0).abs() < 1e-9);
-    }
-
-    #[test]
-    fn mover_lines_are_offset_to_the_right() {
-        // going +z, right is +x in KITTI's ground plane
-        let l = offset_line(&[[0.0, 0.0], [0.0, 10.0]], 2.0);
-        assert!((l[0][0] - 2.0).abs() < 1e-12 && (l[1][0] - 2.0).abs() < 1e-12);
-        assert!((l[1][1] - 10.0).abs() < 1e-12);
-        let l = offset_line(&[[0.0, 0.0], [0.0, 10.0]], -2.0);
-        assert!((l[0][0] + 2.0).abs() < 1e-12);
     }
 
     #[test]

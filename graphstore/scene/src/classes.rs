@@ -1,5 +1,5 @@
 //! The 19 SemanticKITTI evaluation classes and the raw-label mapping (`learning_map` in
-//! `semantic-kitti.yaml`), plus which classes the mapper treats as background.
+//! `semantic-kitti.yaml`), which classes are ground surfaces, and SemanticKITTI's colour map.
 
 /// Class names in SemanticKITTI's training order (index + 1 is the class id; 0 is unlabelled).
 pub const CLASSES: [&str; 19] = [
@@ -92,8 +92,6 @@ pub fn class_name(id: u8) -> Option<&'static str> {
     CLASSES.get(usize::from(id).checked_sub(1)?).copied()
 }
 
-pub use llm_tools::vocab::{names_surface, subject_phrase};
-
 /// Class id (1..=19) of a name.
 pub fn class_id(name: &str) -> Option<u8> {
     CLASSES.iter().position(|c| *c == name).map(|i| i as u8 + 1)
@@ -109,6 +107,37 @@ pub fn is_thing(id: u8) -> bool {
 /// vegetation included, is mapped as objects.
 pub fn is_surface(id: u8) -> bool {
     matches!(id, 9..=12 | 17)
+}
+
+/// The ground-surface class names (the names of [`is_surface`]'s classes): road, sidewalk,
+/// parking, terrain, other-ground. Retrieval, localisation and the viewer treat instances of
+/// these classes as ground, not objects.
+pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
+
+/// SemanticKITTI's colour (RGB, from its `color_map`) for a class name; grey for others.
+pub fn class_colour(class: &str) -> (u8, u8, u8) {
+    match class {
+        "car" => (100, 150, 245),
+        "bicycle" => (100, 230, 245),
+        "motorcycle" => (30, 60, 150),
+        "truck" => (80, 30, 180),
+        "other-vehicle" => (100, 80, 250),
+        "person" => (255, 30, 30),
+        "bicyclist" => (255, 40, 200),
+        "motorcyclist" => (150, 30, 90),
+        "road" => (255, 0, 255),
+        "parking" => (255, 150, 255),
+        "sidewalk" => (75, 0, 75),
+        "other-ground" => (175, 0, 75),
+        "building" => (255, 200, 0),
+        "fence" => (255, 120, 50),
+        "vegetation" => (0, 175, 0),
+        "trunk" => (135, 60, 0),
+        "terrain" => (150, 240, 80),
+        "pole" => (255, 240, 150),
+        "traffic-sign" => (255, 0, 0),
+        _ => (128, 128, 128),
+    }
 }
 
 #[cfg(test)]
@@ -171,5 +200,18 @@ mod tests {
         for (class, raw) in inv.iter().filter(|(c, _)| *c > 0) {
             assert_eq!(class_name(*class as u8), Some(labels[raw].as_str()));
         }
+    }
+
+    #[test]
+    fn surface_names_are_the_surface_classes() {
+        let mut by_id: Vec<&str> = (1..=19u8)
+            .filter(|i| is_surface(*i))
+            .filter_map(class_name)
+            .collect();
+        let mut names = SURFACE_CLASSES.to_vec();
+        by_id.sort_unstable();
+        names.sort_unstable();
+        assert_eq!(by_id, names);
+        assert_ne!(class_colour("road"), class_colour("no-such-class"));
     }
 }

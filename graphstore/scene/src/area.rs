@@ -6,7 +6,7 @@ use parry2d::math::{Pose, Vector};
 use parry2d::query::PointQuery;
 use parry2d::shape::Ball;
 
-use crate::route::closest_on_segment;
+use crate::geom::closest_on_segment;
 
 /// The area a segment covers.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -247,16 +247,16 @@ impl Drivable {
     pub fn of_segment(
         r: &impl graphstore::GraphRead,
         id: u64,
-        frame: scene::GroundFrame,
+        frame: crate::GroundFrame,
     ) -> graphstore::Result<Option<Drivable>> {
-        Ok(r.node_prop(id, "polygon")?
+        Ok(r.node_prop(id, crate::key::POLYGON)?
             .and_then(|v| Drivable::from_property(&v, frame))
             .filter(|d| !d.is_empty()))
     }
 
     /// The area of a `Segment.polygon` property (a list of rings, each a list of world
     /// points); `None` for anything else.
-    fn from_property(v: &graphstore::Value, frame: scene::GroundFrame) -> Option<Drivable> {
+    fn from_property(v: &graphstore::Value, frame: crate::GroundFrame) -> Option<Drivable> {
         use graphstore::Value;
         let Value::List(rings) = v else { return None };
         let rings: Option<Vec<Vec<[f64; 2]>>> = rings

@@ -18,7 +18,7 @@ use rand_chacha::ChaCha8Rng;
 
 use llm_tools::locate::SegmentInfo;
 
-use crate::error::{Error, Result};
+use crate::{Error, Result};
 
 /// One generated description.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -77,12 +77,12 @@ fn article(phrase: &str) -> &'static str {
 /// The truth files are missing or malformed.
 pub fn generate_cases(sim_dir: &Path, per_spot: usize, seed: u64) -> Result<Vec<LocateCase>> {
     let path = sim_dir.join("ground_truth/roads.json");
-    let v = crate::error::read_json(&path)?;
+    let v = ingest::sources::sim::truth::read_json(&path)?;
     let bad = |d: &str| Error::File {
         path: path.clone(),
         detail: d.to_string(),
     };
-    let xy = crate::error::json_xy;
+    let xy = ingest::sources::sim::truth::json_xy;
     let mut spots: Vec<([f64; 2], String)> = Vec::new();
     for j in v["junctions"]
         .as_array()
@@ -109,7 +109,7 @@ pub fn generate_cases(sim_dir: &Path, per_spot: usize, seed: u64) -> Result<Vec<
     }
     // objects, with the fields a description uses
     let opath = sim_dir.join("ground_truth/objects.json");
-    let ov = crate::error::read_json(&opath)?;
+    let ov = ingest::sources::sim::truth::read_json(&opath)?;
     let objects: Vec<([f64; 2], String, String, String)> = ov["objects"]
         .as_array()
         .map(|a| {

@@ -12,23 +12,15 @@
 use std::path::Path;
 
 use graphstore::GraphRead;
+use ingest::sources::sim::truth::read_roads;
 use llm_tools::locate::SegmentInfo;
-use planner::area::SegmentArea;
 use scene::GroundFrame;
+use scene::area::SegmentArea;
 
-use crate::error::{Error, Result};
+use crate::{Error, Result};
 
 /// Raster cell, metres.
 pub const CELL_M: f64 = 0.25;
-
-/// One road of the truth.
-#[derive(Debug, Clone)]
-struct TrueRoad {
-    centerline: Vec<[f64; 2]>,
-    half_width_m: f64,
-    /// Parking width on the right and left of the `from → to` direction (0 without).
-    parking_m: [f64; 2],
-}
 
 /// Scores of one segment.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -63,44 +55,6 @@ pub struct RoadEval {
     pub total_iou_before: f64,
     /// IoU of the union of the polygons with it.
     pub total_iou_after: f64,
-}
-
-fn read_roads(sim_dir: &Path) -> Result<Vec<TrueRoad>> {
-    let path = sim_dir.join("ground_truth/roads.json");
-    let v = crate::error::read_json(&path)?;
-    let bad = |d: String| Error::File {
-        path: path.clone(),
-        detail: d,
-    };
-    let roads = v["roads"]
-        .as_array()
-        .ok_or_else(|| bad("no \"roads\" array".into()))?;
-    let mut out = Vec::new();
-    for (i, r) in roads.iter().enumerate() {
-        let line: Option<Vec<[f64; 2]>> = r["centerline"]
-            .as_array()
-            .map(|a| a.iter().filter_map(crate::error::json_xy).collect());
-        let (Some(centerline), Some(w)) = (line, r["width_m"].as_f64()) else {
-            return Err(bad(format!("road {i} lacks a centerline or width_m")));
-        };
-        if centerline.len() < 2 || !(w.is_finite() && w > 0.0) {
-            return Err(bad(format!("road {i} has a bad centerline or width_m")));
-        }
-        let pw = r["parking_width_m"].as_f64().unwrap_or(0.0);
-        let side = |k: usize| {
-            if r["parking"][k].as_bool().unwrap_or(false) {
-                pw
-            } else {
-                0.0
-            }
-        };
-        out.push(TrueRoad {
-            centerline,
-            half_width_m: w / 2.0,
-            parking_m: [side(0), side(1)],
-        });
-    }
-    Ok(out)
 }
 
 /// A raster over the ground plane.
@@ -209,7 +163,7 @@ pub fn eval_roads(r: &impl GraphRead, sim_dir: &Path, max_gap_m: f64) -> Result<
             let bhi = [a[0].max(b[0]) + reach, a[1].max(b[1]) + reach];
             for (i, j) in ras.cells_in(blo, bhi) {
                 let p = ras.centre(i, j);
-                let (_, q) = planner::closest_on_segment(p, a, b);
+                let (_, q) = scene::geom::closest_on_segment(p, a, b);
                 let d = (p[0] - q[0]).hypot(p[1] - q[1]);
                 let d_ = [b[0] - a[0], b[1] - a[1]];
                 let right = (p[0] - a[0]) * d_[1] - (p[1] - a[1]) * d_[0];

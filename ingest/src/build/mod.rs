@@ -11,7 +11,6 @@ use std::time::Instant;
 use graphstore::{Direction, GraphRead, PointCloud, Store, Value};
 use llm_tools::Embedder;
 
-use crate::classes;
 use crate::error::{Error, Result};
 use crate::hierarchy::{HierarchyConfig, HierarchyReport, build_hierarchy};
 use crate::mapping::project::Camera;
@@ -22,6 +21,15 @@ use crate::sources::detections::{DetectionFrame, read_detections};
 use crate::sources::kitti::{self, Calib, Rigid3, Scan};
 use crate::sources::oracle::{OracleConfig, oracle_detections};
 use scene::GroundFrame;
+use scene::classes;
+use scene::records::InstanceRecord;
+
+mod describe;
+mod resume;
+mod sources;
+use describe::*;
+use resume::*;
+pub use sources::*;
 
 /// All build parameters: the `[mapping]`, `[oracle]` and `[hierarchy]` tables of a TOML file.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -70,174 +78,6 @@ impl BuildConfig {
                 detail: e.to_string(),
             })?;
         Ok(cfg)
-    }
-}
-
-/// Where the detections come from.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Source {
-    /// The SemanticKITTI label oracle (needs `labels/`).
-    Oracle,
-    /// A directory of detections files `NNNNNN.json`.
-    Detections(PathBuf),
-}
-
-impl Source {
-    /// `oracle` or `detections` (the `source` of the eval report).
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Source::Oracle => "oracle",
-            Source::Detections(_) => "detections",
-        }
-    }
-}
-
-/// A KITTI odometry sequence on disk.
-#[derive(Debug, Clone)]
-pub struct Sequence {
-    /// The sequence directory.
-    pub dir: PathBuf,
-    /// Frame numbers that have a scan, ascending.
-    pub scans: Vec<u32>,
-    /// cam0-to-world poses.
-    pub poses: Vec<Rigid3>,
-    /// Where the poses came from.
-    pub poses_path: PathBuf,
-    /// Calibration.
-    pub calib: Calib,
-    /// Timestamps, when `times.txt` exists.
-    pub times: Option<Vec<f64>>,
-}
-
-fn frame_number(path: &Path, ext: &str) -> Option<u32> {
-    let name = path.file_name()?.to_str()?;
-    let stem = name.strip_suffix(ext)?;
-    (stem.len() == 6 && stem.bytes().all(|b| b.is_ascii_digit()))
-        .then(|| stem.parse().ok())
-        .flatten()
-}
-
-fn list_frames(dir: &Path, ext: &str) -> Result<Vec<u32>> {
-    let rd = match std::fs::read_dir(dir) {
-        Ok(rd) => rd,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(error) => {
-            return Err(Error::Io {
-                path: dir.to_path_buf(),
-                error,
-            });
-        }
-    };
-    let mut out = Vec::new();
-    for e in rd {
-        let e = e.map_err(|error| Error::Io {
-            path: dir.to_path_buf(),
-            error,
-        })?;
-        if let Some(n) = frame_number(&e.path(), ext) {
-            out.push(n);
-        }
-    }
-    out.sort_unstable();
-    Ok(out)
-}
-
-impl Sequence {
-    /// Opens `dir` (with `velodyne/`, `calib.txt`, `poses.txt` unless `poses` is given, and
-    /// optionally `labels/`, `image_2/`, `times.txt`).
-    pub fn open(dir: &Path, poses: Option<&Path>) -> Result<Sequence> {
-        let scans = list_frames(&dir.join("velodyne"), ".bin")?;
-        if scans.is_empty() {
-            return Err(Error::File {
-                path: dir.join("velodyne"),
-                detail: "no scans (NNNNNN.bin) found".into(),
-            });
-        }
-        let calib = kitti::read_calib(&dir.join("calib.txt"))?;
-        let poses_path = poses.map_or_else(|| dir.join("poses.txt"), Path::to_path_buf);
-        let poses = kitti::read_poses(&poses_path)?;
-        let last = *scans.last().expect("non-empty");
-        if poses.len() <= last as usize {
-            return Err(Error::File {
-                path: poses_path,
-                detail: format!(
-                    "{} poses, but velodyne/ has scans up to {last:06}.bin (fewer poses than scans)",
-                    poses.len()
-                ),
-            });
-        }
-        let times_path = dir.join("times.txt");
-        let times = if times_path.exists() {
-            Some(kitti::read_times(&times_path)?)
-        } else {
-            None
-        };
-        Ok(Sequence {
-            dir: dir.to_path_buf(),
-            scans,
-            poses,
-            poses_path,
-            calib,
-            times,
-        })
-    }
-
-    /// `velodyne/NNNNNN.bin`.
-    pub fn scan_path(&self, i: u32) -> PathBuf {
-        self.dir.join("velodyne").join(format!("{i:06}.bin"))
-    }
-
-    /// `labels/NNNNNN.label`.
-    pub fn label_path(&self, i: u32) -> PathBuf {
-        self.dir.join("labels").join(format!("{i:06}.label"))
-    }
-
-    /// `image_2/NNNNNN.png`.
-    pub fn image_path(&self, i: u32) -> PathBuf {
-        self.dir.join("image_2").join(format!("{i:06}.png"))
-    }
-
-    /// The camera of frame `i`: P2 with the size of `image_2/NNNNNN.png`, or `default_size`
-    /// (`[width, height]`) when there is no image.
-    pub fn camera(&self, i: u32, default_size: [u32; 2]) -> Result<Camera> {
-        let image = self.image_path(i);
-        let (w, h) = if image.exists() {
-            kitti::png_size(&image)?
-        } else {
-            (default_size[0], default_size[1])
-        };
-        Ok(Camera::kitti_p2(&self.calib, w, h))
-    }
-
-    /// The label oracle's detections for frame `i`, whose scan is `scan`.
-    pub fn oracle(
-        &self,
-        i: u32,
-        scan: &Scan,
-        camera: &Camera,
-        cfg: &OracleConfig,
-    ) -> Result<DetectionFrame> {
-        let labels = kitti::read_labels(&self.label_path(i), scan.points.len())?;
-        let world_from_velo = self.world_from_velo(i);
-        let (d, _) = oracle_detections(
-            i,
-            &scan.points,
-            &labels,
-            camera,
-            Some(&world_from_velo),
-            cfg,
-        )?;
-        Ok(d)
-    }
-
-    /// `world_from_velo = pose × Tr`.
-    pub fn world_from_velo(&self, i: u32) -> Rigid3 {
-        self.poses[i as usize] * self.calib.cam0_from_velo
-    }
-
-    /// The velodyne's world position at every pose (the whole trajectory).
-    pub fn trajectory(&self) -> Vec<[f64; 3]> {
-        kitti::positions(&self.poses, Some(&self.calib))
     }
 }
 
@@ -321,438 +161,6 @@ pub struct BuildReport {
     pub commits: usize,
 }
 
-/// The key frames of a build.
-pub fn key_frames(
-    seq: &Sequence,
-    source: &Source,
-    frames: Option<&Range<u32>>,
-    stride: u32,
-) -> Result<Vec<u32>> {
-    let stride = stride.max(1);
-    let needs = |i: u32| -> PathBuf {
-        match source {
-            Source::Oracle => seq.label_path(i),
-            Source::Detections(d) => d.join(format!("{i:06}.json")),
-        }
-    };
-    let picked: Vec<u32> = match frames {
-        Some(r) => {
-            if r.is_empty() {
-                return Err(Error::Invalid(format!(
-                    "--frames {}..{} is empty",
-                    r.start, r.end
-                )));
-            }
-            // the scans the sequence has in the range (a simulated drive numbers its scans
-            // sparsely), every stride-th of them; each needs its labels or detections
-            let in_range: Vec<u32> = seq
-                .scans
-                .iter()
-                .copied()
-                .filter(|i| r.contains(i))
-                .step_by(stride as usize)
-                .collect();
-            if in_range.is_empty() {
-                return Err(Error::Invalid(format!(
-                    "--frames {}..{} holds none of the sequence's {} scans (they run from {} to {})",
-                    r.start,
-                    r.end,
-                    seq.scans.len(),
-                    seq.scans.first().copied().unwrap_or(0),
-                    seq.scans.last().copied().unwrap_or(0)
-                )));
-            }
-            for &i in &in_range {
-                let p = needs(i);
-                if !p.exists() {
-                    return Err(Error::File {
-                        path: p,
-                        detail: format!(
-                            "frame {i} has a scan in --frames but this file is missing"
-                        ),
-                    });
-                }
-            }
-            in_range
-        }
-        None => {
-            let avail: Vec<u32> = seq
-                .scans
-                .iter()
-                .copied()
-                .filter(|i| needs(*i).exists())
-                .collect();
-            let first = *avail.first().ok_or_else(|| Error::File {
-                path: needs(seq.scans[0]),
-                detail: format!(
-                    "no frame has both a scan and {} (checked {} scans)",
-                    match source {
-                        Source::Oracle => "labels",
-                        Source::Detections(_) => "a detections file",
-                    },
-                    seq.scans.len()
-                ),
-            })?;
-            avail
-                .into_iter()
-                .filter(|i| (i - first) % stride == 0)
-                .collect()
-        }
-    };
-    Ok(picked)
-}
-
-const BUILD_ID: i64 = 0;
-const PAYLOAD_KEY: &str = "points";
-
-struct Checkpoint {
-    node: u64,
-    args: String,
-    next_frame: i64,
-    next_instance_id: u64,
-    finished: bool,
-    hierarchy_done: bool,
-}
-
-fn load_checkpoint(r: &impl GraphRead) -> Result<Option<Checkpoint>> {
-    let Some(&node) = r
-        .find_nodes("Build", "build_id", &Value::Int(BUILD_ID))?
-        .first()
-    else {
-        return Ok(None);
-    };
-    let get = |k: &str| r.node_prop(node, k);
-    Ok(Some(Checkpoint {
-        node,
-        args: get("args")?
-            .and_then(|v| v.as_str().map(str::to_string))
-            .unwrap_or_default(),
-        next_frame: get("next_frame")?.and_then(|v| v.as_int()).unwrap_or(0),
-        next_instance_id: get("next_instance_id")?
-            .and_then(|v| v.as_int())
-            .unwrap_or(0)
-            .max(0) as u64,
-        finished: matches!(get("finished")?, Some(Value::Bool(true))),
-        hierarchy_done: matches!(get("hierarchy_done")?, Some(Value::Bool(true))),
-    }))
-}
-
-/// Instance node ids by instance id, and the objects, from a store.
-fn load_objects(r: &impl GraphRead, voxel_m: f32) -> Result<(Vec<MapObject>, BTreeMap<u64, u64>)> {
-    let mut objects = Vec::new();
-    let mut nodes = BTreeMap::new();
-    for id in r.nodes_with_label("Instance")? {
-        let p = |k: &str| r.node_prop(id, k);
-        let int = |v: Option<Value>| v.and_then(|v| v.as_int()).unwrap_or(0);
-        let instance_id = int(p("instance_id")?).max(0) as u64;
-        let tile = match p("tile")? {
-            Some(Value::List(v)) if v.len() == 3 => {
-                let i = |k: usize| v[k].as_int().unwrap_or(0);
-                Some((i(0) as u8, [i(1), i(2)]))
-            }
-            _ => None,
-        };
-        let feature = match p("detection_feature")? {
-            Some(Value::Vector(v)) => v,
-            _ => Vec::new(),
-        };
-        let captions = match p("captions")? {
-            Some(Value::List(v)) => v
-                .iter()
-                .filter_map(|c| c.as_str().map(str::to_string))
-                .collect(),
-            _ => Vec::new(),
-        };
-        let points = r
-            .point_cloud(id, PAYLOAD_KEY)?
-            .map(|c| c.xyz)
-            .unwrap_or_default();
-        objects.push(MapObject::restore(
-            instance_id,
-            tile,
-            points,
-            feature,
-            captions,
-            int(p("detection_count")?) as u32,
-            int(p("first_frame")?) as u32,
-            int(p("last_frame")?) as u32,
-            voxel_m,
-        ));
-        nodes.insert(instance_id, id);
-    }
-    Ok((objects, nodes))
-}
-
-/// Caption embeddings with a cache (captions repeat across frames).
-struct EmbedCache<'a> {
-    embedder: &'a mut dyn Embedder,
-    cache: HashMap<String, Vec<f32>>,
-}
-
-impl EmbedCache<'_> {
-    fn get_all(&mut self, texts: &[&str]) -> Result<Vec<Vec<f32>>> {
-        let mut missing: Vec<&str> = texts
-            .iter()
-            .copied()
-            .filter(|t| !self.cache.contains_key(*t))
-            .collect();
-        missing.sort_unstable();
-        missing.dedup();
-        if !missing.is_empty() {
-            let v = self
-                .embedder
-                .embed(&missing)
-                .map_err(|e| Error::Invalid(format!("embedding captions: {e}")))?;
-            for (t, e) in missing.iter().zip(v) {
-                self.cache.insert(t.to_string(), e);
-            }
-        }
-        Ok(texts.iter().map(|t| self.cache[*t].clone()).collect())
-    }
-}
-
-/// The class (1..=19) whose prompt is most similar to `v` (the embedding of a caption's
-/// subject phrase).
-/// The class whose prompt is closest to `v`, among surface classes when `surface`, else
-/// among the others.
-fn argmax_class(v: &[f32], prompts: &[(u8, Vec<f32>)], surface: bool) -> u8 {
-    let mut best = (f64::NEG_INFINITY, 0u8);
-    for (class, p) in prompts
-        .iter()
-        .filter(|(c, _)| classes::is_surface(*c) == surface)
-    {
-        let c = crate::mapping::associate::cosine(v, p);
-        if c > best.0 {
-            best = (c, *class);
-        }
-    }
-    best.1
-}
-
-/// Classes whose objects are joined when their points touch (building, fence, vegetation):
-/// extended things a passing car sees in parts.
-const JOINED_CLASSES: [u8; 3] = [13, 14, 15];
-
-/// The thing class of an object before its caption is merged: the most frequent class of
-/// its recent captions (ties: the lower class id).
-fn object_class(
-    o: &MapObject,
-    cfg: &MappingConfig,
-    emb: &mut EmbedCache<'_>,
-    prompts: &[(u8, Vec<f32>)],
-) -> Result<u8> {
-    let subjects: Vec<&str> = o
-        .recent_captions(cfg.merge_captions)
-        .iter()
-        .map(|c| classes::subject_phrase(c))
-        .collect();
-    let mut votes: BTreeMap<u8, usize> = BTreeMap::new();
-    for e in emb.get_all(&subjects)? {
-        *votes.entry(argmax_class(&e, prompts, false)).or_insert(0) += 1;
-    }
-    Ok(votes
-        .iter()
-        .max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c)))
-        .map_or(0, |(c, _)| *c))
-}
-
-/// Class of each detection: whether it is a surface or a thing is decided by its tags or
-/// caption ([`classes::names_surface`]); its class is then the closest class prompt of that
-/// kind to the caption's embedded subject phrase. Inputs are `(tags, caption)` pairs.
-fn classify(
-    detections: &[(&[String], &str)],
-    emb: &mut EmbedCache<'_>,
-    prompts: &[(u8, Vec<f32>)],
-) -> Result<Vec<u8>> {
-    let subjects: Vec<&str> = detections
-        .iter()
-        .map(|(_, c)| classes::subject_phrase(c))
-        .collect();
-    Ok(emb
-        .get_all(&subjects)?
-        .iter()
-        .zip(detections)
-        .map(|(e, (tags, caption))| argmax_class(e, prompts, classes::names_surface(tags, caption)))
-        .collect())
-}
-
-struct Description {
-    caption: String,
-    class: u8,
-    feature: Vec<f32>,
-}
-
-fn describe(
-    o: &MapObject,
-    cfg: &MappingConfig,
-    emb: &mut EmbedCache<'_>,
-    merger: &mut dyn CaptionMerger,
-    prompts: &[(u8, Vec<f32>)],
-) -> Result<Description> {
-    let caption = merger.merge(o.recent_captions(cfg.merge_captions));
-    let ce = emb.get_all(&[&caption])?.remove(0);
-    let class = match o.tile {
-        Some((c, _)) => c,
-        // an object is a thing whatever its merged caption says
-        None => {
-            let subject = classes::subject_phrase(&caption);
-            argmax_class(&emb.get_all(&[subject])?[0], prompts, false)
-        }
-    };
-    let feature = if o.feature.len() == ce.len() {
-        let n = |v: &[f32]| v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
-        let (na, nb) = (n(&ce), n(&o.feature));
-        let mut f: Vec<f32> = ce
-            .iter()
-            .zip(&o.feature)
-            .map(|(a, b)| 0.5 * a / na + 0.5 * b / nb)
-            .collect();
-        let nf = n(&f);
-        f.iter_mut().for_each(|x| *x /= nf);
-        f
-    } else {
-        ce
-    };
-    Ok(Description {
-        caption,
-        class,
-        feature,
-    })
-}
-
-fn instance_props(
-    o: &MapObject,
-    d: &Description,
-    source: &str,
-    ground: GroundFrame,
-) -> Vec<(&'static str, Value)> {
-    let c = o.bbox.center();
-    let mut props = vec![
-        ("instance_id", Value::Int(o.instance_id as i64)),
-        ("caption", Value::String(d.caption.clone())),
-        (
-            "class",
-            Value::String(classes::class_name(d.class).unwrap_or("unknown").into()),
-        ),
-        ("centroid", Value::Point3D(c)),
-        (
-            "bbox",
-            Value::box3d(o.bbox.min.map(f64::from), o.bbox.max.map(f64::from)),
-        ),
-        (
-            "captions",
-            Value::List(o.captions.iter().cloned().map(Value::String).collect()),
-        ),
-        ("feature", Value::Vector(d.feature.clone())),
-        ("point_count", Value::Int(o.points.len() as i64)),
-        ("detection_count", Value::Int(i64::from(o.detection_count))),
-        ("first_frame", Value::Int(i64::from(o.first_frame))),
-        ("last_frame", Value::Int(i64::from(o.last_frame))),
-        ("source", Value::String(source.into())),
-    ];
-    if !o.feature.is_empty() {
-        props.push(("detection_feature", Value::Vector(o.feature.clone())));
-    }
-    if let Some(b) = o.obb(ground) {
-        props.push(("obb", obb_value(&b)));
-    }
-    if let Some((class, [x, z])) = o.tile {
-        props.push((
-            "tile",
-            Value::List(vec![
-                Value::Int(i64::from(class)),
-                Value::Int(x),
-                Value::Int(z),
-            ]),
-        ));
-    }
-    props
-}
-
-/// The `Instance.obb` property of a box ([`OrientedBox::to_values`]).
-pub fn obb_value(b: &scene::OrientedBox) -> Value {
-    Value::List(b.to_values().into_iter().map(Value::Float).collect())
-}
-
-/// The scans nearest to `i` in the sequence, up to `window` on each side within 50 poses
-/// (a simulator's sequence has scans at its sensor frames only).
-fn neighbour_scans(seq: &Sequence, i: u32, window: u32) -> Vec<u32> {
-    const REACH: u32 = 50;
-    let mut out = Vec::new();
-    let before = (i.saturating_sub(REACH)..i)
-        .rev()
-        .filter(|j| seq.scan_path(*j).exists())
-        .take(window as usize);
-    out.extend(before);
-    let last = (seq.poses.len() as u32).saturating_sub(1);
-    let after = (i + 1..=(i + REACH).min(last))
-        .filter(|j| seq.scan_path(*j).exists())
-        .take(window as usize);
-    out.extend(after);
-    out.sort_unstable();
-    out
-}
-
-/// The key scan `i` without its dynamic points ([`crate::mapping::dynamic`]), and those
-/// points; range images of the neighbours are kept in `images` for the next key frames.
-/// Counts go to `rep`, and, where the scan has SemanticKITTI labels, against its moving
-/// classes.
-fn remove_dynamic(
-    seq: &Sequence,
-    i: u32,
-    scan: &Scan,
-    cfg: &crate::mapping::dynamic::DynamicConfig,
-    images: &mut BTreeMap<u32, crate::mapping::dynamic::RangeImage>,
-    rep: &mut crate::mapping::dynamic::DynamicReport,
-) -> Result<(Scan, Vec<[f32; 4]>)> {
-    use crate::mapping::dynamic::{RangeImage, dynamic_mask, is_moving_label};
-    let near = neighbour_scans(seq, i, cfg.window);
-    rep.neighbour_scans += near.len() as u64;
-    rep.key_scans += 1;
-    images.retain(|j, _| near.contains(j));
-    for &j in &near {
-        if let std::collections::btree_map::Entry::Vacant(e) = images.entry(j) {
-            let s = kitti::read_scan(&seq.scan_path(j))?;
-            e.insert(RangeImage::new(
-                &s.points,
-                &seq.world_from_velo(j),
-                cfg.bin_deg,
-                cfg.spread_bins,
-            ));
-        }
-    }
-    let refs: Vec<&RangeImage> = near.iter().filter_map(|j| images.get(j)).collect();
-    let mask = dynamic_mask(&scan.points, &seq.world_from_velo(i), &refs, cfg);
-    rep.points += scan.points.len() as u64;
-    rep.removed += mask.iter().filter(|m| **m).count() as u64;
-    let lp = seq.label_path(i);
-    if lp.exists()
-        && let Ok(labels) = kitti::read_labels(&lp, scan.points.len())
-    {
-        for (l, m) in labels.iter().zip(&mask) {
-            if l.semantic == 0 {
-                continue;
-            }
-            if is_moving_label(l.semantic) {
-                rep.moving_points += 1;
-                rep.moving_removed += u64::from(*m);
-            } else {
-                rep.static_points += 1;
-                rep.static_removed += u64::from(*m);
-            }
-        }
-    }
-    let (mut kept, mut removed) = (Vec::new(), Vec::new());
-    for (p, m) in scan.points.iter().zip(mask) {
-        if m {
-            removed.push(*p);
-        } else {
-            kept.push(*p);
-        }
-    }
-    Ok((Scan { points: kept }, removed))
-}
-
 struct FrameRecord {
     index: u32,
     world_from_velo: Rigid3,
@@ -792,7 +200,7 @@ impl Run<'_> {
             }
             .encode()?;
             let decoded = PointCloud::decode(&bytes)?.xyz;
-            let props = instance_props(o, &d, &self.producer, self.mapper.ground());
+            let props = instance_record(o, &d, &self.producer, self.mapper.ground()).props();
             let obs: Vec<(u32, u32)> = o.observations.iter().map(|(f, n)| (*f, *n)).collect();
             writes.push((o.instance_id, props, bytes, decoded, obs));
         }
@@ -810,7 +218,7 @@ impl Run<'_> {
         let created = self.store.write(|tx| {
             // an absorbed object's observations move to the object that absorbed it
             if !merged_nodes.is_empty() {
-                let obs_ty = tx.rel_type_id("OBSERVED_IN")?;
+                let obs_ty = tx.rel_type_id(scene::rel::OBSERVED_IN)?;
                 let det_key = tx.prop_key_id("detections")?;
                 let count = |tx: &graphstore::WriteTxn<'_>, rel: u64| -> graphstore::Result<i64> {
                     Ok(tx
@@ -859,7 +267,10 @@ impl Run<'_> {
                 if let Some(t) = f.timestamp_secs {
                     props.push(("timestamp_secs", Value::Float(t)));
                 }
-                frame_nodes.insert(f.index, tx.create_node_named(&["Frame"], &props)?);
+                frame_nodes.insert(
+                    f.index,
+                    tx.create_node_named(&[scene::label::FRAME], &props)?,
+                );
             }
             let mut created = Vec::new();
             for (iid, props, bytes, _, obs) in &writes {
@@ -873,7 +284,7 @@ impl Run<'_> {
                         *n
                     }
                     None => {
-                        let n = tx.create_node_named(&["Instance"], props)?;
+                        let n = tx.create_node_named(&[scene::label::INSTANCE], props)?;
                         created.push((*iid, n));
                         n
                     }
@@ -883,7 +294,7 @@ impl Run<'_> {
                     let fnode = match frame_nodes.get(f) {
                         Some(n) => *n,
                         None => match tx
-                            .find_nodes("Frame", "index", &Value::Int(i64::from(*f)))?
+                            .find_nodes(scene::label::FRAME, "index", &Value::Int(i64::from(*f)))?
                             .first()
                         {
                             Some(n) => *n,
@@ -892,7 +303,7 @@ impl Run<'_> {
                     };
                     tx.create_rel_named(
                         node,
-                        "OBSERVED_IN",
+                        scene::rel::OBSERVED_IN,
                         fnode,
                         &[("detections", Value::Int(i64::from(*count)))],
                     )?;
@@ -923,60 +334,6 @@ impl Run<'_> {
         }
         Ok(())
     }
-}
-
-/// The key frame's points (`scan`, already read) with non-finite points dropped (counted), and
-/// accumulates the `accumulate - 1`
-/// previous scans moved into this scan's velodyne frame.
-fn load_points(
-    seq: &Sequence,
-    i: u32,
-    scan: &Scan,
-    accumulate: usize,
-    nonfinite: &mut u64,
-) -> Result<Vec<[f32; 4]>> {
-    let mut pts = scan.points.clone();
-    if accumulate > 1 {
-        let velo_from_world = seq.world_from_velo(i).inverse();
-        for j in (i.saturating_sub(accumulate as u32 - 1)..i).rev() {
-            let p = seq.scan_path(j);
-            if !p.exists() {
-                continue;
-            }
-            let m = velo_from_world * seq.world_from_velo(j);
-            for q in kitti::read_scan(&p)?.points {
-                let w = scene::pose::apply(&m, [f64::from(q[0]), f64::from(q[1]), f64::from(q[2])]);
-                pts.push([w[0] as f32, w[1] as f32, w[2] as f32, q[3]]);
-            }
-        }
-    }
-    let before = pts.len();
-    pts.retain(|p| p[..3].iter().all(|c| c.is_finite()));
-    *nonfinite += (before - pts.len()) as u64;
-    Ok(pts)
-}
-
-/// The configuration as a resumed build must match it: everything but `[llm]`, whose caption
-/// merge is a pass of its own.
-fn resume_config(cfg: &BuildConfig) -> Result<serde_json::Value> {
-    let mut v = serde_json::to_value(cfg).map_err(|e| Error::Invalid(e.to_string()))?;
-    if let Some(o) = v.as_object_mut() {
-        o.remove("llm");
-    }
-    Ok(v)
-}
-
-/// How a map names an input path: relative to `base` when it lies inside it, else by its
-/// last component alone (a map never holds the build machine's absolute paths).
-fn display_name(path: &Path, base: Option<&Path>) -> String {
-    if let Some(rel) = base.and_then(|b| path.strip_prefix(b).ok())
-        && !rel.as_os_str().is_empty()
-    {
-        return rel.display().to_string();
-    }
-    path.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
 }
 
 /// Runs (or, with `resume`, continues) a build into `store`.
@@ -1033,7 +390,7 @@ pub fn build(
     })
     .to_string();
     if store.schema() == graphstore::Schema::default() {
-        store.set_schema(graphstore::opengraph_schema())?;
+        store.set_schema(scene::opengraph_schema())?;
     }
     let (checkpoint, objects, nodes) = {
         let r = store.read()?;
@@ -1077,7 +434,7 @@ pub fn build(
             }
             let node = store.write(|tx| {
                 tx.create_node_named(
-                    &["Build"],
+                    &[scene::label::BUILD],
                     &[
                         ("build_id", Value::Int(BUILD_ID)),
                         ("args", Value::String(args_json.clone())),
@@ -1340,7 +697,7 @@ pub fn build(
         report.ms_per_frame.insert(k.into(), v / n);
     }
     let r = store.read()?;
-    for id in r.nodes_with_label("Instance")? {
+    for id in r.nodes_with_label(scene::label::INSTANCE)? {
         if let Some(Value::String(c)) = r.node_prop(id, "class")? {
             *report.instances_per_class.entry(c).or_insert(0) += 1;
         }

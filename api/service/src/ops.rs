@@ -1,0 +1,539 @@
+//! The typed operations: one request type per operation, each deriving serde and a JSON
+//! Schema (schemars, draft 2020-12). The tool registry's argument schemas, the OpenAPI
+//! document's request bodies and the MCP tool list are generated from these types, and a call
+//! is validated against the schema (`jsonschema`, for messages that name the place) and then
+//! deserialised into its type (strictly: `5.5` or `1e308` is not an integer), so every
+//! adapter refuses the same inputs with the same message.
+//!
+//! The answer types the service assembles itself are here too ([`SchemaAnswer`],
+//! [`CypherAnswer`], [`AreaAnswer`], [`InstanceAnswer`]); answers made by the crates below
+//! (`find`, `locate`, `navigate`, `update`, `undo`) keep their types there, with their JSON
+//! Schemas written next to the registry.
+
+use std::collections::BTreeMap;
+
+use schemars::JsonSchema;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::Value as Json;
+
+use crate::error::{ToolError, ToolResult};
+
+/// The longest Cypher statement a tool takes, in characters (the body limit bounds it too).
+pub const MAX_CYPHER_CHARS: u64 = 100_000;
+
+/// The longest free text an operation takes (a request, a description, a change), characters.
+pub const MAX_TEXT_CHARS: u64 = 2000;
+
+fn five() -> u64 {
+    5
+}
+fn three() -> u64 {
+    3
+}
+fn four() -> u64 {
+    4
+}
+
+/// `get_schema`: no arguments.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SchemaRequest {}
+
+/// `read_cypher` and `write_cypher`: a Cypher statement and its parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CypherRequest {
+    /// The Cypher statement.
+    #[schemars(description = "the Cypher statement", length(min = 1, max = MAX_CYPHER_CHARS))]
+    pub query: String,
+    /// Values for $name parameters.
+    #[schemars(description = "values for $name parameters")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub params: Option<serde_json::Map<String, Json>>,
+}
+
+/// `find_objects`: graph-aware retrieval from words.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FindObjectsRequest {
+    /// The request.
+    #[schemars(description = "the request", length(min = 1, max = MAX_TEXT_CHARS))]
+    pub text: String,
+    // how many objects to return (no description: the tool surface the models were tried on)
+    #[serde(default = "five")]
+    #[schemars(range(min = 1, max = 50))]
+    pub k: u64,
+    /// Only this SemanticKITTI class.
+    #[schemars(description = "only this SemanticKITTI class")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub class: Option<String>,
+}
+
+/// `locate`: road segments for a description of the surroundings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LocateToolRequest {
+    /// The description.
+    #[schemars(description = "the description", length(min = 1, max = MAX_TEXT_CHARS))]
+    pub text: String,
+    // how many segments to return
+    #[serde(default = "three")]
+    #[schemars(range(min = 1, max = 20))]
+    pub k: u64,
+}
+
+/// `plan_route`: a route between two ends, in words or as specs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PlanRouteRequest {
+    /// Where to start.
+    #[schemars(description = "where to start", length(min = 1, max = MAX_TEXT_CHARS))]
+    pub from: String,
+    /// Where to go.
+    #[schemars(description = "where to go", length(min = 1, max = MAX_TEXT_CHARS))]
+    pub to: String,
+    /// Include the planned path's poses [x, z, heading] (for a robot; long).
+    #[schemars(
+        description = "include the planned path's poses [x, z, heading] (for a robot; long)"
+    )]
+    #[serde(default)]
+    pub poses: bool,
+}
+
+/// `describe_area`: the environment's segments, or one segment's objects.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DescribeAreaRequest {
+    /// A Segment node id.
+    #[schemars(description = "a Segment node id")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segment_id: Option<u64>,
+}
+
+/// `get_instance`: one instance by node id.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GetInstanceRequest {
+    /// An Instance node id.
+    #[schemars(description = "an Instance node id")]
+    pub id: u64,
+}
+
+/// `update_map`: a described change, proposed or applied.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct UpdateMapRequest {
+    /// The described change.
+    #[schemars(description = "the described change", length(min = 1, max = MAX_TEXT_CHARS))]
+    pub text: String,
+    /// Commit the edit.
+    #[schemars(description = "commit the edit")]
+    #[serde(default)]
+    pub apply: bool,
+}
+
+/// `undo_map_edit`: revert an applied edit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct UndoMapEditRequest {
+    /// A MapEdit node id.
+    #[schemars(description = "a MapEdit node id")]
+    pub edit_id: u64,
+}
+
+/// `ask`: a question for the agent loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AskRequest {
+    // the question
+    #[schemars(length(min = 1, max = MAX_TEXT_CHARS))]
+    pub question: String,
+    // rounds of tool calls at most
+    #[serde(default = "four")]
+    #[schemars(range(min = 1, max = 20))]
+    pub max_steps: u64,
+}
+
+/// The answer of `get_schema`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SchemaAnswer {
+    /// What the layers of an OpenGraph map mean.
+    pub layers: String,
+    /// Nodes per label.
+    pub nodes: BTreeMap<String, u64>,
+    /// Relationships per type.
+    pub relationships: BTreeMap<String, u64>,
+    /// The indexes, one line each (`property Instance.class`, `spatial instance_space (...)`).
+    pub indexes: Vec<String>,
+}
+
+/// What a Cypher statement changed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct CypherStats {
+    /// Nodes created.
+    pub nodes_created: u64,
+    /// Nodes deleted.
+    pub nodes_deleted: u64,
+    /// Relationships created.
+    pub relationships_created: u64,
+    /// Relationships deleted.
+    pub relationships_deleted: u64,
+    /// Properties set.
+    pub properties_set: u64,
+}
+
+/// One operator of an `EXPLAIN` or `PROFILE` plan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct PlanStep {
+    /// The operator, as the plan prints it.
+    pub operator: String,
+    /// Its depth in the plan tree.
+    pub depth: u64,
+}
+
+/// The answer of `read_cypher` and `write_cypher`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct CypherAnswer {
+    /// The columns, in order.
+    pub columns: Vec<String>,
+    /// The rows, each an object by column.
+    pub rows: Vec<serde_json::Map<String, Json>>,
+    /// How many rows.
+    pub row_count: u64,
+    /// What the statement changed.
+    pub stats: CypherStats,
+    /// The plan, for `EXPLAIN` and `PROFILE`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plan: Option<Vec<PlanStep>>,
+}
+
+/// A node by id with its name.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct EnvironmentRef {
+    /// The Environment node id.
+    pub id: u64,
+    /// Its name.
+    pub name: String,
+}
+
+/// How many objects of one class.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ClassCount {
+    /// The SemanticKITTI class.
+    pub class: String,
+    /// How many.
+    pub count: u64,
+}
+
+/// One segment in the environment's overview.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(transform = require_all)]
+pub struct SegmentSummary {
+    /// The Segment node id.
+    pub id: u64,
+    /// Its kind (intersection, t_intersection, l_intersection, straight_roadway).
+    pub kind: Option<String>,
+    /// Instances in it.
+    pub objects: u64,
+    /// The four most common object classes (ground surfaces left out).
+    pub common_classes: Vec<ClassCount>,
+}
+
+/// A notable object of a segment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Notable {
+    /// The Instance node id.
+    pub id: u64,
+    /// Its class.
+    pub class: String,
+    /// Its caption.
+    pub caption: String,
+}
+
+/// `describe_area` without `segment_id`: the environment and its segments.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(transform = require_all)]
+pub struct EnvironmentOverview {
+    /// The Environment node.
+    pub environment: Option<EnvironmentRef>,
+    /// Every segment.
+    pub segments: Vec<SegmentSummary>,
+}
+
+/// `describe_area` with `segment_id`: one segment's objects.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SegmentDetail {
+    /// The Segment node id.
+    pub id: u64,
+    /// Its kind.
+    pub kind: String,
+    /// Its instances per class.
+    pub objects_by_class: BTreeMap<String, u64>,
+    /// Up to 25 objects that are not ground surfaces, with captions.
+    pub notable: Vec<Notable>,
+}
+
+/// The answer of `describe_area`: the environment's overview, or one segment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum AreaAnswer {
+    /// Without `segment_id`.
+    Environment(EnvironmentOverview),
+    /// With `segment_id`.
+    Segment(SegmentDetail),
+}
+
+/// The segment an instance is in.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(transform = require_all)]
+pub struct SegmentRef {
+    /// The Segment node id.
+    pub id: u64,
+    /// Its kind.
+    pub kind: Option<String>,
+}
+
+/// A `RELATED` neighbour of an instance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(transform = require_all)]
+pub struct RelatedRef {
+    /// The other Instance node id.
+    pub id: u64,
+    /// Whether the relationship starts at the asked instance.
+    pub outgoing: bool,
+    /// The relation (`next_to`, `on`, ...).
+    pub relation: Json,
+    /// The distance between the boxes, metres.
+    pub distance_m: Json,
+    /// Where the relation comes from (`geometric`, or `llm` for an LLM pass).
+    pub source: Json,
+    /// The other instance's caption.
+    pub caption: Option<String>,
+}
+
+/// The answer of `get_instance`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(transform = require_all)]
+pub struct InstanceAnswer {
+    /// The Instance node id.
+    pub id: u64,
+    /// Its properties (the feature vectors and the caption list left out).
+    pub properties: serde_json::Map<String, Json>,
+    /// Its segment.
+    pub segment: Option<SegmentRef>,
+    /// Its `RELATED` neighbours.
+    pub related: Vec<RelatedRef>,
+}
+
+/// Marks every property of an answer's object schema as required: serde writes each field,
+/// `None` as null, so an `Option` field is always there (schemars would leave it optional).
+fn require_all(s: &mut schemars::Schema) {
+    let keys: Option<Vec<Json>> = s
+        .get("properties")
+        .and_then(Json::as_object)
+        .map(|p| p.keys().map(|k| Json::String(k.clone())).collect());
+    if let Some(keys) = keys {
+        s.insert("required".into(), Json::Array(keys));
+    }
+}
+
+/// The JSON Schema of `T` as a tool or request-body schema: draft 2020-12, every subschema
+/// inline (a `$ref` into `$defs` would not resolve once the schema sits inside an OpenAPI
+/// document), with no `$schema` `title` and top-level `description` (MCP and OpenAPI documents carry their own).
+pub fn schema_of<T: JsonSchema>() -> Json {
+    let mut settings = schemars::generate::SchemaSettings::draft2020_12();
+    settings.inline_subschemas = true;
+    let mut v = settings
+        .into_generator()
+        .into_root_schema_for::<T>()
+        .to_value();
+    if let Some(m) = v.as_object_mut() {
+        m.remove("$schema");
+        m.remove("title");
+        // the tool's or route's own description says what it is
+        m.remove("description");
+    }
+    v
+}
+
+/// The JSON Schema of request type `T` ([`schema_of`]) as a tool's argument schema: an
+/// optional argument is said by leaving it out, not by null (`["string", "null"]` becomes
+/// `"string"`), and integers carry no `format`. A language model writes calls under this
+/// schema (grammar-constrained for local models), so it is kept to what the models were tried
+/// on.
+pub fn request_schema_of<T: JsonSchema>() -> Json {
+    let mut v = schema_of::<T>();
+    if let Some(o) = v.as_object_mut() {
+        o.entry("properties")
+            .or_insert_with(|| Json::Object(serde_json::Map::new()));
+    }
+    if let Some(props) = v.get_mut("properties").and_then(Json::as_object_mut) {
+        for p in props.values_mut() {
+            let Some(p) = p.as_object_mut() else { continue };
+            // annotations a model reads as part of the call's prompt, which say nothing the
+            // deserialiser does not enforce (an integer is read as u64; params is any object)
+            p.remove("format");
+            if p.get("additionalProperties") == Some(&Json::Bool(true)) {
+                p.remove("additionalProperties");
+            }
+            if let Some(Json::Array(ts)) = p.get_mut("type") {
+                ts.retain(|x| x != "null");
+                if ts.len() == 1 {
+                    let t = ts[0].clone();
+                    p.insert("type".into(), t);
+                }
+            }
+        }
+    }
+    v
+}
+
+/// Deserialises validated arguments into `T`; a value serde refuses (a float where an integer
+/// must be) is [`ToolError::BadArguments`] naming its place.
+pub fn parse<T: DeserializeOwned>(args: &Json) -> ToolResult<T> {
+    let args = if args.is_null() {
+        &Json::Object(serde_json::Map::new())
+    } else {
+        args
+    };
+    serde_path_to_error::deserialize(args).map_err(|e| {
+        let at = e.path().to_string();
+        let mut msg = e.into_inner().to_string();
+        if msg.len() > 200 {
+            let mut cut = 200;
+            while !msg.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            msg.truncate(cut);
+            msg.push('…');
+        }
+        ToolError::BadArguments(format!(
+            "{}: {msg}",
+            if at == "." { "arguments" } else { &at }
+        ))
+    })
+}
+
+/// Validates `args` against `T`'s schema (the same messages as the tools give) and
+/// deserialises them: the one check of an operation that is not a tool (`ask`), whichever
+/// adapter it came through.
+///
+/// # Errors
+/// [`ToolError::BadArguments`] naming each offending place.
+pub fn validated<T: JsonSchema + DeserializeOwned>(args: &Json) -> ToolResult<T> {
+    let empty = Json::Object(serde_json::Map::new());
+    let args = if args.is_null() { &empty } else { args };
+    let v = jsonschema::validator_for(&request_schema_of::<T>())
+        .map_err(|e| ToolError::Failed(e.to_string()))?;
+    check_args(args, &v)?;
+    parse(args)
+}
+
+/// The `ask` request checked as every adapter checks it: a question of 1 to 2000 characters
+/// that is not only white space, 1 to 20 rounds.
+///
+/// # Errors
+/// [`ToolError::BadArguments`] naming what is wrong.
+pub fn check_ask(args: &Json) -> ToolResult<AskRequest> {
+    let req: AskRequest = validated(args)?;
+    non_blank("question", &req.question)?;
+    Ok(req)
+}
+
+/// Validates tool arguments against a schema with `jsonschema`; the message names each
+/// offending place (`/k: 0 is less than the minimum of 1`).
+pub(crate) fn check_args(args: &Json, v: &jsonschema::Validator) -> ToolResult<()> {
+    let errors: Vec<String> = v
+        .iter_errors(args)
+        .map(|e| {
+            let at = e.instance_path().to_string();
+            // the message quotes the value and then says what is wrong: a huge value must not
+            // come back whole, and the reason after it must not be cut off
+            let full = e.to_string();
+            let msg = if full.len() > 300 {
+                let mut head = 100;
+                while !full.is_char_boundary(head) {
+                    head -= 1;
+                }
+                let mut tail = full.len() - 150;
+                while !full.is_char_boundary(tail) {
+                    tail += 1;
+                }
+                format!("{}…{}", &full[..head], &full[tail..])
+            } else {
+                full
+            };
+            format!("{}: {msg}", if at.is_empty() { "arguments" } else { &at })
+        })
+        .collect();
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(ToolError::BadArguments(errors.join("; ")))
+    }
+}
+
+/// Checks what a schema cannot say: text that is only white space.
+pub fn non_blank(what: &str, s: &str) -> ToolResult<()> {
+    if s.trim().is_empty() {
+        Err(ToolError::BadArguments(format!(
+            "{what}: the text is empty"
+        )))
+    } else {
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn request_schemas_say_bounds_defaults_and_no_extra_keys() {
+        let s = request_schema_of::<FindObjectsRequest>();
+        assert_eq!(s["properties"]["class"]["type"], "string");
+        assert_eq!(s["type"], "object");
+        assert_eq!(s["additionalProperties"], false);
+        assert_eq!(s["required"], serde_json::json!(["text"]));
+        assert_eq!(s["properties"]["k"]["minimum"], 1);
+        assert_eq!(s["properties"]["k"]["maximum"], 50);
+        assert_eq!(s["properties"]["k"]["default"], 5);
+        assert_eq!(s["properties"]["text"]["maxLength"], MAX_TEXT_CHARS);
+        assert!(s.get("$schema").is_none());
+        let area = schema_of::<AreaAnswer>().to_string();
+        assert!(
+            !area.contains("$ref") && area.contains("common_classes"),
+            "{area}"
+        );
+    }
+
+    #[test]
+    fn integers_are_read_strictly_and_named() {
+        let e = parse::<GetInstanceRequest>(&serde_json::json!({"id": 5.5})).unwrap_err();
+        assert!(
+            e.to_string().contains("id: invalid type: floating point"),
+            "{e}"
+        );
+        let e = parse::<GetInstanceRequest>(&serde_json::json!({"id": 1e308})).unwrap_err();
+        assert!(e.to_string().starts_with("bad arguments: id:"), "{e}");
+        let e = parse::<GetInstanceRequest>(&serde_json::json!({"id": -1})).unwrap_err();
+        assert!(e.to_string().contains("id: invalid value"), "{e}");
+        assert_eq!(
+            parse::<GetInstanceRequest>(&serde_json::json!({"id": 7})).unwrap(),
+            GetInstanceRequest { id: 7 }
+        );
+        let r: FindObjectsRequest = parse(&serde_json::json!({"text": "a bench"})).unwrap();
+        assert_eq!((r.k, r.class), (5, None));
+        assert!(parse::<AskRequest>(&serde_json::json!({"question": "q", "x": 1})).is_err());
+        let e = check_ask(&serde_json::json!({"question": "q", "max_steps": 21})).unwrap_err();
+        assert!(e.to_string().contains("/max_steps"), "{e}");
+        assert!(check_ask(&serde_json::json!({"question": "  "})).is_err());
+        assert_eq!(
+            check_ask(&serde_json::json!({"question": "where?"}))
+                .unwrap()
+                .max_steps,
+            4
+        );
+    }
+}

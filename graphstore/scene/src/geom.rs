@@ -1,0 +1,76 @@
+//! Geometry on the ground plane: points in ground metres (a [`GroundFrame`](crate::GroundFrame)'s
+//! two ground axes: KITTI's (x, z), or ENU's (x, y)), distances and polylines.
+
+/// A point on the ground plane, metres, in the map's ground frame.
+pub type GroundPoint = [f64; 2];
+
+/// Euclidean distance between two ground points, metres.
+pub fn dist(a: GroundPoint, b: GroundPoint) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// Length of a polyline, metres (0 for fewer than two points).
+pub fn polyline_length(p: &[GroundPoint]) -> f64 {
+    p.windows(2).map(|w| dist(w[0], w[1])).sum()
+}
+
+/// The point of the segment `a`–`b` closest to `p`: (its parameter t in \[0, 1\] from `a`,
+/// the point). A degenerate segment gives (0, `a`).
+pub fn closest_on_segment(p: GroundPoint, a: GroundPoint, b: GroundPoint) -> (f64, GroundPoint) {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l2 = d[0] * d[0] + d[1] * d[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (t, [a[0] + t * d[0], a[1] + t * d[1]])
+}
+
+/// Distance from `p` to the segment `a`–`b`, metres.
+pub fn point_segment_distance(p: GroundPoint, a: GroundPoint, b: GroundPoint) -> f64 {
+    dist(p, closest_on_segment(p, a, b).1)
+}
+
+/// Distance from `p` to a polyline, metres (infinite for fewer than two points).
+pub fn polyline_distance(p: GroundPoint, poly: &[GroundPoint]) -> f64 {
+    poly.windows(2)
+        .map(|w| point_segment_distance(p, w[0], w[1]))
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    const EPS: f64 = 1e-9;
+
+    #[test]
+    fn closest_point_of_a_segment() {
+        let (t, q) = closest_on_segment([5.0, 3.0], [0.0, 0.0], [10.0, 0.0]);
+        assert!((t - 0.5).abs() < EPS && dist(q, [5.0, 0.0]) < EPS);
+        let (t, q) = closest_on_segment([-4.0, 3.0], [0.0, 0.0], [10.0, 0.0]);
+        assert!(t.abs() < EPS && dist(q, [0.0, 0.0]) < EPS);
+        assert_eq!(
+            closest_on_segment([1.0, 1.0], [2.0, 2.0], [2.0, 2.0]),
+            (0.0, [2.0, 2.0])
+        );
+        assert!((polyline_length(&[[0.0, 0.0], [3.0, 4.0], [3.0, 10.0]]) - 11.0).abs() < EPS);
+        assert!(polyline_distance([0.0, 0.0], &[[1.0, 1.0]]).is_infinite());
+    }
+
+    proptest! {
+        /// The closest point is no farther than either end, and lies on the segment.
+        #[test]
+        fn closest_is_closest(p in prop::array::uniform2(-100.0..100.0f64),
+                              a in prop::array::uniform2(-100.0..100.0f64),
+                              b in prop::array::uniform2(-100.0..100.0f64)) {
+            let (t, q) = closest_on_segment(p, a, b);
+            prop_assert!((0.0..=1.0).contains(&t));
+            let d = point_segment_distance(p, a, b);
+            prop_assert!(d <= dist(p, a) + EPS && d <= dist(p, b) + EPS);
+            prop_assert!((dist(a, q) + dist(q, b) - dist(a, b)).abs() < 1e-6);
+        }
+    }
+}

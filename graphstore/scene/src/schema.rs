@@ -1,0 +1,305 @@
+//! The OpenGraph layer schema: what the store enforces on every write to a map (labels and
+//! their typed properties, relationship types and their ends, property, spatial, vector and
+//! text indexes). `docs/schema.md` documents every name.
+
+use graphstore::{
+    LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec, TextIndexSpec,
+    ValueType, VectorIndexSpec, VectorMethod,
+};
+
+use crate::names::{index, key, label, rel};
+
+fn req(key: &str, ty: ValueType) -> PropertyRule {
+    PropertyRule {
+        key: key.into(),
+        ty,
+        required: true,
+    }
+}
+
+fn opt(key: &str, ty: ValueType) -> PropertyRule {
+    PropertyRule {
+        key: key.into(),
+        ty,
+        required: false,
+    }
+}
+
+fn rel(from: &[&str], to: &[&str], properties: Vec<PropertyRule>, description: &str) -> RelRule {
+    RelRule {
+        properties,
+        from_labels: from.iter().map(|s| s.to_string()).collect(),
+        to_labels: to.iter().map(|s| s.to_string()).collect(),
+        description: description.into(),
+    }
+}
+
+/// Dimension of the sentence-embedding features (all-MiniLM-L6-v2).
+pub const FEATURE_DIM: usize = 384;
+
+/// The OpenGraph layers as a schema. `docs/schema.md` documents every name here.
+pub fn opengraph_schema() -> Schema {
+    use ValueType as T;
+    let mut s = Schema::default();
+    s.labels.insert(
+        label::ENVIRONMENT.into(),
+        LabelRule {
+            properties: vec![
+                req(key::NAME, T::String),
+                opt(key::SOURCE, T::String),
+                opt(key::GROUND_FRAME, T::String),
+            ],
+            unique: vec![key::NAME.into()],
+            description: "Root of the hierarchy: one per mapped environment.".into(),
+        },
+    );
+    s.labels.insert(
+        label::SEGMENT.into(),
+        LabelRule {
+            properties: vec![
+                req(key::SEGMENT_ID, T::Int),
+                req(key::KIND, T::String),
+                req(key::CENTROID, T::Point3D),
+                opt(key::AREA, T::List),
+                opt(key::RADIUS_M, T::Float),
+                opt(key::CENTERLINE, T::List),
+                opt(key::HALF_WIDTH_M, T::Float),
+                opt(key::BBOX, T::Box3D),
+                opt(key::POLYGON, T::List),
+                opt(key::DRIVABLE_AREA_M2, T::Float),
+            ],
+            unique: vec![key::SEGMENT_ID.into()],
+            description:
+                "Road segment: intersection, t_intersection, l_intersection or straight_roadway; polygon is its drivable area measured from the map (rings of points, even-odd)."
+                    .into(),
+        },
+    );
+    s.labels.insert(
+        label::LANE_NODE.into(),
+        LabelRule {
+            properties: vec![
+                req(key::LANE_ID, T::Int),
+                req(key::KIND, T::String),
+                req(key::POSITION, T::Point3D),
+            ],
+            unique: vec![key::LANE_ID.into()],
+            description:
+                "Lane-graph vertex: intersection, t_intersection, l_intersection or breakpoint."
+                    .into(),
+        },
+    );
+    s.labels.insert(
+        label::INSTANCE.into(),
+        LabelRule {
+            properties: vec![
+                req(key::INSTANCE_ID, T::Int),
+                req(key::CAPTION, T::String),
+                req(key::CLASS, T::String),
+                req(key::CENTROID, T::Point3D),
+                req(key::BBOX, T::Box3D),
+                opt(key::CAPTIONS, T::List),
+                opt(key::FEATURE, T::Vector),
+                opt(key::POINT_COUNT, T::Int),
+                opt(key::DETECTION_COUNT, T::Int),
+                opt(key::FIRST_FRAME, T::Int),
+                opt(key::LAST_FRAME, T::Int),
+                opt(key::SOURCE, T::String),
+                opt(key::DETECTION_FEATURE, T::Vector),
+                opt(key::TILE, T::List),
+                opt(key::OBB, T::List),
+            ],
+            unique: vec![key::INSTANCE_ID.into()],
+            description: "A mapped object with caption, feature, class, box and points; obb is its oriented box on the ground plane: [center_0, center_1, half_length_m, half_width_m, yaw_rad, bottom_m, top_m] in the environment's ground frame.".into(),
+        },
+    );
+    s.labels.insert(
+        label::FRAME.into(),
+        LabelRule {
+            properties: vec![
+                req(key::INDEX, T::Int),
+                req(key::WORLD_FROM_VELO, T::List),
+                opt(key::TIMESTAMP_SECS, T::Float),
+            ],
+            unique: vec![key::INDEX.into()],
+            description: "A key frame with its pose (3x4 row-major, 12 floats).".into(),
+        },
+    );
+    s.labels.insert(
+        label::BUILD.into(),
+        LabelRule {
+            properties: vec![
+                req(key::BUILD_ID, T::Int),
+                req(key::ARGS, T::String),
+                req(key::NEXT_FRAME, T::Int),
+                req(key::NEXT_INSTANCE_ID, T::Int),
+                req(key::FINISHED, T::Bool),
+                opt(key::HIERARCHY_DONE, T::Bool),
+                opt(key::SOURCE, T::String),
+            ],
+            unique: vec![key::BUILD_ID.into()],
+            description:
+                "Provenance and checkpoint of a map build (lets `build --resume` continue).".into(),
+        },
+    );
+    s.labels.insert(
+        label::MAP_EDIT.into(),
+        LabelRule {
+            properties: vec![
+                req(key::TEXT, T::String),
+                req(key::KIND, T::String),
+                req(key::TIME_UNIX_S, T::Float),
+                req(key::UNDONE, T::Bool),
+                opt(key::PARSED_BY, T::String),
+                opt(key::SUMMARY, T::String),
+                opt(key::TOUCHED, T::List),
+                opt(key::TARGET, T::Int),
+                opt(key::UNDONE_UNIX_S, T::Float),
+            ],
+            unique: vec![],
+            description: "An applied map edit (remove, move, change, add) from a described change; its `diff` payload lets `update --undo` revert it exactly.".into(),
+        },
+    );
+    s.relationships.insert(
+        rel::CONTAINS.into(),
+        rel(
+            &[label::ENVIRONMENT],
+            &[label::SEGMENT],
+            vec![],
+            "Environment to each of its segments.",
+        ),
+    );
+    s.relationships.insert(
+        rel::CONNECTS.into(),
+        rel(
+            &[label::SEGMENT],
+            &[label::SEGMENT],
+            vec![],
+            "Traversable adjacency between segments.",
+        ),
+    );
+    s.relationships.insert(
+        rel::LANE.into(),
+        rel(
+            &[label::LANE_NODE],
+            &[label::LANE_NODE],
+            vec![
+                req(key::LENGTH_M, T::Float),
+                opt(key::POLYLINE, T::List),
+                opt(key::FRAMES, T::List),
+                opt(key::DIRECTED, T::Bool),
+            ],
+            "Lane-graph edge with its metric polyline.",
+        ),
+    );
+    s.relationships.insert(
+        rel::IN_SEGMENT.into(),
+        rel(
+            &[label::INSTANCE, label::LANE_NODE],
+            &[label::SEGMENT],
+            vec![opt(key::DISTANCE_M, T::Float)],
+            "Membership in the closest segment.",
+        ),
+    );
+    s.relationships.insert(
+        rel::RELATED.into(),
+        rel(
+            &[label::INSTANCE],
+            &[label::INSTANCE],
+            vec![
+                req(key::RELATION, T::String),
+                req(key::DISTANCE_M, T::Float),
+                req(key::SOURCE, T::String),
+                req(key::CONFIDENCE, T::Float),
+            ],
+            "Instance-layer relation (geometric or LLM-inferred).",
+        ),
+    );
+    s.relationships.insert(
+        rel::OBSERVED_IN.into(),
+        rel(
+            &[label::INSTANCE],
+            &[label::FRAME],
+            vec![opt(key::DETECTIONS, T::Int)],
+            "Instance seen in a key frame.",
+        ),
+    );
+    s.property_indexes = vec![
+        PropertyIndexSpec {
+            label: label::INSTANCE.into(),
+            key: key::CLASS.into(),
+        },
+        PropertyIndexSpec {
+            label: label::LANE_NODE.into(),
+            key: key::KIND.into(),
+        },
+        PropertyIndexSpec {
+            label: label::SEGMENT.into(),
+            key: key::KIND.into(),
+        },
+    ];
+    s.spatial_indexes = vec![
+        SpatialIndexSpec {
+            name: index::INSTANCE_SPACE.into(),
+            label: label::INSTANCE.into(),
+            position_key: key::CENTROID.into(),
+            box_key: Some(key::BBOX.into()),
+        },
+        SpatialIndexSpec {
+            name: index::LANE_SPACE.into(),
+            label: label::LANE_NODE.into(),
+            position_key: key::POSITION.into(),
+            box_key: None,
+        },
+        SpatialIndexSpec {
+            name: index::SEGMENT_SPACE.into(),
+            label: label::SEGMENT.into(),
+            position_key: key::CENTROID.into(),
+            box_key: Some(key::BBOX.into()),
+        },
+    ];
+    s.vector_indexes = vec![VectorIndexSpec {
+        name: index::INSTANCE_FEATURE.into(),
+        label: label::INSTANCE.into(),
+        key: key::FEATURE.into(),
+        dim: FEATURE_DIM,
+        int8: true,
+        method: VectorMethod::Flat,
+    }];
+    s.text_indexes = vec![TextIndexSpec {
+        name: index::INSTANCE_CAPTION.into(),
+        label: label::INSTANCE.into(),
+        key: key::CAPTION.into(),
+    }];
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn opengraph_schema_is_valid_and_roundtrips() {
+        let s = opengraph_schema();
+        s.validate().unwrap();
+        let json = serde_json::to_string(&s).unwrap();
+        let back: Schema = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, s);
+        let idx = s.effective_property_indexes();
+        assert!(idx.iter().any(|i| i.label == "Frame" && i.key == "index"));
+        assert!(
+            idx.iter()
+                .any(|i| i.label == "Instance" && i.key == "class")
+        );
+    }
+
+    #[test]
+    fn duplicate_index_names_are_rejected() {
+        let mut s = opengraph_schema();
+        s.text_indexes.push(TextIndexSpec {
+            name: "instance_feature".into(),
+            label: "X".into(),
+            key: "y".into(),
+        });
+        assert!(s.validate().is_err());
+    }
+}

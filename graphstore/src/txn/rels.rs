@@ -1,0 +1,166 @@
+//! Relationship and payload writes: create, restore, set, replace, delete; payloads and point
+//! clouds beside a node.
+
+use super::*;
+
+impl WriteTxn<'_> {
+    /// Creates a relationship `start -[ty]-> end`.
+    pub fn create_rel(
+        &mut self,
+        start: u64,
+        ty: RelType,
+        end: u64,
+        props: Vec<(PropKey, Value)>,
+    ) -> Result<u64> {
+        let s = self.rec(start)?;
+        let e = if end == start {
+            s.clone()
+        } else {
+            self.rec(end)?
+        };
+        let props = raw_props(&normalize_props(props));
+        self.check_rel(ty.0, &s, &e, &props)?;
+        let id = self.next_rel;
+        let bytes = codec::encode_rel(ty.0, start, end, &props);
+        self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
+        self.adj
+            .insert(&(start, 0u8, ty.0, id), &end)
+            .map_err(storage)?;
+        self.adj
+            .insert(&(end, 1u8, ty.0, id), &start)
+            .map_err(storage)?;
+        self.bump(1, ty.0, 1)?;
+        self.bump(2, 1, 1)?;
+        self.next_rel += 1;
+        Ok(id)
+    }
+
+    /// Re-creates a deleted relationship under its old id (for undoing an edit exactly).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when the id was never used or a relationship has it; missing
+    /// ends and schema errors as for [`WriteTxn::create_rel`].
+    pub fn restore_rel(
+        &mut self,
+        id: u64,
+        start: u64,
+        ty: RelType,
+        end: u64,
+        props: Vec<(PropKey, Value)>,
+    ) -> Result<()> {
+        if id >= self.next_rel || Raw::load_rel(self, id)?.is_some() {
+            return Err(Error::InvalidValue(format!(
+                "cannot restore relationship {id}: the id is in use or was never handed out"
+            )));
+        }
+        let s = self.rec(start)?;
+        let e = if end == start {
+            s.clone()
+        } else {
+            self.rec(end)?
+        };
+        let props = raw_props(&normalize_props(props));
+        self.check_rel(ty.0, &s, &e, &props)?;
+        let bytes = codec::encode_rel(ty.0, start, end, &props);
+        self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
+        self.adj
+            .insert(&(start, 0u8, ty.0, id), &end)
+            .map_err(storage)?;
+        self.adj
+            .insert(&(end, 1u8, ty.0, id), &start)
+            .map_err(storage)?;
+        self.bump(1, ty.0, 1)?;
+        self.bump(2, 1, 1)?;
+        Ok(())
+    }
+
+    /// Creates a relationship from names.
+    pub fn create_rel_named(
+        &mut self,
+        start: u64,
+        ty: &str,
+        end: u64,
+        props: &[(&str, Value)],
+    ) -> Result<u64> {
+        let t = self.rel_type_id(ty)?;
+        let ps = props
+            .iter()
+            .map(|(k, v)| Ok((self.prop_key_id(k)?, v.clone())))
+            .collect::<Result<Vec<_>>>()?;
+        self.create_rel(start, t, end, ps)
+    }
+
+    pub(super) fn write_rel_props(
+        &mut self,
+        rel: &Relationship,
+        props: Vec<(u32, Value)>,
+    ) -> Result<()> {
+        let s = self.rec(rel.start)?;
+        let e = self.rec(rel.end)?;
+        self.check_rel(rel.ty.0, &s, &e, &props)?;
+        let bytes = codec::encode_rel(rel.ty.0, rel.start, rel.end, &props);
+        self.rels
+            .insert(&rel.id, bytes.as_slice())
+            .map_err(storage)?;
+        Ok(())
+    }
+
+    /// Sets a relationship property; `Value::Null` removes it.
+    pub fn set_rel_prop(&mut self, id: u64, key: PropKey, value: Value) -> Result<()> {
+        let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
+        let mut props = raw_props(&rel.props);
+        match props.binary_search_by_key(&key.0, |(k, _)| *k) {
+            Ok(i) if value.is_null() => {
+                props.remove(i);
+            }
+            Ok(i) => props[i].1 = value,
+            Err(_) if value.is_null() => return Ok(()),
+            Err(i) => props.insert(i, (key.0, value)),
+        }
+        self.write_rel_props(&rel, props)
+    }
+
+    /// Replaces all properties of a relationship.
+    pub fn replace_rel_props(&mut self, id: u64, props: Vec<(PropKey, Value)>) -> Result<()> {
+        let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
+        self.write_rel_props(&rel, raw_props(&normalize_props(props)))
+    }
+
+    /// Deletes a relationship.
+    pub fn delete_rel(&mut self, id: u64) -> Result<()> {
+        let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
+        self.rels.remove(&id).map_err(storage)?;
+        self.adj
+            .remove(&(rel.start, 0u8, rel.ty.0, id))
+            .map_err(storage)?;
+        self.adj
+            .remove(&(rel.end, 1u8, rel.ty.0, id))
+            .map_err(storage)?;
+        self.bump(1, rel.ty.0, -1)?;
+        self.bump(2, 1, -1)?;
+        Ok(())
+    }
+
+    /// Stores a payload beside a node (large data such as point clouds stays out of the
+    /// node record so scans stay cheap).
+    pub fn put_payload(&mut self, node: u64, key: &str, bytes: &[u8]) -> Result<()> {
+        self.rec(node)?;
+        self.payloads.insert(&(node, key), bytes).map_err(storage)?;
+        Ok(())
+    }
+
+    /// Removes a payload; returns whether it existed.
+    pub fn delete_payload(&mut self, node: u64, key: &str) -> Result<bool> {
+        Ok(self
+            .payloads
+            .remove(&(node, key))
+            .map_err(storage)?
+            .is_some())
+    }
+
+    /// Stores a point cloud, compressed (see [`PointCloud::encode`]).
+    pub fn put_point_cloud(&mut self, node: u64, key: &str, cloud: &PointCloud) -> Result<()> {
+        let bytes = cloud.encode()?;
+        self.put_payload(node, key, &bytes)
+    }
+}

@@ -1,0 +1,12 @@
+#![doc = include_str!("../README.md")]
+
+pub mod captions;
+mod error;
+pub mod instances;
+pub mod locate;
+pub mod relations;
+pub mod retrieval;
+pub mod roads;
+pub mod semseg;
+
+pub use error::{Error, Result};
