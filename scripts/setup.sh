@@ -13,7 +13,9 @@
 #   - Debian cmake and libclang-dev: llama-cpp-2 builds llama.cpp from source
 #   - Debian chromium: the web viewer's test (api/tests/viewer.rs) runs it headless
 #   - a Python virtual environment at $OPENGRAPH_VENV (default ~/.cache/opengraph/venv) with
-#     the official MCP client (PyPI mcp==2.3.0), which the MCP tests drive the server with
+#     the official MCP client (PyPI mcp==2.3.0), which the MCP tests drive the server with, and
+#     the libraries the export tests read each export back with (networkx, shapely, plyfile,
+#     kuzu, spark-dsg), and maturin, pytest and pandas for the Python package (api/python)
 # Models go to $OPENGRAPH_MODELS (default ~/.cache/opengraph/models), never into the repo.
 # Prints the environment to use on its last lines (also written to $OPENGRAPH_MODELS/env.sh).
 set -euo pipefail
@@ -137,16 +139,31 @@ ENV
 
 VENV="${OPENGRAPH_VENV:-$HOME/.cache/opengraph/venv}"
 
+# the consumers' own libraries, which the export tests load each export back with
+PY_CONSUMERS=(networkx==3.6.1 shapely==2.2.0 plyfile==1.1.5 kuzu==0.11.3 spark-dsg==1.1.3)
+# the Python package's build and tests: maturin builds the wheel, pytest runs api/python/tests
+PY_PACKAGE=(maturin==1.16.0 pytest==9.2.0 pandas==3.1.1 numpy)
+
 install_venv() {
-  if [ -x "$VENV/bin/python" ] && "$VENV/bin/python" -c 'import mcp' 2>/dev/null; then
-    return 0
+  if [ ! -x "$VENV/bin/python" ]; then
+    log "creating $VENV"
+    python3 -m venv "$VENV" 2>/dev/null || {
+      log "python3 -m venv failed: install python3-venv (apt) to run the Python tests"
+      return 0
+    }
   fi
-  log "creating $VENV with the MCP client (mcp==2.3.0)"
-  python3 -m venv "$VENV" 2>/dev/null || {
-    log "python3 -m venv failed: install python3-venv (apt) to run the MCP client tests"
-    return 0
-  }
-  "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "mcp==2.3.0"
+  if ! "$VENV/bin/python" -c 'import mcp' 2>/dev/null; then
+    log "installing the MCP client (mcp==2.3.0) into $VENV"
+    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "mcp==2.3.0"
+  fi
+  if ! "$VENV/bin/python" -c 'import networkx, shapely, plyfile, kuzu, spark_dsg' 2>/dev/null; then
+    log "installing the export consumers (${PY_CONSUMERS[*]}) into $VENV"
+    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "${PY_CONSUMERS[@]}"
+  fi
+  if ! "$VENV/bin/python" -c 'import maturin, pytest, pandas, numpy' 2>/dev/null; then
+    log "installing the Python package's build and test tools (${PY_PACKAGE[*]}) into $VENV"
+    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "${PY_PACKAGE[@]}"
+  fi
 }
 
 install_apt

@@ -26,9 +26,10 @@ use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Result};
 use crate::hierarchy::relations::{
-    InstanceBox, RelationConfig, box_distance, candidate_pairs, read_instance_box, spanning_tree,
+    InstanceBox, RelationConfig, box_distance, candidate_pairs, spanning_tree,
 };
 use scene::GroundFrame;
+use scene::records::InstanceRecord;
 
 use scene::classes::SURFACE_CLASSES;
 
@@ -47,10 +48,10 @@ impl LlmCache {
         let mut answers = HashMap::new();
         for id in r.nodes_with_label(scene::label::LLM_ANSWER)? {
             let key = r
-                .node_prop(id, "key")?
+                .node_prop(id, scene::key::KEY)?
                 .and_then(|v| v.as_str().map(str::to_string));
             let ans = r
-                .node_prop(id, "answer")?
+                .node_prop(id, scene::key::ANSWER)?
                 .and_then(|v| v.as_str().map(str::to_string));
             if let (Some(k), Some(a)) = (key, ans)
                 && let Ok(v) = serde_json::from_str(&a)
@@ -123,10 +124,10 @@ fn write_answers(
         tx.create_node_named(
             &[scene::label::LLM_ANSWER],
             &[
-                ("key", Value::String(k.clone())),
-                ("model", Value::String(model.to_string())),
-                ("prompt", Value::String(prompt.id())),
-                ("answer", Value::String(v.to_string())),
+                (scene::key::KEY, Value::String(k.clone())),
+                (scene::key::MODEL, Value::String(model.to_string())),
+                (scene::key::PROMPT, Value::String(prompt.id())),
+                (scene::key::ANSWER, Value::String(v.to_string())),
             ],
         )?;
     }
@@ -139,10 +140,19 @@ pub fn str_prop(r: &impl GraphRead, id: u64, key: &str) -> Result<Option<String>
         .and_then(|v| v.as_str().map(str::to_string)))
 }
 
-/// Whether an instance is an object (not a surface or a background tile).
+/// Whether an instance is an object (not a surface or a background tile); false for a node
+/// that is no `Instance`.
+///
+/// # Errors
+/// The store fails, or the instance lacks a required property.
 pub fn is_object(r: &impl GraphRead, id: u64) -> Result<bool> {
-    let class = str_prop(r, id, "class")?.unwrap_or_default();
-    Ok(!SURFACE_CLASSES.contains(&class.as_str()) && r.node_prop(id, "tile")?.is_none())
+    Ok(InstanceRecord::read(r, id)?.is_some_and(|i| is_object_record(&i)))
+}
+
+/// Whether an instance read through its record is an object: neither a surface class nor a
+/// background tile (`tile` set).
+pub fn is_object_record(inst: &InstanceRecord) -> bool {
+    !SURFACE_CLASSES.contains(&inst.class.as_str()) && inst.tile.is_none()
 }
 
 /// Options of a pass.
@@ -167,7 +177,7 @@ impl Default for PassOptions {
 }
 
 /// What a pass did.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct PassReport {
     /// The model's id.
     pub model: String,
@@ -222,32 +232,26 @@ pub fn merge_captions(
         let mut todo = Vec::new();
         let mut already = 0;
         for id in r.nodes_with_label(scene::label::INSTANCE)? {
-            if !is_object(&r, id)? {
+            let Some(inst) = InstanceRecord::read(&r, id)? else {
+                continue;
+            };
+            if !is_object_record(&inst) {
                 continue;
             }
-            let captions: Vec<String> = match r.node_prop(id, "captions")? {
-                Some(Value::List(l)) => l
-                    .iter()
-                    .filter_map(|v| v.as_str().map(str::to_string))
-                    .collect(),
-                _ => Vec::new(),
-            };
+            let captions: Vec<String> = inst.captions.unwrap_or_default();
             if captions.len() < 2 {
                 continue;
             }
-            if str_prop(&r, id, "caption_prompt")?.as_deref() == Some(prompt.id().as_str())
-                && str_prop(&r, id, "caption_model")?.as_deref() == Some(model_id.as_str())
+            if str_prop(&r, id, scene::key::CAPTION_PROMPT)?.as_deref()
+                == Some(prompt.id().as_str())
+                && str_prop(&r, id, scene::key::CAPTION_MODEL)?.as_deref()
+                    == Some(model_id.as_str())
             {
                 already += 1;
                 continue;
             }
-            let medoid = str_prop(&r, id, "caption_medoid")?
-                .or(str_prop(&r, id, "caption")?)
-                .unwrap_or_default();
-            let df = match r.node_prop(id, "detection_feature")? {
-                Some(Value::Vector(v)) => v,
-                _ => Vec::new(),
-            };
+            let medoid = str_prop(&r, id, scene::key::CAPTION_MEDOID)?.unwrap_or(inst.caption);
+            let df = inst.detection_feature.unwrap_or_default();
             todo.push((id, captions, medoid, df));
         }
         (todo, LlmCache::load(&r)?, already)
@@ -281,11 +285,11 @@ pub fn merge_captions(
             Ok((*id, caption, medoid.clone(), instance_feature(&e, df)))
         },
         |tx, writes| {
-            let kc = tx.prop_key_id("caption")?;
-            let km = tx.prop_key_id("caption_medoid")?;
-            let kmod = tx.prop_key_id("caption_model")?;
-            let kp = tx.prop_key_id("caption_prompt")?;
-            let kf = tx.prop_key_id("feature")?;
+            let kc = tx.prop_key_id(scene::key::CAPTION)?;
+            let km = tx.prop_key_id(scene::key::CAPTION_MEDOID)?;
+            let kmod = tx.prop_key_id(scene::key::CAPTION_MODEL)?;
+            let kp = tx.prop_key_id(scene::key::CAPTION_PROMPT)?;
+            let kf = tx.prop_key_id(scene::key::FEATURE)?;
             for (id, caption, medoid, feature) in writes {
                 tx.set_node_prop(*id, kc, Value::String(caption.clone()))?;
                 tx.set_node_prop(*id, km, Value::String(medoid.clone()))?;
@@ -461,15 +465,17 @@ pub fn relation_pairs(r: &impl GraphRead, cfg: &RelationConfig) -> Result<Relati
     let mut boxes = Vec::new();
     let mut info = HashMap::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        if !is_object(r, id)? {
-            continue;
-        }
-        let Some(b) = read_instance_box(r, id, frame)? else {
+        let Some(inst) = InstanceRecord::read(r, id)? else {
             continue;
         };
+        if !is_object_record(&inst) {
+            continue;
+        }
+        let (min, max) = inst.bbox;
+        let b = InstanceBox::new(frame, min, max, inst.obb);
         ids.push(id);
         boxes.push(b);
-        info.insert(id, (str_prop(r, id, "caption")?.unwrap_or_default(), b));
+        info.insert(id, (inst.caption, b));
     }
     let mut pairs: BTreeSet<(u64, u64)> = BTreeSet::new();
     for (i, j, _) in spanning_tree(&boxes, frame, cfg) {
@@ -499,13 +505,20 @@ pub fn infer_relations(
         if let Some(t) = r.rel_type(scene::rel::RELATED) {
             for &a in info.keys() {
                 for adj in r.neighbours(a, Direction::Outgoing, Some(t))? {
-                    let Some(rel) = r.rel(adj.rel)? else { continue };
-                    let get = |k: &str| r.prop_key(k).and_then(|k| rel.get(k).cloned());
-                    if get(scene::key::SOURCE) == Some(Value::from(LLM_SOURCE))
-                        && get("model") == Some(Value::String(model_id.clone()))
-                        && get("prompt") == Some(Value::String(prompt.id()))
+                    if scene::records::RelationRecord::read(&r, adj.rel)?.source != LLM_SOURCE {
+                        continue;
+                    }
+                    // who made it: keys beside the relation's record
+                    let get = |k: &str| -> Result<Option<Value>> {
+                        Ok(match r.prop_key(k) {
+                            Some(k) => r.rel_prop(adj.rel, k)?,
+                            None => None,
+                        })
+                    };
+                    if get(scene::key::MODEL)? == Some(Value::String(model_id.clone()))
+                        && get(scene::key::PROMPT)? == Some(Value::String(prompt.id()))
                     {
-                        done.insert((rel.start.min(rel.end), rel.start.max(rel.end)));
+                        done.insert((a.min(adj.other), a.max(adj.other)));
                     }
                 }
             }
@@ -568,8 +581,8 @@ pub fn infer_relations(
                     confidence: *confidence,
                 }
                 .props();
-                props.push(("model", Value::String(model_id.clone())));
-                props.push(("prompt", Value::String(prompt.id())));
+                props.push((scene::key::MODEL, Value::String(model_id.clone())));
+                props.push((scene::key::PROMPT, Value::String(prompt.id())));
                 tx.create_rel_named(*a, scene::rel::RELATED, *b, &props)?;
             }
             Ok(())

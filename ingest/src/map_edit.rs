@@ -21,6 +21,7 @@ use crate::hierarchy::relations::{RelationConfig, label_pair, read_instance_box}
 use crate::{Error, Result};
 use scene::GroundFrame;
 
+use scene::key;
 use scene::label::MAP_EDIT;
 use scene::records::{EditRecord, GEOMETRIC, InSegmentRecord, InstanceRecord, RelationRecord};
 
@@ -80,7 +81,7 @@ impl Change {
 }
 
 /// What an applied edit did.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Applied {
     /// The `MapEdit` node id (give it to [`undo`]).
     pub edit_id: u64,
@@ -99,7 +100,7 @@ pub struct Applied {
 }
 
 /// One recorded edit.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct EditInfo {
     /// The `MapEdit` node id.
     pub edit_id: u64,
@@ -385,7 +386,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 is_instance(tx, *id)?;
                 summary.insert(
                     "caption".into(),
-                    tx.node_prop(*id, "caption")?
+                    tx.node_prop(*id, key::CAPTION)?
                         .map(|v| v.to_json())
                         .unwrap_or_default(),
                 );
@@ -414,30 +415,30 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 let shift = |p: [f64; 3]| [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
                 let min = shift(b.min);
                 let max = shift(b.max);
-                let bbox = tx.prop_key_id("bbox")?;
+                let bbox = tx.prop_key_id(key::BBOX)?;
                 tx.set_node_prop(
                     *id,
                     bbox,
                     Value::List(vec![Value::Point3D(min), Value::Point3D(max)]),
                 )?;
-                if let Some(c) = tx.node_prop(*id, "centroid")?.and_then(|v| v.as_point3()) {
-                    let k = tx.prop_key_id("centroid")?;
+                if let Some(c) = tx.node_prop(*id, key::CENTROID)?.and_then(|v| v.as_point3()) {
+                    let k = tx.prop_key_id(key::CENTROID)?;
                     tx.set_node_prop(*id, k, Value::Point3D(shift(c)))?;
                 }
-                if tx.node_prop(*id, "obb")?.is_some() {
+                if tx.node_prop(*id, key::OBB)?.is_some() {
                     let mut o = b.obb;
                     o.center = [o.center[0] + dg[0], o.center[1] + dg[1]];
-                    let k = tx.prop_key_id("obb")?;
+                    let k = tx.prop_key_id(key::OBB)?;
                     tx.set_node_prop(*id, k, scene::records::obb_value(&o))?;
                 }
-                if let Some(bytes) = tx.payload(*id, "points")? {
+                if let Some(bytes) = tx.payload(*id, scene::payload::POINTS)? {
                     let mut pc = PointCloud::decode(&bytes)?;
                     for p in &mut pc.xyz {
                         for k in 0..3 {
                             p[k] = (f64::from(p[k]) + d[k]) as f32;
                         }
                     }
-                    tx.put_point_cloud(*id, "points", &pc)?;
+                    tx.put_point_cloud(*id, scene::payload::POINTS, &pc)?;
                 }
                 relink(tx, *id, frame, &segments, &cfg, &mut diff)?;
                 summary.insert("from".into(), serde_json::json!(from));
@@ -454,19 +455,19 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 diff.record_change(tx, *id)?;
                 summary.insert(
                     "caption_before".into(),
-                    tx.node_prop(*id, "caption")?
+                    tx.node_prop(*id, key::CAPTION)?
                         .map(|v| v.to_json())
                         .unwrap_or_default(),
                 );
-                let k = tx.prop_key_id("caption")?;
+                let k = tx.prop_key_id(key::CAPTION)?;
                 tx.set_node_prop(*id, k, Value::String(caption.clone()))?;
-                let k = tx.prop_key_id("feature")?;
+                let k = tx.prop_key_id(key::FEATURE)?;
                 tx.set_node_prop(*id, k, Value::Vector(feature.clone()))?;
                 // the merged caption list no longer describes the object
-                let k = tx.prop_key_id("captions")?;
+                let k = tx.prop_key_id(key::CAPTIONS)?;
                 tx.set_node_prop(*id, k, Value::List(vec![Value::String(caption.clone())]))?;
                 if let Some(c) = class {
-                    let k = tx.prop_key_id("class")?;
+                    let k = tx.prop_key_id(key::CLASS)?;
                     tx.set_node_prop(*id, k, Value::String(c.clone()))?;
                 }
                 summary.insert("caption".into(), serde_json::json!(caption));
@@ -481,7 +482,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
             } => {
                 let mut next = 0i64;
                 for i in tx.nodes_with_label(scene::label::INSTANCE)? {
-                    if let Some(Value::Int(n)) = tx.node_prop(i, "instance_id")? {
+                    if let Some(Value::Int(n)) = tx.node_prop(i, key::INSTANCE_ID)? {
                         next = next.max(n + 1);
                     }
                 }
@@ -569,7 +570,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
             undone_unix_s: None,
         }
         .create(tx)?;
-        tx.put_payload(edit, "diff", &record.to_bytes())?;
+        tx.put_payload(edit, scene::payload::DIFF, &record.to_bytes())?;
         Ok(Applied {
             edit_id: edit,
             kind: change.kind().into(),
@@ -602,12 +603,13 @@ pub fn undo(store: &Store, edit_id: u64) -> Result<EditInfo> {
             if !tx.label(MAP_EDIT).is_some_and(|l| node.labels.contains(&l)) {
                 return Err(invalid(format!("node {edit_id} is not a MapEdit")));
             }
-            if tx.node_prop(edit_id, "undone")? == Some(Value::Bool(true)) {
+            if tx.node_prop(edit_id, key::UNDONE)? == Some(Value::Bool(true)) {
                 return Err(invalid(format!("map edit {edit_id} was undone already")));
             }
             let touched = touched_of(tx, edit_id)?;
             for later in tx.nodes_with_label(MAP_EDIT)? {
-                if later <= edit_id || tx.node_prop(later, "undone")? == Some(Value::Bool(true)) {
+                if later <= edit_id || tx.node_prop(later, key::UNDONE)? == Some(Value::Bool(true))
+                {
                     continue;
                 }
                 let theirs = touched_of(tx, later)?;
@@ -618,7 +620,7 @@ pub fn undo(store: &Store, edit_id: u64) -> Result<EditInfo> {
                 }
             }
             let bytes = tx
-                .payload(edit_id, "diff")?
+                .payload(edit_id, scene::payload::DIFF)?
                 .ok_or_else(|| invalid(format!("map edit {edit_id} has no recorded diff")))?;
             let d = Value::from_bytes(&bytes)?;
             for r in get_list(&d, "created_rels")? {
@@ -679,9 +681,9 @@ pub fn undo(store: &Store, edit_id: u64) -> Result<EditInfo> {
                     props,
                 )?;
             }
-            let k = tx.prop_key_id("undone")?;
+            let k = tx.prop_key_id(key::UNDONE)?;
             tx.set_node_prop(edit_id, k, Value::Bool(true))?;
-            let k = tx.prop_key_id("undone_unix_s")?;
+            let k = tx.prop_key_id(key::UNDONE_UNIX_S)?;
             tx.set_node_prop(edit_id, k, Value::Float(now_unix_s()))?;
             edit_info(tx, edit_id)
         })
@@ -692,7 +694,7 @@ pub fn undo(store: &Store, edit_id: u64) -> Result<EditInfo> {
 }
 
 fn touched_of(r: &impl GraphRead, edit: u64) -> graphstore::Result<Vec<u64>> {
-    Ok(match r.node_prop(edit, "touched")? {
+    Ok(match r.node_prop(edit, key::TOUCHED)? {
         Some(Value::List(l)) => l
             .iter()
             .filter_map(|v| match v {
@@ -713,14 +715,14 @@ fn edit_info(r: &impl GraphRead, id: u64) -> graphstore::Result<EditInfo> {
     };
     Ok(EditInfo {
         edit_id: id,
-        text: s("text")?,
-        kind: s("kind")?,
-        time_unix_s: match r.node_prop(id, "time_unix_s")? {
+        text: s(key::TEXT)?,
+        kind: s(key::KIND)?,
+        time_unix_s: match r.node_prop(id, key::TIME_UNIX_S)? {
             Some(Value::Float(f)) => f,
             _ => 0.0,
         },
-        undone: r.node_prop(id, "undone")? == Some(Value::Bool(true)),
-        summary: serde_json::from_str(&s("summary")?).unwrap_or_default(),
+        undone: r.node_prop(id, key::UNDONE)? == Some(Value::Bool(true)),
+        summary: serde_json::from_str(&s(key::SUMMARY)?).unwrap_or_default(),
     })
 }
 

@@ -16,7 +16,9 @@ use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::{Error, Result};
 
 /// What kind of change.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum EditKind {
     /// The object is gone.
@@ -30,7 +32,7 @@ pub enum EditKind {
 }
 
 /// A described change, parsed.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct EditRequest {
     /// The kind of change.
     pub kind: EditKind,

@@ -143,7 +143,7 @@ impl Default for GraphFindOptions {
 }
 
 /// Why an anchor supports a result.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Evidence {
     /// The anchor phrase of the request.
     pub anchor: String,
@@ -164,7 +164,7 @@ pub struct Evidence {
 }
 
 /// One graph-aware result.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct GraphFound {
     /// Node id.
     pub id: u64,
@@ -399,8 +399,8 @@ pub fn find_graph(
         anchors.push((idx, sims, best));
     }
     let related = r.rel_type(scene::rel::RELATED);
-    let k_relation = r.prop_key("relation");
-    let k_source = r.prop_key("source");
+    let k_relation = r.prop_key(scene::key::RELATION);
+    let k_source = r.prop_key(scene::key::SOURCE);
     let mut out = Vec::with_capacity(targets.len());
     for &ti in &targets {
         let t = &scene.objects[ti];

@@ -32,7 +32,7 @@ const TOGETHER_M: f64 = 15.0;
 pub use scene::view::{SegmentInfo, load_segments};
 
 /// What a description says: the segment kind and the landmarks.
-#[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, schemars::JsonSchema)]
 pub struct Description {
     /// The segment kind said.
     pub segment: Option<SegmentConstraint>,
@@ -190,7 +190,7 @@ pub fn parse_description_llm(model: &mut dyn ChatModel, text: &str) -> Result<De
 }
 
 /// Why a landmark supports a segment.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct LandmarkEvidence {
     /// The landmark phrase.
     pub landmark: String,
@@ -206,7 +206,7 @@ pub struct LandmarkEvidence {
 }
 
 /// One ranked segment.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Located {
     /// Segment node id.
     pub segment: u64,
@@ -224,7 +224,7 @@ pub struct Located {
 }
 
 /// A landmark that nothing in the map matches well: it is left out of the scoring.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct UnmatchedLandmark {
     /// The landmark phrase.
     pub landmark: String,

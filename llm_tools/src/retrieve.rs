@@ -57,7 +57,7 @@ pub struct FindTimings {
 /// the map records one.
 pub fn map_embedder<R: GraphRead>(r: &R) -> Result<Option<String>> {
     for id in r.nodes_with_label(scene::label::BUILD)? {
-        if let Some(Value::String(args)) = r.node_prop(id, "args")?
+        if let Some(Value::String(args)) = r.node_prop(id, scene::key::ARGS)?
             && let Ok(v) = serde_json::from_str::<serde_json::Value>(&args)
             && let Some(e) = v.get("embedder").and_then(|e| e.as_str())
         {
@@ -115,10 +115,10 @@ pub fn find<R: GraphRead>(
         };
         out.push(Found {
             id,
-            caption: text("caption"),
-            class: text("class"),
+            caption: text(scene::key::CAPTION),
+            class: text(scene::key::CLASS),
             score,
-            centroid: get("centroid")
+            centroid: get(scene::key::CENTROID)
                 .and_then(Value::as_point3)
                 .unwrap_or([f64::NAN; 3]),
         });
@@ -155,7 +155,11 @@ fn passes<R: GraphRead>(r: &R, id: u64, opts: &FindOptions) -> Result<bool> {
         return Ok(false);
     };
     let get = |k: &str| r.prop_key(k).and_then(|k| node.get(k));
-    Ok(fits(get("class"), get("centroid"), opts))
+    Ok(fits(
+        get(scene::key::CLASS),
+        get(scene::key::CENTROID),
+        opts,
+    ))
 }
 
 /// Top-k through the vector index. With filters it ranks a prefix of the whole ranking and
@@ -194,9 +198,9 @@ fn ranked_by_index<R: GraphRead>(
 /// Exact scan over every instance's stored feature (maps without the vector index).
 fn scan<R: GraphRead>(r: &R, q: &[f32], opts: &FindOptions) -> Result<Vec<(f64, u64)>> {
     let (k_feature, k_class, k_centroid) = (
-        r.prop_key("feature"),
-        r.prop_key("class"),
-        r.prop_key("centroid"),
+        r.prop_key(scene::key::FEATURE),
+        r.prop_key(scene::key::CLASS),
+        r.prop_key(scene::key::CENTROID),
     );
     // only the scores are kept while scanning; the k winners are read again afterwards
     let mut scored: Vec<(f64, u64)> = Vec::new();

@@ -18,6 +18,7 @@ use crate::graph::{dist, point_at, polyline_length};
 use crate::route::Route;
 use scene::OrientedBox;
 use scene::area::{Drivable, DrivableIndex};
+use scene::records::{InstanceRecord, SegmentRecord};
 
 /// The drivable areas of the store's segments (`Segment.polygon`), in node order; segments
 /// without one are left out.
@@ -30,7 +31,7 @@ pub fn drivable_of_store(
 ) -> Result<Vec<Drivable>> {
     let mut out = Vec::new();
     for id in r.nodes_with_label(scene::label::SEGMENT)? {
-        out.extend(Drivable::of_segment(r, id, ground)?);
+        out.extend(SegmentRecord::read(r, id)?.and_then(|s| s.drivable(ground)));
     }
     Ok(out)
 }
@@ -119,7 +120,7 @@ impl Obstacle {
 }
 
 /// A planned path.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct MotionPath {
     /// Poses (x, y, yaw in radians).
     pub poses: Vec<[f64; 3]>,
@@ -472,23 +473,16 @@ pub fn blocking_instances(
     let corridor = Validity::new(&route.polyline, half_width_m, &[], 0.0);
     let mut out = Vec::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        // ground surfaces are driven over, not around; background classes fused per ground
-        // tile (`tile` set) have the box of a 20 m tile's worth of points, not an obstacle's
-        if let Some(graphstore::Value::String(c)) = r.node_prop(id, "class")?
-            && GROUND_CLASSES.contains(&c.as_str())
-        {
-            continue;
-        }
-        if r.node_prop(id, "tile")?.is_some() {
-            continue;
-        }
-        let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
+        let Some(inst) = InstanceRecord::read(r, id)? else {
             continue;
         };
-        let o = match r
-            .node_prop(id, "obb")?
-            .and_then(|v| scene::records::obb_of(&v))
-        {
+        // ground surfaces are driven over, not around; background classes fused per ground
+        // tile (`tile` set) have the box of a 20 m tile's worth of points, not an obstacle's
+        if GROUND_CLASSES.contains(&inst.class.as_str()) || inst.tile.is_some() {
+            continue;
+        }
+        let (lo, hi) = inst.bbox;
+        let o = match inst.obb {
             Some(b) => Obstacle::oriented(b),
             None => {
                 let (a, b) = (ground.ground(lo), ground.ground(hi));

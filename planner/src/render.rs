@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::graph::RoadGraph;
 use crate::motion::{MotionPath, Obstacle};
 use crate::route::Route;
+use scene::records::InstanceRecord;
 
 /// An instance to draw: its ground footprint, its points on the ground (drawn when present, as
 /// the web viewer and the paper render maps; else the box is filled), its class.
@@ -36,21 +37,19 @@ pub fn instance_footprints(
 ) -> Result<Vec<Footprint>> {
     let mut out = Vec::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        let class = match r.node_prop(id, "class")? {
-            Some(graphstore::Value::String(c)) => c,
-            _ => String::new(),
-        };
-        let surface = crate::motion::GROUND_CLASSES.contains(&class.as_str());
-        let Some((lo, hi)) = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d()) else {
+        let Some(inst) = InstanceRecord::read(r, id)? else {
             continue;
         };
+        let class = inst.class;
+        let surface = crate::motion::GROUND_CLASSES.contains(&class.as_str());
+        let (lo, hi) = inst.bbox;
         let (a, b) = (ground.ground(lo), ground.ground(hi));
         let max_points = if surface {
             2 * POINTS_PER_INSTANCE
         } else {
             POINTS_PER_INSTANCE
         };
-        let points = match r.point_cloud(id, "points")? {
+        let points = match r.point_cloud(id, scene::payload::POINTS)? {
             Some(pc) if !pc.xyz.is_empty() => {
                 let step = pc.xyz.len().div_ceil(max_points);
                 pc.xyz

@@ -44,7 +44,7 @@ fn labels_of(kind: &str) -> &'static [&'static str] {
 }
 
 /// A spec resolved to a place on the ground plane, before snapping to the road graph.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Target {
     /// The spec as given (`instance:1233`, `3.5,-2`).
     pub spec: String,
@@ -112,7 +112,7 @@ pub enum Anchor {
 }
 
 /// A route over the graph.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Route {
     /// Node keys in order (`start` / `goal` for points on edges).
     pub nodes: Vec<String>,
@@ -213,9 +213,9 @@ pub fn target(r: &impl GraphRead, ground: GroundFrame, spec: &Spec) -> Result<Ta
             },
         })?;
     let key = if *label == scene::label::LANE_NODE {
-        "position"
+        scene::key::POSITION
     } else {
-        "centroid"
+        scene::key::CENTROID
     };
     let p = r
         .node_prop(id, key)?

@@ -100,7 +100,9 @@ impl Toolbox {
             ..graphstore::cypher::QueryOptions::default()
         };
         let r = self.store.query(query, &opts).map_err(|e| match e {
-            graphstore::Error::Query(q) if q.kind == graphstore::cypher::ErrorKind::Timeout => {
+            graphstore::Error::Query(ref q)
+                if q.kind == graphstore::cypher::ErrorKind::Timeout =>
+            {
                 ToolError::TimedOut(format!(
                     "the Cypher statement ran past its {} s limit{}; narrow the pattern or add LIMIT",
                     CYPHER_TIMEOUT.as_secs(),
@@ -109,7 +111,17 @@ impl Toolbox {
                         .unwrap_or_default()
                 ))
             }
-            graphstore::Error::Query(_) => ToolError::BadArguments(e.to_string()),
+            graphstore::Error::Query(ref q)
+                if q.kind == graphstore::cypher::ErrorKind::Constraint =>
+            {
+                ToolError::Constraint(e.to_string())
+            }
+            graphstore::Error::Query(_) | graphstore::Error::InvalidValue(_) => {
+                ToolError::BadArguments(e.to_string())
+            }
+            graphstore::Error::Constraint { .. }
+            | graphstore::Error::Schema(_)
+            | graphstore::Error::NodeHasRelationships { .. } => ToolError::Constraint(e.to_string()),
             other => failed(other),
         })?;
         let answer_bytes: u64 = r

@@ -23,6 +23,14 @@ pub enum ToolError {
     /// The arguments do not match the tool's schema, or name nothing.
     #[error("bad arguments: {0}")]
     BadArguments(String),
+    /// A write the map's schema or constraints refuse (a unique property taken, a required
+    /// one missing, a node deleted with relationships left); nothing was changed.
+    #[error("{0}")]
+    Constraint(String),
+    /// What the caller named is unusable: a missing or malformed file, a bad config, a model
+    /// that cannot be opened (the message names the file, line or field).
+    #[error("{0}")]
+    Input(String),
     /// The arguments name a node that does not exist.
     #[error("{0}")]
     NotFound(String),
@@ -46,8 +54,9 @@ impl ToolError {
     pub fn code(&self) -> &'static str {
         match self {
             ToolError::Unknown(_) => "unknown_tool",
-            ToolError::BadArguments(_) => "bad_request",
+            ToolError::BadArguments(_) | ToolError::Input(_) => "bad_request",
             ToolError::NotFound(_) => "not_found",
+            ToolError::Constraint(_) => "constraint",
             ToolError::Forbidden(_) => "unauthorized",
             ToolError::Busy(_) => "busy",
             ToolError::TimedOut(_) => "timeout",
@@ -60,6 +69,8 @@ impl ToolError {
         match self {
             ToolError::Unknown(_)
             | ToolError::BadArguments(_)
+            | ToolError::Input(_)
+            | ToolError::Constraint(_)
             | ToolError::NotFound(_)
             | ToolError::Forbidden(_) => 2,
             _ => 1,
@@ -70,7 +81,8 @@ impl ToolError {
     pub fn http_status(&self) -> u16 {
         match self {
             ToolError::Unknown(_) | ToolError::NotFound(_) => 404,
-            ToolError::BadArguments(_) => 400,
+            ToolError::BadArguments(_) | ToolError::Input(_) => 400,
+            ToolError::Constraint(_) => 409,
             ToolError::Forbidden(_) => 401,
             ToolError::Busy(_) => 503,
             ToolError::TimedOut(_) => 504,
@@ -124,6 +136,29 @@ impl From<ingest::Error> for ToolError {
             ingest::Error::Invalid(m) => ToolError::BadArguments(m),
             other => ToolError::Failed(other.to_string()),
         }
+    }
+}
+
+/// An error of the crates below as the service's one kind: [`ToolError::Input`] when it is
+/// the caller's ([`is_caller_error`]), [`ToolError::Failed`] otherwise; the message is the
+/// error's own, causes included.
+pub fn classify(e: &(dyn std::error::Error + 'static)) -> ToolError {
+    let mut msg = e.to_string();
+    let mut src = e.source();
+    let mut caller = is_caller_error(e) == Some(true);
+    while let Some(s) = src {
+        let m = s.to_string();
+        if !msg.contains(&m) {
+            msg.push_str(": ");
+            msg.push_str(&m);
+        }
+        caller |= is_caller_error(s) == Some(true);
+        src = s.source();
+    }
+    if caller {
+        ToolError::Input(msg)
+    } else {
+        ToolError::Failed(msg)
     }
 }
 

@@ -73,7 +73,7 @@ pub struct FindRequest {
 }
 
 /// A find answer.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct FindAnswer {
     /// The structured request (graph-aware ranking only).
     pub request: Option<Request>,
@@ -85,6 +85,67 @@ pub struct FindAnswer {
     pub results: Vec<GraphFound>,
     /// Milliseconds: parse, rank (embedding included), re-rank.
     pub timings_ms: [f64; 3],
+}
+
+/// Which sentence embedder makes the captions' features.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum EmbedderChoice {
+    /// all-MiniLM-L6-v2 (the real model; `scripts/setup.sh` fetches it).
+    #[default]
+    Minilm,
+    /// A deterministic bag of words, for tests: it captures no meaning.
+    Hash,
+}
+
+impl EmbedderChoice {
+    /// The embedder.
+    ///
+    /// # Errors
+    /// [`ToolError::Input`] when the model files are missing or unreadable.
+    pub fn open(self) -> crate::error::ToolResult<Box<dyn llm_tools::Embedder + Send>> {
+        Ok(match self {
+            EmbedderChoice::Hash => Box::new(llm_tools::HashEmbedder::new(scene::FEATURE_DIM)),
+            EmbedderChoice::Minilm => Box::new(
+                llm_tools::MiniLm::from_dir(&llm_tools::embed::default_models_dir()).map_err(
+                    |e| {
+                        crate::error::ToolError::Input(format!(
+                            "loading the sentence embedder: {e}"
+                        ))
+                    },
+                )?,
+            ),
+        })
+    }
+}
+
+impl EmbedderChoice {
+    /// The embedder named `name` (`minilm` or `hash`).
+    pub fn from_name(name: &str) -> Option<EmbedderChoice> {
+        match name {
+            "minilm" => Some(EmbedderChoice::Minilm),
+            "hash" => Some(EmbedderChoice::Hash),
+            _ => None,
+        }
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            EmbedderChoice::Minilm => "minilm",
+            EmbedderChoice::Hash => "hash",
+        }
+    }
 }
 
 /// Holds what many find requests share: the embedder, the loaded scene, a language model.
@@ -117,7 +178,7 @@ pub struct LocateRequest {
 }
 
 /// A locate answer.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct LocateAnswer {
     /// What the description says.
     pub description: Description,
@@ -152,6 +213,39 @@ impl Finder {
             scene: None,
             shared_scene: None,
         }
+    }
+
+    /// A finder for the map read through `r`: with the embedder its features were made with
+    /// (its `Build` node says; `minilm` when none does), or `embedder` when given and the
+    /// same.
+    ///
+    /// # Errors
+    /// [`crate::error::ToolError::Input`] when `embedder` differs from the map's, or the
+    /// embedder cannot be loaded; the store fails.
+    pub fn for_map(
+        r: &impl GraphRead,
+        embedder: Option<EmbedderChoice>,
+        llm: Option<Box<dyn ChatModel>>,
+    ) -> crate::error::ToolResult<Finder> {
+        use crate::error::ToolError;
+        let built = llm_tools::retrieve::map_embedder(r)?;
+        let choice = match (embedder, built) {
+            (Some(e), Some(b)) if e.name() != b => {
+                return Err(ToolError::Input(format!(
+                    "the map was built with the {b} embedder; query it with the same one (--embedder {b})"
+                )));
+            }
+            (Some(e), _) => e,
+            (None, b) => match b.as_deref() {
+                None => EmbedderChoice::Minilm,
+                Some(name) => EmbedderChoice::from_name(name).ok_or_else(|| {
+                    ToolError::Input(format!(
+                        "the map was built with an unknown embedder {name:?}"
+                    ))
+                })?,
+            },
+        };
+        Ok(Finder::new(choice.open()?, llm))
     }
 
     fn llm(&mut self) -> Result<&mut Box<dyn ChatModel>> {

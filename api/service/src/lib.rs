@@ -2,17 +2,20 @@
 
 pub mod area;
 pub mod ask;
+pub mod build;
 pub mod builder;
 pub mod commit_cache;
 mod cypher;
 pub mod demo;
 pub mod error;
+pub mod export;
 pub mod find;
 pub mod info;
 pub mod ops;
 pub mod plan;
 pub mod query_cache;
 pub mod service;
+pub mod sim;
 pub mod toolbox;
 pub mod tools;
 pub mod update;

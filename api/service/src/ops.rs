@@ -6,9 +6,10 @@
 //! adapter refuses the same inputs with the same message.
 //!
 //! The answer types the service assembles itself are here too ([`SchemaAnswer`],
-//! [`CypherAnswer`], [`AreaAnswer`], [`InstanceAnswer`]); answers made by the crates below
-//! (`find`, `locate`, `navigate`, `update`, `undo`) keep their types there, with their JSON
-//! Schemas written next to the registry.
+//! [`CypherAnswer`], [`AreaAnswer`], [`InstanceAnswer`], [`FindObjectsAnswer`]); the answers
+//! of `locate`, `navigate`, `update` and `undo` keep their types beside their operations
+//! (`find.rs`, `plan.rs`, `update.rs`, and `ingest::map_edit`). Every answer type derives its
+//! JSON Schema ([`answer_schema_of`]); none is written by hand.
 
 use std::collections::BTreeMap;
 
@@ -326,6 +327,15 @@ pub struct InstanceAnswer {
     pub related: Vec<RelatedRef>,
 }
 
+/// The answer of `find_objects`: the structured request and the results, best first.
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
+pub struct FindObjectsAnswer {
+    /// The request as the rule parser understood it.
+    pub request: Option<llm_tools::request::Request>,
+    /// The instances found, best first, each with its evidence.
+    pub results: Vec<llm_tools::graph_find::GraphFound>,
+}
+
 /// Marks every property of an answer's object schema as required: serde writes each field,
 /// `None` as null, so an `Option` field is always there (schemars would leave it optional).
 fn require_all(s: &mut schemars::Schema) {
@@ -338,11 +348,18 @@ fn require_all(s: &mut schemars::Schema) {
     }
 }
 
-/// The JSON Schema of `T` as a tool or request-body schema: draft 2020-12, every subschema
-/// inline (a `$ref` into `$defs` would not resolve once the schema sits inside an OpenAPI
-/// document), with no `$schema` `title` and top-level `description` (MCP and OpenAPI documents carry their own).
-pub fn schema_of<T: JsonSchema>() -> Json {
-    let mut settings = schemars::generate::SchemaSettings::draft2020_12();
+/// The JSON Schema of answer type `T`, as the answer is written: a field serde always writes
+/// is required (an `Option` as null), one it may skip is not; every subschema inline, no
+/// `$schema`, `title` or top-level `description`. Every adapter's answer to a successful call
+/// is valid under it (tested for every tool).
+pub fn answer_schema_of<T: JsonSchema>() -> Json {
+    inline_schema::<T>(schemars::generate::SchemaSettings::draft2020_12().for_serialize())
+}
+
+/// `T`'s root schema under `settings` with every subschema inline, without `$schema`,
+/// `title` and top-level `description` (the tool's or route's own description says what it
+/// is).
+fn inline_schema<T: JsonSchema>(mut settings: schemars::generate::SchemaSettings) -> Json {
     settings.inline_subschemas = true;
     let mut v = settings
         .into_generator()
@@ -351,10 +368,16 @@ pub fn schema_of<T: JsonSchema>() -> Json {
     if let Some(m) = v.as_object_mut() {
         m.remove("$schema");
         m.remove("title");
-        // the tool's or route's own description says what it is
         m.remove("description");
     }
     v
+}
+
+/// The JSON Schema of `T` as a tool or request-body schema: draft 2020-12, every subschema
+/// inline (a `$ref` into `$defs` would not resolve once the schema sits inside an OpenAPI
+/// document), with no `$schema` `title` and top-level `description` (MCP and OpenAPI documents carry their own).
+pub fn schema_of<T: JsonSchema>() -> Json {
+    inline_schema::<T>(schemars::generate::SchemaSettings::draft2020_12())
 }
 
 /// The JSON Schema of request type `T` ([`schema_of`]) as a tool's argument schema: an
@@ -501,7 +524,7 @@ mod tests {
         assert_eq!(s["properties"]["k"]["default"], 5);
         assert_eq!(s["properties"]["text"]["maxLength"], MAX_TEXT_CHARS);
         assert!(s.get("$schema").is_none());
-        let area = schema_of::<AreaAnswer>().to_string();
+        let area = answer_schema_of::<AreaAnswer>().to_string();
         assert!(
             !area.contains("$ref") && area.contains("common_classes"),
             "{area}"

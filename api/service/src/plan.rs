@@ -59,7 +59,7 @@ impl Default for PlanOptions {
 }
 
 /// A planned route.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct PlanAnswer {
     /// The start as resolved.
     pub from: Target,
@@ -206,7 +206,7 @@ pub fn plan_on_av2(
 }
 
 /// How one end of a navigation was resolved.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 #[serde(tag = "by", rename_all = "snake_case")]
 pub enum Resolved {
     /// Given as a spec.
@@ -231,7 +231,7 @@ pub enum Resolved {
 }
 
 /// A navigation answer: both ends with how they were resolved, and the plan.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct NavigateAnswer {
     /// The start.
     pub start: Resolved,

@@ -201,35 +201,24 @@ impl Service {
             .await
     }
 
-    /// The whole map exported (`node-link` JSON or `graphml`), as bytes, with its content type.
+    /// The whole map exported in a one-file format ([`crate::export`]), as bytes, with its
+    /// content type and what was written.
     ///
     /// # Errors
-    /// [`ToolError::BadArguments`] for another format; the store fails.
-    pub async fn export(self: &Arc<Self>, format: &str) -> ToolResult<(&'static str, Vec<u8>)> {
-        let (fmt, ct) = match format {
-            "node-link" => (
-                graphstore::export::ExportFormat::NodeLink,
-                "application/json",
-            ),
-            "graphml" => (
-                graphstore::export::ExportFormat::GraphMl,
-                "application/graphml+xml",
-            ),
-            other => {
-                return Err(ToolError::BadArguments(format!(
-                    "no export format {other:?}; the formats are node-link and graphml"
-                )));
-            }
-        };
+    /// [`ToolError::BadArguments`] for a format that writes a folder (`neo4j-csv`) or a map
+    /// without what the format needs; the store fails.
+    pub async fn export(
+        self: &Arc<Self>,
+        req: crate::export::ExportRequest,
+    ) -> ToolResult<(&'static str, Vec<u8>, crate::export::ExportAnswer)> {
         self.run(move |tb| {
             let r = tb
                 .store()
                 .read()
                 .map_err(|e| ToolError::Failed(e.to_string()))?;
             let mut out = Vec::new();
-            graphstore::export::export(&r, fmt, &mut out)
-                .map_err(|e| ToolError::Failed(e.to_string()))?;
-            Ok((ct, out))
+            let a = crate::export::export(&r, &req, crate::export::ExportTarget::Writer(&mut out))?;
+            Ok((req.format.content_type(), out, a))
         })
         .await
     }
@@ -255,7 +244,7 @@ impl Service {
             let r = tb.store().read().map_err(failed)?;
             crate::area::instance_node(&r, id)?;
             let pc = r
-                .point_cloud(id, "points")
+                .point_cloud(id, scene::payload::POINTS)
                 .map_err(failed)?
                 .unwrap_or_default();
             let mut bytes = Vec::with_capacity(pc.xyz.len() * 12);

@@ -25,15 +25,18 @@ pub use crate::cypher::{
 };
 use crate::error::failed;
 pub use crate::error::{ToolError, ToolResult};
-use crate::find::{FindRequest, LocateRequest, ParserKind, Ranking};
+use crate::find::{FindRequest, LocateAnswer, LocateRequest, ParserKind, Ranking};
 pub use crate::ops::MAX_CYPHER_CHARS;
 use crate::ops::{
-    AreaAnswer, CypherAnswer, CypherRequest, DescribeAreaRequest, FindObjectsRequest,
-    GetInstanceRequest, InstanceAnswer, LocateToolRequest, PlanRouteRequest, SchemaAnswer,
-    SchemaRequest, UndoMapEditRequest, UpdateMapRequest, check_args, non_blank, parse,
-    request_schema_of, schema_of,
+    AreaAnswer, CypherAnswer, CypherRequest, DescribeAreaRequest, FindObjectsAnswer,
+    FindObjectsRequest, GetInstanceRequest, InstanceAnswer, LocateToolRequest, PlanRouteRequest,
+    SchemaAnswer, SchemaRequest, UndoMapEditRequest, UpdateMapRequest, answer_schema_of,
+    check_args, non_blank, parse, request_schema_of,
 };
+use crate::plan::NavigateAnswer;
 pub use crate::toolbox::Toolbox;
+use crate::update::UpdateAnswer;
+use ingest::map_edit::EditInfo;
 
 /// One tool: name, description, JSON Schema of its arguments, and whether it writes.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -50,13 +53,18 @@ pub struct Tool {
     pub writes: bool,
 }
 
-/// One tool's registry entry: its name, description, request type and whether it writes.
-fn tool<Req: JsonSchema>(name: &'static str, description: &'static str, writes: bool) -> Tool {
+/// One tool's registry entry: its name, description, request and answer types, and whether
+/// it writes; both schemas are generated from the types.
+fn tool<Req: JsonSchema, Ans: JsonSchema>(
+    name: &'static str,
+    description: &'static str,
+    writes: bool,
+) -> Tool {
     Tool {
         name,
         description,
         input_schema: request_schema_of::<Req>(),
-        output_schema: output_schema(name),
+        output_schema: answer_schema_of::<Ans>(),
         writes,
     }
 }
@@ -64,54 +72,54 @@ fn tool<Req: JsonSchema>(name: &'static str, description: &'static str, writes: 
 /// Every tool, sorted by name; the write tools only when `writes` is true.
 pub fn tools(writes: bool) -> Vec<Tool> {
     let mut v = vec![
-        tool::<DescribeAreaRequest>(
+        tool::<DescribeAreaRequest, AreaAnswer>(
             "describe_area",
             "Describe the map top-down. Without segment_id: the environment and every road segment (id, kind, how many objects, the most common classes). With segment_id: that segment's objects by class and its notable objects with their captions.",
             false,
         ),
-        tool::<FindObjectsRequest>(
+        tool::<FindObjectsRequest, FindObjectsAnswer>(
             "find_objects",
             "Find objects in the map from a request in words, e.g. 'the bench near the bus stop', 'somewhere I can post a letter', 'a red car at the T-junction'. Returns instances (node id, caption, class, centroid, segment) best first, each with its evidence (anchors found near it).",
             false,
         ),
-        tool::<GetInstanceRequest>(
+        tool::<GetInstanceRequest, InstanceAnswer>(
             "get_instance",
             "One instance by node id: caption, class, centroid, box, segment, and its RELATED neighbours.",
             false,
         ),
-        tool::<SchemaRequest>(
+        tool::<SchemaRequest, SchemaAnswer>(
             "get_schema",
             "The map's schema: node labels and relationship types with counts, indexes, and what each layer means. Call this before writing Cypher.",
             false,
         ),
-        tool::<LocateToolRequest>(
+        tool::<LocateToolRequest, LocateAnswer>(
             "locate",
             "Where is someone who describes their surroundings, e.g. 'I'm at a T-junction, there's a bus stop on my left'? Returns road segments best first with a position estimate and the landmarks that support each.",
             false,
         ),
-        tool::<PlanRouteRequest>(
+        tool::<PlanRouteRequest, NavigateAnswer>(
             "plan_route",
             "Plan a route between two ends, each in words ('the bus stop by the crossroads', 'the T-junction') or as a spec (lane:ID, segment:ID, instance:ID, node:ID, or 'x,z' ground coordinates). Returns both ends with how they were resolved, the lane-graph route and its length.",
             false,
         ),
-        tool::<CypherRequest>(
+        tool::<CypherRequest, CypherAnswer>(
             "read_cypher",
             "Run a read-only Cypher query (openCypher; writes are refused by the parser) with a 10 s time limit and at most 1000 rows. Spatial and vector procedures: db.index.spatial.withinDistance('instance_space', point, metres), db.index.vector.queryNodes.",
             false,
         ),
     ];
     if writes {
-        v.push(tool::<UpdateMapRequest>(
+        v.push(tool::<UpdateMapRequest, UpdateAnswer>(
             "update_map",
             "Update the map from a described change: 'the bush under the street sign at the crossing is gone', 'the bench by the bus stop was moved next to the post box', 'the bench by the bus stop is now red', 'there is a new bin next to the post box'. Without apply it only proposes the edit (the object it found, with candidates); with apply=true it commits it and returns the edit id. An ambiguous description lists the candidates and changes nothing.",
             true,
         ));
-        v.push(tool::<UndoMapEditRequest>(
+        v.push(tool::<UndoMapEditRequest, EditInfo>(
             "undo_map_edit",
             "Undo an applied map edit exactly (its id is update_map's applied.edit_id; edits are listed by MATCH (e:MapEdit) RETURN id(e), e.text, e.undone). A later edit touching the same objects must be undone first.",
             true,
         ));
-        v.push(tool::<CypherRequest>(
+        v.push(tool::<CypherRequest, CypherAnswer>(
             "write_cypher",
             "Run a Cypher statement that may write (CREATE, SET, DELETE, MERGE), as one transaction: a failure changes nothing. 10 s time limit.",
             true,
@@ -119,89 +127,6 @@ pub fn tools(writes: bool) -> Vec<Tool> {
     }
     v.sort_by_key(|t| t.name);
     v
-}
-
-/// The JSON Schema of a tool's answer (what every adapter returns for a successful call):
-/// generated from the answer type where the service assembles the answer, written here for
-/// the answers of the crates below (`find`, `locate`, `navigate`, `update`, `undo`).
-fn output_schema(name: &str) -> Json {
-    let obj = |props: Json, required: &[&str]| json!({"type": "object", "properties": props, "required": required});
-    let id = json!({"type": "integer", "minimum": 0});
-    let num = json!({"type": "number"});
-    let s = json!({"type": "string"});
-    let s_or_null = json!({"type": ["string", "null"]});
-    let arr = |items: Json| json!({"type": "array", "items": items});
-    let xyz = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
-    let xy = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
-    match name {
-        "describe_area" => schema_of::<AreaAnswer>(),
-        "get_instance" => schema_of::<InstanceAnswer>(),
-        "get_schema" => schema_of::<SchemaAnswer>(),
-        "read_cypher" | "write_cypher" => schema_of::<CypherAnswer>(),
-        "find_objects" => {
-            let found = obj(
-                json!({"id": id, "caption": s, "class": s, "score": num, "similarity": num, "cosine": num,
-                       "centroid": xyz, "segment": {"type": ["array", "null"]},
-                       "evidence": arr(json!({"type": "object"}))}),
-                &[
-                    "id", "caption", "class", "score", "cosine", "centroid", "evidence",
-                ],
-            );
-            obj(
-                json!({"request": {"type": "object"}, "results": arr(found)}),
-                &["request", "results"],
-            )
-        }
-        "locate" => {
-            let located = obj(
-                json!({"segment": id, "kind": s, "score": num, "position": xy,
-                       "evidence": arr(json!({"type": "object"}))}),
-                &["segment", "kind", "score", "position", "evidence"],
-            );
-            obj(
-                json!({"description": {"type": "object"}, "parsed_by": s_or_null,
-                       "results": arr(located),
-                       "unmatched": arr(obj(json!({"landmark": s, "best_cosine": num}), &["landmark", "best_cosine"])),
-                       "timings_ms": {"type": "array"}}),
-                &["description", "results"],
-            )
-        }
-        "plan_route" => {
-            let end = json!({"type": "object", "required": ["by"]});
-            let target = obj(
-                json!({"spec": s, "node": {"type": ["integer", "null"]}, "kind": s, "xy": xy}),
-                &["spec", "kind", "xy"],
-            );
-            obj(
-                json!({"start": end, "goal": end, "plan": obj(
-                    json!({"from": target, "to": target,
-                           "route": obj(json!({"nodes": arr(s.clone()), "polyline": arr(xy.clone()), "length_m": num}),
-                                        &["nodes", "polyline", "length_m"]),
-                           "path": {"type": "object"}}),
-                    &["from", "to", "route", "path"])}),
-                &["start", "goal", "plan"],
-            )
-        }
-        "update_map" => obj(
-            json!({"request": {"type": "object"}, "parsed_by": s, "proposal": s, "ambiguous": {"type": "boolean"}, "no_match": {"type": "boolean"},
-                   "target": {"type": ["object", "null"]}, "anchor": {"type": ["object", "null"]},
-                   "position": {"type": ["array", "null"]}, "caption": s_or_null,
-                   "applied": {"anyOf": [{"type": "null"}, obj(json!({"edit_id": id, "kind": s}), &["edit_id", "kind"])]}}),
-            &[
-                "request",
-                "parsed_by",
-                "proposal",
-                "ambiguous",
-                "no_match",
-                "applied",
-            ],
-        ),
-        "undo_map_edit" => obj(
-            json!({"edit_id": id, "text": s, "kind": s, "undone": {"const": true}, "summary": {"type": "object"}}),
-            &["edit_id", "text", "kind", "undone"],
-        ),
-        _ => Json::Null,
-    }
 }
 
 /// Whether `name` is a tool that changes the map (looked up in the registry, built once).
@@ -273,7 +198,10 @@ impl Toolbox {
                         rerank_n: 10,
                     },
                 )?;
-                Ok(json!({"request": a.request, "results": a.results}))
+                answer(&FindObjectsAnswer {
+                    request: a.request,
+                    results: a.results,
+                })
             }
             "locate" => {
                 let req: LocateToolRequest = parse(args)?;
@@ -438,6 +366,125 @@ mod tests {
         let fa = a.call("find_objects", &find).unwrap();
         let fb = b.call("find_objects", &find).unwrap();
         assert_eq!(fa["results"], fb["results"]);
+    }
+
+    /// Every tool's answer on a map is valid under the output schema the registry publishes
+    /// (the MCP client checks structured content against it), and every published tool is
+    /// called here.
+    #[test]
+    fn every_answer_is_valid_under_its_output_schema() {
+        use graphstore::{GraphRead, Value};
+        use llm_tools::Embedder;
+        let (_dir, store) = demo_store();
+        // the demo's instances get their captions' features, as a build writes them
+        let r = store.read().unwrap();
+        let ids = r.nodes_with_label(scene::label::INSTANCE).unwrap();
+        let mut hash = llm_tools::HashEmbedder::new(scene::FEATURE_DIM);
+        let mut features = Vec::new();
+        for &id in &ids {
+            let c = r.node_prop(id, scene::key::CAPTION).unwrap().unwrap();
+            let c = c.as_str().unwrap().to_string();
+            features.push((id, hash.embed(&[c.as_str()]).unwrap().remove(0)));
+        }
+        drop(r);
+        store
+            .write(|tx| {
+                let k = tx.prop_key_id(scene::key::FEATURE)?;
+                for (id, f) in &features {
+                    tx.set_node_prop(*id, k, Value::Vector(f.clone()))?;
+                }
+                Ok(())
+            })
+            .unwrap();
+        let mut tb = Toolbox::new(store, hash_finder(), true);
+        tb.call(
+            "write_cypher",
+            &json!({"query": "MATCH (e:Environment) SET e.ground_frame = 'enu'"}),
+        )
+        .unwrap();
+        let one = |tb: &mut Toolbox, q: &str| {
+            tb.call("read_cypher", &json!({ "query": q })).unwrap()["rows"][0]["id"]
+                .as_u64()
+                .unwrap()
+        };
+        let lane = one(
+            &mut tb,
+            "MATCH (l:LaneNode {lane_id: 0}) RETURN id(l) AS id",
+        );
+        let seg = one(
+            &mut tb,
+            "MATCH (s:Segment {segment_id: 2}) RETURN id(s) AS id",
+        );
+        let bench = one(
+            &mut tb,
+            "MATCH (n:Instance {instance_id: 1}) RETURN id(n) AS id",
+        );
+        let mut calls = vec![
+            ("get_schema", json!({})),
+            (
+                "read_cypher",
+                json!({"query": "MATCH (n) RETURN labels(n) AS l LIMIT 3"}),
+            ),
+            (
+                "write_cypher",
+                json!({"query": "CREATE (:Note {text: 'x'})"}),
+            ),
+            (
+                "find_objects",
+                json!({"text": "the bench near the fire hydrant", "k": 3}),
+            ),
+            (
+                "locate",
+                json!({"text": "I'm at a T-junction by a stop sign"}),
+            ),
+            (
+                "plan_route",
+                json!({"from": format!("lane:{lane}"), "to": format!("segment:{seg}")}),
+            ),
+            (
+                "plan_route",
+                json!({"from": "the fire hydrant", "to": "the T-junction"}),
+            ),
+            ("describe_area", json!({})),
+            ("describe_area", json!({ "segment_id": seg })),
+            ("get_instance", json!({ "id": bench })),
+            (
+                "update_map",
+                json!({"text": "the green wooden bench is now red"}),
+            ),
+            (
+                "update_map",
+                json!({"text": "the green wooden bench is now red", "apply": true}),
+            ),
+        ];
+        let mut called = std::collections::BTreeSet::new();
+        let mut check = |tb: &mut Toolbox, name: &str, args: &Json| -> Json {
+            let a = tb
+                .call(name, args)
+                .unwrap_or_else(|e| panic!("{name} {args}: {e}"));
+            let schema = tools(true)
+                .into_iter()
+                .find(|t| t.name == name)
+                .unwrap()
+                .output_schema;
+            let v = jsonschema::validator_for(&schema).unwrap();
+            let errors: Vec<String> = v.iter_errors(&a).map(|e| e.to_string()).collect();
+            assert!(errors.is_empty(), "{name}: {errors:?}\n{a}");
+            called.insert(name.to_string());
+            a
+        };
+        let mut edit = None;
+        for (name, args) in calls.drain(..) {
+            let a = check(&mut tb, name, &args);
+            if let Some(id) = a["applied"]["edit_id"].as_u64() {
+                edit = Some(id);
+            }
+        }
+        let edit = edit.expect("the change was applied");
+        check(&mut tb, "undo_map_edit", &json!({ "edit_id": edit }));
+        let all: std::collections::BTreeSet<String> =
+            tools(true).iter().map(|t| t.name.to_string()).collect();
+        assert_eq!(called, all);
     }
 
     #[test]

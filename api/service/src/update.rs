@@ -37,7 +37,7 @@ pub struct UpdateRequest {
 }
 
 /// An object the change refers to, resolved.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Resolved {
     /// The phrase.
     pub phrase: String,
@@ -50,7 +50,7 @@ pub struct Resolved {
 }
 
 /// The answer: what was understood, the proposed edit, and what was applied.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct UpdateAnswer {
     /// The parsed change.
     pub request: EditRequest,
@@ -118,11 +118,10 @@ fn ground_box(
     frame: scene::GroundFrame,
     id: u64,
 ) -> ToolResult<([f64; 2], [f64; 2], f64, f64)> {
-    let (min, max) = r
-        .node_prop(id, "bbox")
+    let (min, max) = scene::records::InstanceRecord::read(r, id)
         .map_err(failed)?
-        .and_then(|v| v.as_box3d())
-        .ok_or_else(|| ToolError::Failed(format!("instance {id} has no box")))?;
+        .ok_or_else(|| ToolError::Failed(format!("instance {id} has no box")))?
+        .bbox;
     let (a, b) = (frame.ground(min), frame.ground(max));
     let (ha, hb) = (frame.height(min), frame.height(max));
     Ok((

@@ -3,7 +3,7 @@
 //! the lane graph's polylines and the road segments' outlines, in the map's ground frame
 //! (metres; KITTI maps: x right, z forward).
 
-use graphstore::{Direction, GraphRead, Store, Value};
+use graphstore::{GraphRead, Store};
 use serde_json::{Value as Json, json};
 
 /// Points kept per object (per surface tile for road, sidewalk, parking, terrain, other-ground).
@@ -29,10 +29,12 @@ fn subsample<T: Copy>(v: &[T], max: usize) -> Vec<T> {
 /// kind, outline: [x0, y0, ...]}]}` with ground coordinates in metres (2 decimals).
 ///
 /// # Errors
-/// The store fails or has no ground frame.
+/// The store fails, has no ground frame, or a layer's record lacks a required property
+/// ([`scene::export::MapLayers::load`]).
 pub fn view(store: &Store) -> Result<Json, String> {
     let r = store.read().map_err(|e| e.to_string())?;
-    let g = scene::records::ground_frame(&r).map_err(|e| e.to_string())?;
+    let layers = scene::export::MapLayers::load(&r).map_err(|e| e.to_string())?;
+    let g = layers.ground;
     let surfaces = scene::classes::SURFACE_CLASSES;
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
@@ -44,16 +46,9 @@ pub fn view(store: &Store) -> Result<Json, String> {
     };
     let err = |e: graphstore::Error| e.to_string();
     let mut instances = Vec::new();
-    for id in r.nodes_with_label(scene::label::INSTANCE).map_err(err)? {
-        let text = |k: &str| -> Result<String, String> {
-            Ok(match r.node_prop(id, k).map_err(err)? {
-                Some(Value::String(s)) => s,
-                _ => String::new(),
-            })
-        };
-        let class = text("class")?;
-        let surface = surfaces.contains(&class.as_str());
-        let mut pts: Vec<[f64; 2]> = match r.point_cloud(id, "points").map_err(err)? {
+    for (&id, inst) in &layers.instances {
+        let surface = surfaces.contains(&inst.class.as_str());
+        let mut pts: Vec<[f64; 2]> = match r.point_cloud(id, scene::payload::POINTS).map_err(err)? {
             Some(pc) if !pc.xyz.is_empty() => subsample(
                 &pc.xyz,
                 if surface {
@@ -69,65 +64,42 @@ pub fn view(store: &Store) -> Result<Json, String> {
         };
         if pts.is_empty() {
             // an object without points (added by a map edit): its box's corners
-            if let Some((a, b)) = r
-                .node_prop(id, "bbox")
-                .map_err(err)?
-                .and_then(|v| v.as_box3d())
-            {
-                let (a, b) = (g.ground(a), g.ground(b));
-                pts = vec![a, [a[0], b[1]], b, [b[0], a[1]]];
-            }
+            let (a, b) = inst.bbox;
+            let (a, b) = (g.ground(a), g.ground(b));
+            pts = vec![a, [a[0], b[1]], b, [b[0], a[1]]];
         }
         pts.iter().for_each(|p| grow(*p));
         instances.push(json!({
             "id": id,
-            "class": class,
-            "caption": text("caption")?,
+            "class": inst.class,
+            "caption": inst.caption,
             "surface": surface,
             "points": pts.iter().flat_map(|p| [r2(p[0]), r2(p[1])]).collect::<Vec<f64>>(),
         }));
     }
     let mut lanes = Vec::new();
-    if let Some(lane) = r.rel_type(scene::rel::LANE) {
-        for n in r.nodes_with_label(scene::label::LANE_NODE).map_err(err)? {
-            for adj in r
-                .neighbours(n, Direction::Outgoing, Some(lane))
-                .map_err(err)?
-            {
-                let Some(rel) = r.rel(adj.rel).map_err(err)? else {
-                    continue;
-                };
-                let line = r
-                    .prop_key("polyline")
-                    .and_then(|k| rel.get(k).cloned())
-                    .and_then(|v| match v {
-                        Value::List(l) => Some(l),
-                        _ => None,
-                    })
-                    .unwrap_or_default();
-                let pts: Vec<f64> = line
-                    .iter()
-                    .filter_map(Value::as_point3)
-                    .flat_map(|p| {
-                        let q = g.ground(p);
-                        grow(q);
-                        [r2(q[0]), r2(q[1])]
-                    })
-                    .collect();
-                if !pts.is_empty() {
-                    lanes.push(json!(pts));
-                }
-            }
+    for (_, _, _, edge) in &layers.lane_edges {
+        let pts: Vec<f64> = edge
+            .polyline
+            .iter()
+            .flat_map(|p| {
+                let q = g.ground(*p);
+                grow(q);
+                [r2(q[0]), r2(q[1])]
+            })
+            .collect();
+        if !pts.is_empty() {
+            lanes.push(json!(pts));
         }
     }
-    let segments: Vec<Json> = llm_tools::locate::load_segments(&r, g)
-        .map_err(|e| e.to_string())?
+    let segments: Vec<Json> = layers
+        .segments
         .iter()
-        .map(|s| {
+        .map(|(id, s)| {
             json!({
-                "id": s.id,
+                "id": id,
                 "kind": s.kind,
-                "outline": s.area.outline(24).iter().flat_map(|p| [r2(p[0]), r2(p[1])]).collect::<Vec<f64>>(),
+                "outline": s.area(g).outline(24).iter().flat_map(|p| [r2(p[0]), r2(p[1])]).collect::<Vec<f64>>(),
             })
         })
         .collect();

@@ -31,15 +31,23 @@ pub(crate) enum Command {
         /// The store file.
         #[arg(long)]
         db: PathBuf,
-        /// node-link (networkx JSON) or graphml.
-        #[arg(long, value_parser = ["node-link", "graphml"])]
+        /// node-link (networkx JSON), graphml, neo4j-csv (a folder for neo4j-admin import),
+        /// geojson (ground-plane metres), spark-dsg (Hydra's scene-graph JSON) or ply (points).
+        #[arg(long, value_parser = opengraph_service::export::ExportFormat::NAMES)]
         format: String,
-        /// Output file (its folder must exist; `-` or /dev/stdout write to stdout).
-        #[arg(long, value_parser = output_file)]
+        /// Output file (its folder must exist; `-` or /dev/stdout write to stdout); for
+        /// neo4j-csv, a folder (made if missing).
+        #[arg(long, value_parser = output_file_or_dir)]
         out: PathBuf,
         /// node-link only: key of the edge list; `links` for networkx older than 3.6.
         #[arg(long, default_value = "edges", value_parser = ["edges", "links"])]
         edges_key: String,
+        /// ply only: colour points by class or by instance.
+        #[arg(long, default_value = "class", value_parser = ["class", "instance"])]
+        colour: String,
+        /// Print what was written as JSON.
+        #[arg(long)]
+        json: bool,
     },
     /// Extract the lane graph and road segments from a KITTI-format trajectory.
     Lanes {
@@ -747,25 +755,19 @@ impl LlmArgs {
     /// The flags laid over `base` (the `[llm]` table of a config, or the default).
     pub(crate) fn config(
         &self,
-        mut base: llm_tools::LlmConfig,
+        base: llm_tools::LlmConfig,
         default_backend: &str,
     ) -> llm_tools::LlmConfig {
-        if let Some(b) = &self.llm {
-            base.backend = b.clone();
-        } else if base.backend == "none" {
-            base.backend = default_backend.to_string();
+        self.choice().over(base, default_backend)
+    }
+
+    /// The flags as the service's choice of model.
+    pub(crate) fn choice(&self) -> opengraph_service::build::LlmChoice {
+        opengraph_service::build::LlmChoice {
+            backend: self.llm.clone(),
+            model: self.llm_model.clone(),
+            url: self.llm_url.clone(),
         }
-        if let Some(m) = &self.llm_model {
-            if base.backend == "local" {
-                base.model_path = Some(PathBuf::from(m));
-            } else {
-                base.model = Some(m.clone());
-            }
-        }
-        if let Some(u) = &self.llm_url {
-            base.url = Some(u.clone());
-        }
-        base
     }
 }
 

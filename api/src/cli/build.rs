@@ -1,7 +1,5 @@
 //! `opengraph build`.
 
-use anyhow::Context;
-
 use super::args::*;
 use super::common::*;
 
@@ -26,41 +24,25 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     else {
         unreachable!("run dispatches only Command::Build here")
     };
-    use ingest::build::{BuildArgs, BuildConfig, Progress, Source};
-    let mut cfg = match &config {
-        Some(p) => BuildConfig::from_toml_file(p)?,
-        None => BuildConfig::default(),
-    };
-    // the language model is opened before any mapping, so a bad [llm] or --llm fails
-    // at once instead of after the whole build
-    let llm_cfg = llm.config(cfg.llm.clone(), "none");
-    let mut chat = llm_tools::chat::open(&llm_cfg)?;
-    if let Some(m) = &chat {
-        errln!("language model for the caption merge: {}", m.model_id());
-    }
-    if let Some(a) = accumulate {
-        cfg.mapping.accumulate = a as usize;
-    }
-    let source = match (detections, oracle_labels) {
-        (Some(d), false) => Source::Detections(d),
-        (None, true) => Source::Oracle,
-        _ => {
-            return Err(
-                UsageError("give either --detections DIR or --oracle-labels".into()).into(),
-            );
-        }
-    };
-    let mut emb = make_embedder(&embedder)?;
-    let store =
-        graphstore::Store::create(&db).with_context(|| format!("opening {}", db.display()))?;
-    let args = BuildArgs {
-        sequence: kitti,
-        poses,
-        source,
-        frames,
+    use opengraph_service::build::{BuildRequest, CaptionMerge, EmbedderChoice, Progress};
+    let req = BuildRequest {
+        kitti,
+        oracle_labels,
+        detections,
+        frames: frames.map(|r| [r.start, r.end]),
         stride,
-        config: cfg,
-        environment: name,
+        accumulate,
+        poses,
+        config,
+        db,
+        resume,
+        name,
+        embedder: if embedder == "hash" {
+            EmbedderChoice::Hash
+        } else {
+            EmbedderChoice::Minilm
+        },
+        llm: llm.choice(),
     };
     // test hook: pause after each commit so a test can kill the build at a known point
     let pause_ms: u64 = std::env::var("OPENGRAPH_BUILD_PAUSE_AFTER_COMMIT_MS")
@@ -91,40 +73,19 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         }
         Progress::Finishing => bar.set_message("post-processing and hierarchy"),
     };
-    let mut merger = ingest::mapping::MedoidMerger;
-    let report = ingest::build::build(
-        &store,
-        &args,
-        emb.as_mut(),
-        &mut merger,
-        resume,
-        &mut on_progress,
-    )?;
+    let answer = opengraph_service::build::build(&req, &mut on_progress);
     bar.finish_and_clear();
-    let merge = match chat.as_mut() {
-        Some(m) => Some(ingest::llm::merge_captions(
-            &store,
-            m.as_mut(),
-            emb.as_mut(),
-            args.config.mapping.merge_captions.max(2),
-            &ingest::llm::PassOptions::default(),
-        )?),
-        None => None,
-    };
+    let answer = answer?;
     let rss = peak_rss_mib();
     if json {
-        let mut v = serde_json::to_value(&report)?;
+        let mut v = serde_json::to_value(&answer)?;
         v["peak_rss_mib"] = serde_json::json!(rss);
-        v["caption_merge"] = match &merge {
-            Some(m) => serde_json::to_value(m)?,
-            None => serde_json::json!({"model": "none", "method": "medoid"}),
-        };
         outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        out!("{}", build_summary(&report, rss));
-        match &merge {
-            Some(m) => print_pass("caption merge", m)?,
-            None => {
+        out!("{}", build_summary(&answer.report, rss));
+        match &answer.caption_merge {
+            CaptionMerge::Llm(m) => print_pass("caption merge", m)?,
+            CaptionMerge::Medoid { .. } => {
                 outln!("captions: medoid of each object's latest captions (no --llm)")
             }
         }

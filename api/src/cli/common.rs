@@ -260,17 +260,6 @@ pub(crate) fn finder_for(
     needs_llm: bool,
     llm: &LlmArgs,
 ) -> anyhow::Result<api::find::Finder> {
-    let built = llm_tools::retrieve::map_embedder(r)?;
-    let name = match (embedder, built) {
-        (Some(e), Some(b)) if e != b => {
-            return Err(UsageError(format!(
-                "the map was built with the {b} embedder; query it with the same one (--embedder {b})"
-            ))
-            .into());
-        }
-        (Some(e), _) => e,
-        (None, b) => b.unwrap_or_else(|| "minilm".into()),
-    };
     let model = if needs_llm {
         Some(open_llm(
             &llm.config(llm_tools::LlmConfig::default(), "local"),
@@ -279,17 +268,20 @@ pub(crate) fn finder_for(
     } else {
         None
     };
-    Ok(api::find::Finder::new(make_embedder(&name)?, model))
+    let choice = match embedder {
+        Some(e) => Some(
+            api::find::EmbedderChoice::from_name(&e)
+                .ok_or_else(|| UsageError(format!("--embedder: unknown embedder {e:?}")))?,
+        ),
+        None => None,
+    };
+    Ok(api::find::Finder::for_map(r, choice, model)?)
 }
 
 pub(crate) fn make_embedder(name: &str) -> anyhow::Result<Box<dyn llm_tools::Embedder + Send>> {
-    Ok(match name {
-        "hash" => Box::new(llm_tools::HashEmbedder::new(scene::FEATURE_DIM)),
-        _ => Box::new(
-            llm_tools::MiniLm::from_dir(&llm_tools::embed::default_models_dir())
-                .context("loading the sentence embedder")?,
-        ),
-    })
+    Ok(api::find::EmbedderChoice::from_name(name)
+        .unwrap_or_default()
+        .open()?)
 }
 
 /// Peak resident memory of this process in MiB (Linux), if known.

@@ -25,6 +25,17 @@ pub(crate) fn output_file(s: &str) -> Result<PathBuf, String> {
     Ok(p)
 }
 
+/// A clap parser for `export --out`: a file to write ([`output_file`]), or a folder for a
+/// format that writes one (`neo4j-csv`): an existing folder passes, and a new path needs its
+/// parent folder. Which the format wants is checked once the format is known.
+pub(crate) fn output_file_or_dir(s: &str) -> Result<PathBuf, String> {
+    let p = PathBuf::from(s);
+    if p.is_dir() {
+        return Ok(p);
+    }
+    output_file(s)
+}
+
 /// A clap parser for a folder to write into: it may exist (as a folder) or be made, with its
 /// missing parents, as long as no part of the path is a file.
 pub(crate) fn output_dir(s: &str) -> Result<PathBuf, String> {

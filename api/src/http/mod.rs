@@ -139,7 +139,7 @@ enum Op {
     Script,
     /// What the viewer draws.
     View,
-    /// The whole map exported (`{format}`: node-link or graphml).
+    /// The whole map exported (`{format}`: node-link, graphml, geojson, spark-dsg or ply).
     Export,
     /// A question answered by the server's language model calling the tools.
     Ask,
@@ -288,7 +288,7 @@ fn routes() -> Vec<Route> {
             Get,
             "/api/export/{format}",
             Op::Export,
-            "The whole map: node-link (networkx JSON) or graphml.",
+            "The whole map in one file: node-link (networkx JSON), graphml, geojson (ground-plane metres), spark-dsg (Hydra's scene-graph JSON, z-up metres) or ply (the points, world frame); neo4j-csv writes a folder and is for the CLI.",
         ),
         r(
             Get,
@@ -432,8 +432,12 @@ async fn handle(
         }
         Op::Export => {
             let format = params.get("format").cloned().unwrap_or_default();
-            return match svc.export(&format).await {
-                Ok((ct, bytes)) => ([(header::CONTENT_TYPE, ct)], bytes).into_response(),
+            let req = match format.parse() {
+                Ok(f) => opengraph_service::export::ExportRequest::new(f),
+                Err(e) => return error_response(&e),
+            };
+            return match svc.export(req).await {
+                Ok((ct, bytes, _)) => ([(header::CONTENT_TYPE, ct)], bytes).into_response(),
                 Err(e) => error_response(&e),
             };
         }

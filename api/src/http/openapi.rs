@@ -47,7 +47,11 @@ pub fn openapi(service: &Service) -> JsonValue {
                     .schema(Some(
                         ObjectBuilder::new()
                             .schema_type(Type::String)
-                            .enum_values(Some(["node-link", "graphml"])),
+                            .enum_values(Some(
+                                opengraph_service::export::ExportFormat::NAMES
+                                    .into_iter()
+                                    .filter(|n| *n != "neo4j-csv"),
+                            )),
                     )),
             );
         }

@@ -187,9 +187,8 @@ pub fn python_with_mcp() -> Option<std::path::PathBuf> {
     ok.then_some(py)
 }
 
-/// Runs `cmd` with its output captured, waiting `secs` at most; asserts it succeeded and
-/// returns the last line of its stdout as JSON (the Python clients print one JSON line).
-pub fn json_of_run(mut cmd: Command, secs: u64) -> serde_json::Value {
+/// Runs `cmd` with its output captured, waiting `secs` at most, and returns what it did.
+pub fn output_within(mut cmd: Command, secs: u64) -> std::process::Output {
     let child = cmd
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -199,13 +198,19 @@ pub fn json_of_run(mut cmd: Command, secs: u64) -> serde_json::Value {
     std::thread::spawn(move || {
         let _ = tx.send(child.wait_with_output());
     });
-    let out = rx
-        .recv_timeout(std::time::Duration::from_secs(secs))
+    rx.recv_timeout(std::time::Duration::from_secs(secs))
         .unwrap_or_else(|_| panic!("{cmd:?} did not finish within {secs} s"))
-        .unwrap();
+        .unwrap()
+}
+
+/// Runs `cmd` with its output captured, waiting `secs` at most; asserts it succeeded and
+/// returns the last line of its stdout as JSON (the Python clients print one JSON line).
+pub fn json_of_run(cmd: Command, secs: u64) -> serde_json::Value {
+    let shown = format!("{cmd:?}");
+    let out = output_within(cmd, secs);
     assert!(
         out.status.success(),
-        "{cmd:?} failed: {}",
+        "{shown} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     let text = String::from_utf8_lossy(&out.stdout);

@@ -3,6 +3,7 @@
 pub mod area;
 pub mod classes;
 mod error;
+pub mod export;
 pub mod geom;
 mod ground;
 pub mod names;
@@ -15,6 +16,6 @@ pub mod view;
 pub use error::{Error, Result};
 pub use geom::GroundPoint;
 pub use ground::GroundFrame;
-pub use names::{index, key, label, rel};
+pub use names::{index, key, label, payload, rel};
 pub use obb::{OBB_VALUES, OrientedBox};
 pub use schema::{FEATURE_DIM, opengraph_schema};

@@ -144,6 +144,28 @@ pub mod key {
     pub const TARGET: &str = "target";
     /// `MapEdit.undone_unix_s`.
     pub const UNDONE_UNIX_S: &str = "undone_unix_s";
+    /// `LlmAnswer.key`: what the cached answer answers (a hash of the question).
+    pub const KEY: &str = "key";
+    /// `LlmAnswer.answer`: the model's answer (JSON text).
+    pub const ANSWER: &str = "answer";
+    /// `LlmAnswer.model`, `RELATED.model`: the language model that made the fact.
+    pub const MODEL: &str = "model";
+    /// `LlmAnswer.prompt`, `RELATED.prompt`: the prompt and its version (`merge_captions@v1`).
+    pub const PROMPT: &str = "prompt";
+    /// `Instance.caption_medoid`: the medoid caption kept beside an LLM-merged one.
+    pub const CAPTION_MEDOID: &str = "caption_medoid";
+    /// `Instance.caption_model`: the model that merged the caption.
+    pub const CAPTION_MODEL: &str = "caption_model";
+    /// `Instance.caption_prompt`: the prompt that merged the caption.
+    pub const CAPTION_PROMPT: &str = "caption_prompt";
+}
+
+/// Payload names (bytes kept beside a node, outside its properties).
+pub mod payload {
+    /// An instance's fused points (a `graphstore::PointCloud`, world frame, metres).
+    pub const POINTS: &str = "points";
+    /// A `MapEdit`'s undo record.
+    pub const DIFF: &str = "diff";
 }
 
 /// Index names.

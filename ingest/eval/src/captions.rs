@@ -12,7 +12,7 @@
 
 use std::path::Path;
 
-use graphstore::{GraphRead, Value};
+use graphstore::GraphRead;
 use ingest::sources::sim::truth::{TruthObject, match_truth, read_truth};
 
 use crate::Result;
@@ -184,20 +184,20 @@ pub fn eval_captions(r: &impl GraphRead, sim_dir: &Path) -> Result<CaptionEval> 
     let mut sources = std::collections::BTreeSet::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
         let s = |k: &str| ingest::llm::str_prop(r, id, k);
-        if !ingest::llm::is_object(r, id)? {
+        let Some(inst) = scene::records::InstanceRecord::read(r, id)? else {
+            continue;
+        };
+        if !ingest::llm::is_object_record(&inst) {
             continue;
         }
         out.object_instances += 1;
-        let Some(Value::Point3D(c)) = r.node_prop(id, "centroid")? else {
-            continue;
-        };
-        let Some(ti) = match_truth(&truth, c) else {
+        let Some(ti) = match_truth(&truth, inst.centroid) else {
             continue;
         };
         out.matched += 1;
-        let caption = s("caption")?.unwrap_or_default();
-        let model = s("caption_model")?;
-        if let (Some(m), Some(_)) = (s("caption_medoid")?, &model) {
+        let caption = inst.caption;
+        let model = s(scene::key::CAPTION_MODEL)?;
+        if let (Some(m), Some(_)) = (s(scene::key::CAPTION_MEDOID)?, &model) {
             merged.push((caption.clone(), m, ti));
         }
         sources.insert(model.unwrap_or_else(|| "medoid".into()));

@@ -15,6 +15,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use graphstore::GraphRead;
+use scene::records::InstanceRecord;
 use scene::{GroundFrame, OrientedBox};
 
 use crate::Result;
@@ -82,15 +83,12 @@ pub fn footprint_iou(a: &[[f64; 2]; 4], b: &[[f64; 2]; 4]) -> f64 {
 
 /// Footprint of an instance: its oriented box (`obb`) or, without one, its axis-aligned
 /// `bbox`, widened to [`MIN_SIDE_M`].
-fn instance_footprint(
-    r: &impl GraphRead,
-    id: u64,
-    frame: GroundFrame,
-) -> Result<Option<[[f64; 2]; 4]>> {
-    Ok(
-        ingest::hierarchy::relations::read_instance_box(r, id, frame)?
-            .map(|b| b.obb.widened(MIN_SIDE_M).corners()),
-    )
+fn instance_footprint(inst: &InstanceRecord, frame: GroundFrame) -> [[f64; 2]; 4] {
+    let (min, max) = inst.bbox;
+    ingest::hierarchy::relations::InstanceBox::new(frame, min, max, inst.obb)
+        .obb
+        .widened(MIN_SIDE_M)
+        .corners()
 }
 
 /// Greedy one-to-one matching by IoU: pairs `(instance index, truth index)`.
@@ -160,15 +158,15 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
     let mut feet = Vec::new();
     let mut classes = Vec::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        if !ingest::llm::is_object(r, id)? {
+        let Some(inst) = InstanceRecord::read(r, id)? else {
+            continue;
+        };
+        if !ingest::llm::is_object_record(&inst) {
             out.surface_tiles += 1;
             continue;
         }
-        let Some(f) = instance_footprint(r, id, frame)? else {
-            continue;
-        };
-        feet.push(f);
-        classes.push(ingest::llm::str_prop(r, id, "class")?.unwrap_or_default());
+        feet.push(instance_footprint(&inst, frame));
+        classes.push(inst.class);
     }
     out.instances = feet.len();
     let matches = match_greedy(&feet, &truth);

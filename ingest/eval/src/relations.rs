@@ -3,8 +3,9 @@
 
 use std::path::Path;
 
-use graphstore::{GraphRead, Value};
+use graphstore::GraphRead;
 use ingest::sources::sim::truth::{TruthObject, footprint_gap, inside, match_truth, read_truth};
+use scene::records::{InstanceRecord, RelationRecord};
 
 use crate::Result;
 
@@ -139,17 +140,21 @@ pub fn eval_relations(r: &impl GraphRead, sim_dir: &Path) -> Result<RelationEval
     let Some(related) = r.rel_type(scene::rel::RELATED) else {
         return Ok(out);
     };
-    let prop =
-        |rel: &graphstore::Relationship, k: &str| r.prop_key(k).and_then(|k| rel.get(k).cloned());
+    // the model that labelled an LLM relation: a key beside the relation's record
+    let model_of = |rel: u64| -> Result<Option<String>> {
+        Ok(match r.prop_key(scene::key::MODEL) {
+            Some(k) => r
+                .rel_prop(rel, k)?
+                .and_then(|v| v.as_str().map(str::to_string)),
+            None => None,
+        })
+    };
     let mut matched: std::collections::HashMap<u64, Option<usize>> = Default::default();
     let mut match_of = |id: u64| -> Result<Option<usize>> {
         if let Some(m) = matched.get(&id) {
             return Ok(*m);
         }
-        let m = match r.node_prop(id, "centroid")? {
-            Some(Value::Point3D(c)) => match_truth(&truth, c),
-            _ => None,
-        };
+        let m = InstanceRecord::read(r, id)?.and_then(|i| match_truth(&truth, i.centroid));
         matched.insert(id, m);
         Ok(m)
     };
@@ -159,45 +164,32 @@ pub fn eval_relations(r: &impl GraphRead, sim_dir: &Path) -> Result<RelationEval
         let rels = r.neighbours(a, graphstore::Direction::Outgoing, Some(related))?;
         let mut geo: std::collections::HashMap<u64, Vec<String>> = Default::default();
         let mut llm: Vec<(u64, String)> = Vec::new();
+        // outgoing: `adj.other` is the relation's end
         for adj in &rels {
-            let Some(rel) = r.rel(adj.rel)? else { continue };
-            let label = prop(&rel, "relation")
-                .and_then(|v| v.as_str().map(str::to_string))
-                .unwrap_or_default();
-            match prop(&rel, "source")
-                .and_then(|v| v.as_str().map(str::to_string))
-                .as_deref()
-            {
-                Some("llm") => {
-                    if let Some(m) =
-                        prop(&rel, "model").and_then(|v| v.as_str().map(str::to_string))
-                    {
+            let rel = RelationRecord::read(r, adj.rel)?;
+            match rel.source.as_str() {
+                "llm" => {
+                    if let Some(m) = model_of(adj.rel)? {
                         models.insert(m);
                     }
-                    llm.push((rel.end, label));
+                    llm.push((adj.other, rel.relation));
                 }
-                Some("geometric") => geo.entry(rel.end).or_default().push(label),
+                "geometric" => geo.entry(adj.other).or_default().push(rel.relation),
                 _ => {}
             }
         }
         // geometric labels of the reverse direction, turned round, count for the pair too
+        // (incoming: `adj.other` is the relation's start)
         for adj in r.neighbours(a, graphstore::Direction::Incoming, Some(related))? {
-            let Some(rel) = r.rel(adj.rel)? else { continue };
-            if prop(&rel, "source")
-                .and_then(|v| v.as_str().map(str::to_string))
-                .as_deref()
-                == Some("geometric")
-            {
-                let l = prop(&rel, "relation")
-                    .and_then(|v| v.as_str().map(str::to_string))
-                    .unwrap_or_default();
-                let turned = match l.as_str() {
+            let rel = RelationRecord::read(r, adj.rel)?;
+            if rel.source == "geometric" {
+                let turned = match rel.relation.as_str() {
                     "on" => "under",
                     "under" => "on",
                     "inside" => "contains",
                     other => other,
                 };
-                geo.entry(rel.start).or_default().push(turned.to_string());
+                geo.entry(adj.other).or_default().push(turned.to_string());
             }
         }
         for (b, label) in llm {

@@ -119,9 +119,9 @@ pub fn eval_roads(r: &impl GraphRead, sim_dir: &Path, max_gap_m: f64) -> Result<
     let segs: Vec<SegmentInfo> = llm_tools::locate::load_segments(r, frame)?;
     let mut ids = Vec::with_capacity(segs.len());
     for s in &segs {
-        ids.push(match r.node_prop(s.id, "segment_id")? {
-            Some(graphstore::Value::Int(i)) => i,
-            _ => s.id as i64,
+        ids.push(match scene::records::SegmentRecord::read(r, s.id)? {
+            Some(rec) => rec.segment_id,
+            None => s.id as i64,
         });
     }
     // raster bounds: every road and every segment area

@@ -114,14 +114,12 @@ impl MapIndex {
     fn from_store(r: &impl GraphRead, cell_m: f32) -> Result<MapIndex> {
         let mut cells: HashMap<[i32; 3], Vec<([f32; 3], u8)>> = HashMap::new();
         for id in r.nodes_with_label(scene::label::INSTANCE)? {
-            let class = match r.node_prop(id, "class")? {
-                Some(Value::String(c)) => classes::class_id(&c).unwrap_or(0),
-                _ => 0,
-            };
+            let class = scene::records::InstanceRecord::read(r, id)?
+                .map_or(0, |i| classes::class_id(&i.class).unwrap_or(0));
             if class == 0 {
                 continue;
             }
-            if let Some(pc) = r.point_cloud(id, "points")? {
+            if let Some(pc) = r.point_cloud(id, scene::payload::POINTS)? {
                 for p in pc.xyz {
                     cells
                         .entry(voxel_key(p, cell_m))
@@ -167,9 +165,9 @@ pub fn eval_semseg(
     let seq = Sequence::open(sequence, poses)?;
     let r = store.read()?;
     let source = r
-        .find_nodes(scene::label::BUILD, "build_id", &Value::Int(0))?
+        .find_nodes(scene::label::BUILD, scene::key::BUILD_ID, &Value::Int(0))?
         .first()
-        .map(|n| r.node_prop(*n, "source"))
+        .map(|n| r.node_prop(*n, scene::key::SOURCE))
         .transpose()?
         .flatten()
         .and_then(|v| v.as_str().map(str::to_string))

@@ -22,6 +22,7 @@ use crate::sources::kitti::{self, Calib, Rigid3, Scan};
 use crate::sources::oracle::{OracleConfig, oracle_detections};
 use scene::GroundFrame;
 use scene::classes;
+use scene::key;
 use scene::records::InstanceRecord;
 
 mod describe;
@@ -125,7 +126,7 @@ pub enum Progress {
 }
 
 /// What a build did.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct BuildReport {
     /// `oracle` or `detections`.
     pub source: String,
@@ -219,7 +220,7 @@ impl Run<'_> {
             // an absorbed object's observations move to the object that absorbed it
             if !merged_nodes.is_empty() {
                 let obs_ty = tx.rel_type_id(scene::rel::OBSERVED_IN)?;
-                let det_key = tx.prop_key_id("detections")?;
+                let det_key = tx.prop_key_id(key::DETECTIONS)?;
                 let count = |tx: &graphstore::WriteTxn<'_>, rel: u64| -> graphstore::Result<i64> {
                     Ok(tx
                         .rel(rel)?
@@ -253,9 +254,9 @@ impl Run<'_> {
             let mut frame_nodes: BTreeMap<u32, u64> = BTreeMap::new();
             for f in frames {
                 let mut props = vec![
-                    ("index", Value::Int(i64::from(f.index))),
+                    (key::INDEX, Value::Int(i64::from(f.index))),
                     (
-                        "world_from_velo",
+                        key::WORLD_FROM_VELO,
                         Value::List(
                             scene::pose::row_major(&f.world_from_velo)
                                 .into_iter()
@@ -265,7 +266,7 @@ impl Run<'_> {
                     ),
                 ];
                 if let Some(t) = f.timestamp_secs {
-                    props.push(("timestamp_secs", Value::Float(t)));
+                    props.push((key::TIMESTAMP_SECS, Value::Float(t)));
                 }
                 frame_nodes.insert(
                     f.index,
@@ -294,7 +295,11 @@ impl Run<'_> {
                     let fnode = match frame_nodes.get(f) {
                         Some(n) => *n,
                         None => match tx
-                            .find_nodes(scene::label::FRAME, "index", &Value::Int(i64::from(*f)))?
+                            .find_nodes(
+                                scene::label::FRAME,
+                                key::INDEX,
+                                &Value::Int(i64::from(*f)),
+                            )?
                             .first()
                         {
                             Some(n) => *n,
@@ -305,15 +310,15 @@ impl Run<'_> {
                         node,
                         scene::rel::OBSERVED_IN,
                         fnode,
-                        &[("detections", Value::Int(i64::from(*count)))],
+                        &[(key::DETECTIONS, Value::Int(i64::from(*count)))],
                     )?;
                 }
             }
-            let ty = tx.prop_key_id("next_frame")?;
+            let ty = tx.prop_key_id(key::NEXT_FRAME)?;
             tx.set_node_prop(checkpoint, ty, Value::Int(next_frame))?;
-            let k = tx.prop_key_id("next_instance_id")?;
+            let k = tx.prop_key_id(key::NEXT_INSTANCE_ID)?;
             tx.set_node_prop(checkpoint, k, Value::Int(next_id as i64))?;
-            let k = tx.prop_key_id("finished")?;
+            let k = tx.prop_key_id(key::FINISHED)?;
             tx.set_node_prop(checkpoint, k, Value::Bool(finished))?;
             Ok(created)
         })?;
@@ -436,12 +441,12 @@ pub fn build(
                 tx.create_node_named(
                     &[scene::label::BUILD],
                     &[
-                        ("build_id", Value::Int(BUILD_ID)),
-                        ("args", Value::String(args_json.clone())),
-                        ("next_frame", Value::Int(i64::from(frames[0]))),
-                        ("next_instance_id", Value::Int(0)),
-                        ("finished", Value::Bool(false)),
-                        ("source", Value::String(args.source.kind().into())),
+                        (key::BUILD_ID, Value::Int(BUILD_ID)),
+                        (key::ARGS, Value::String(args_json.clone())),
+                        (key::NEXT_FRAME, Value::Int(i64::from(frames[0]))),
+                        (key::NEXT_INSTANCE_ID, Value::Int(0)),
+                        (key::FINISHED, Value::Bool(false)),
+                        (key::SOURCE, Value::String(args.source.kind().into())),
                     ],
                 )
             })?;
@@ -676,7 +681,7 @@ pub fn build(
         let traj = seq.trajectory();
         let (_, _, h) = build_hierarchy(store, &traj, ground, &args.environment, &cfg.hierarchy)?;
         store.write(|tx| {
-            let k = tx.prop_key_id("hierarchy_done")?;
+            let k = tx.prop_key_id(key::HIERARCHY_DONE)?;
             tx.set_node_prop(checkpoint_node, k, Value::Bool(true))
         })?;
         report.hierarchy = Some(h);
@@ -698,7 +703,7 @@ pub fn build(
     }
     let r = store.read()?;
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        if let Some(Value::String(c)) = r.node_prop(id, "class")? {
+        if let Some(Value::String(c)) = r.node_prop(id, key::CLASS)? {
             *report.instances_per_class.entry(c).or_insert(0) += 1;
         }
     }

@@ -4,7 +4,7 @@
 use super::*;
 
 pub(super) const BUILD_ID: i64 = 0;
-pub(super) const PAYLOAD_KEY: &str = "points";
+pub(super) const PAYLOAD_KEY: &str = scene::payload::POINTS;
 
 pub(super) struct Checkpoint {
     pub(super) node: u64,
@@ -17,7 +17,7 @@ pub(super) struct Checkpoint {
 
 pub(super) fn load_checkpoint(r: &impl GraphRead) -> Result<Option<Checkpoint>> {
     let Some(&node) = r
-        .find_nodes(scene::label::BUILD, "build_id", &Value::Int(BUILD_ID))?
+        .find_nodes(scene::label::BUILD, key::BUILD_ID, &Value::Int(BUILD_ID))?
         .first()
     else {
         return Ok(None);
@@ -25,16 +25,16 @@ pub(super) fn load_checkpoint(r: &impl GraphRead) -> Result<Option<Checkpoint>> 
     let get = |k: &str| r.node_prop(node, k);
     Ok(Some(Checkpoint {
         node,
-        args: get("args")?
+        args: get(key::ARGS)?
             .and_then(|v| v.as_str().map(str::to_string))
             .unwrap_or_default(),
-        next_frame: get("next_frame")?.and_then(|v| v.as_int()).unwrap_or(0),
-        next_instance_id: get("next_instance_id")?
+        next_frame: get(key::NEXT_FRAME)?.and_then(|v| v.as_int()).unwrap_or(0),
+        next_instance_id: get(key::NEXT_INSTANCE_ID)?
             .and_then(|v| v.as_int())
             .unwrap_or(0)
             .max(0) as u64,
-        finished: matches!(get("finished")?, Some(Value::Bool(true))),
-        hierarchy_done: matches!(get("hierarchy_done")?, Some(Value::Bool(true))),
+        finished: matches!(get(key::FINISHED)?, Some(Value::Bool(true))),
+        hierarchy_done: matches!(get(key::HIERARCHY_DONE)?, Some(Value::Bool(true))),
     }))
 }
 
@@ -48,19 +48,19 @@ pub(super) fn load_objects(
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
         let p = |k: &str| r.node_prop(id, k);
         let int = |v: Option<Value>| v.and_then(|v| v.as_int()).unwrap_or(0);
-        let instance_id = int(p("instance_id")?).max(0) as u64;
-        let tile = match p("tile")? {
+        let instance_id = int(p(key::INSTANCE_ID)?).max(0) as u64;
+        let tile = match p(key::TILE)? {
             Some(Value::List(v)) if v.len() == 3 => {
                 let i = |k: usize| v[k].as_int().unwrap_or(0);
                 Some((i(0) as u8, [i(1), i(2)]))
             }
             _ => None,
         };
-        let feature = match p("detection_feature")? {
+        let feature = match p(key::DETECTION_FEATURE)? {
             Some(Value::Vector(v)) => v,
             _ => Vec::new(),
         };
-        let captions = match p("captions")? {
+        let captions = match p(key::CAPTIONS)? {
             Some(Value::List(v)) => v
                 .iter()
                 .filter_map(|c| c.as_str().map(str::to_string))
@@ -77,9 +77,9 @@ pub(super) fn load_objects(
             points,
             feature,
             captions,
-            int(p("detection_count")?) as u32,
-            int(p("first_frame")?) as u32,
-            int(p("last_frame")?) as u32,
+            int(p(key::DETECTION_COUNT)?) as u32,
+            int(p(key::FIRST_FRAME)?) as u32,
+            int(p(key::LAST_FRAME)?) as u32,
             voxel_m,
         ));
         nodes.insert(instance_id, id);

@@ -61,14 +61,14 @@ pub fn drivable_points(
 ) -> Result<Vec<[f64; 2]>> {
     let mut cells: BTreeMap<(i64, i64), ([f64; 2], u32)> = BTreeMap::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        let class = match r.node_prop(id, "class")? {
+        let class = match r.node_prop(id, scene::key::CLASS)? {
             Some(Value::String(c)) => c,
             _ => continue,
         };
         if !classes.contains(&class) {
             continue;
         }
-        let Some(pc) = r.point_cloud(id, "points")? else {
+        let Some(pc) = r.point_cloud(id, scene::payload::POINTS)? else {
             continue;
         };
         for p in &pc.xyz {

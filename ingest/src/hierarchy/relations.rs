@@ -6,7 +6,7 @@
 use parry3d::math::{Pose, Vector};
 use parry3d::shape::Cuboid;
 
-use scene::{GroundFrame, OrientedBox};
+use scene::{GroundFrame, OrientedBox, key};
 
 /// Relation parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -91,13 +91,13 @@ pub fn read_instance_box(
     id: u64,
     frame: GroundFrame,
 ) -> graphstore::Result<Option<InstanceBox>> {
-    let bbox = r.node_prop(id, "bbox")?.and_then(|v| v.as_box3d());
-    let centroid = r.node_prop(id, "centroid")?.and_then(|v| v.as_point3());
+    let bbox = r.node_prop(id, key::BBOX)?.and_then(|v| v.as_box3d());
+    let centroid = r.node_prop(id, key::CENTROID)?.and_then(|v| v.as_point3());
     let Some((min, max)) = bbox.or_else(|| centroid.map(|c| (c, c))) else {
         return Ok(None);
     };
     let obb = r
-        .node_prop(id, "obb")?
+        .node_prop(id, key::OBB)?
         .and_then(|v| scene::records::obb_of(&v));
     Ok(Some(InstanceBox::new(frame, min, max, obb)))
 }

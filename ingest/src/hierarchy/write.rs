@@ -137,7 +137,7 @@ impl HierarchyConfig {
 }
 
 /// What was written.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct HierarchyReport {
     /// Lane nodes per kind.
     pub lane_nodes: BTreeMap<String, usize>,

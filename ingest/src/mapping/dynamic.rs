@@ -210,7 +210,7 @@ pub fn dynamic_mask(
 }
 
 /// What the filter did over a build.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct DynamicReport {
     /// `free-space carving (window W, votes V)` or `off`.
     pub filter: String,

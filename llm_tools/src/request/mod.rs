@@ -14,7 +14,9 @@ pub use route::*;
 pub use rules::*;
 
 /// A spatial relation between the target and an anchor.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Relation {
     /// Within a few metres.
@@ -76,7 +78,9 @@ impl Relation {
 }
 
 /// A road-segment constraint ("at the crossroads").
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum SegmentConstraint {
     /// A four-way crossroads (`Segment.kind = intersection`).
@@ -128,7 +132,7 @@ impl SegmentConstraint {
 }
 
 /// An anchor: another object the target stands in some relation to.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Anchor {
     /// The anchor's phrase ("the bus stop").
@@ -141,7 +145,9 @@ pub struct Anchor {
 }
 
 /// What a request asks, in one structured form.
-#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(deny_unknown_fields)]
 pub struct Request {
     /// The target phrase as said ("the green bench").

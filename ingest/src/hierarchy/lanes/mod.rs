@@ -144,7 +144,7 @@ pub struct LaneGraph {
 }
 
 /// A gap in the recording: two consecutive poses too far apart to have been driven between.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct TrajectoryGap {
     /// Index of the pose before the gap (the next one starts a new piece).
     pub after_pose: u32,

@@ -5,7 +5,7 @@
 use super::*;
 
 /// What post-processing did.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct PostReport {
     /// Points removed by the final denoising.
     pub denoised_points: usize,

@@ -79,7 +79,7 @@ pub fn default_frames(size: SimSize) -> usize {
 }
 
 /// What a generation produced.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, schemars::JsonSchema)]
 pub struct SimReport {
     /// Output directory.
     pub out: PathBuf,

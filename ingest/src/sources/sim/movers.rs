@@ -15,7 +15,7 @@ use super::scene::{Attributes, Kind, PARKING_M, RoadSides, SIDEWALK_M};
 pub const MOVER_ID_BASE: u32 = 60_000;
 
 /// How many movers, and how fast.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, schemars::JsonSchema)]
 pub struct MoverConfig {
     /// Cars driving along roads.
     pub cars: usize,

@@ -1,4 +1,5 @@
-//! Export to networkx's node-link JSON and to GraphML, streamed to a writer.
+//! Export to networkx's node-link JSON and to GraphML, streamed to a writer, and to the CSV
+//! files of Neo4j's bulk importer ([`neo4j_csv`]).
 //!
 //! Node attributes: `labels` (list in node-link; `:A:B` in GraphML, as Neo4j writes it) and
 //! every property. Relationship attributes: `type`, `key` (the relationship id) and every
@@ -10,6 +11,9 @@
 
 use std::collections::BTreeMap;
 use std::io::Write;
+
+pub mod neo4j_csv;
+pub use neo4j_csv::{CsvExport, export_neo4j_csv};
 
 use crate::error::{Error, Result};
 use crate::read::GraphRead;
