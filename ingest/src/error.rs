@@ -35,6 +35,14 @@ pub enum Error {
     /// Input that cannot be processed (too short, non-finite, inconsistent).
     #[error("invalid input: {0}")]
     Invalid(String),
+    /// A message from a live source (a ROS 2 message, a detections string) is malformed.
+    #[error("{what}: {detail}")]
+    Message {
+        /// The message type or topic.
+        what: String,
+        /// What is wrong, with the byte offset where there is one.
+        detail: String,
+    },
     /// The store refused a write or a read failed.
     #[error(transparent)]
     Store(#[from] graphstore::Error),

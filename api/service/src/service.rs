@@ -50,6 +50,7 @@ pub struct Service {
     writer: Option<WorkerPool>,
     writes: bool,
     timeout: Duration,
+    events: crate::events::EventBus,
 }
 
 impl std::fmt::Debug for Service {
@@ -83,6 +84,7 @@ impl Service {
             writer: None,
             writes,
             timeout,
+            events: crate::events::EventBus::default(),
         }))
     }
 
@@ -188,8 +190,22 @@ impl Service {
             Some(w) if writes => w,
             _ => &self.readers,
         };
-        self.run_on(pool, self.timeout, move |tb| tb.call(&name, &args))
-            .await
+        let tool = name.clone();
+        let answer = self
+            .run_on(pool, self.timeout, move |tb| tb.call(&name, &args))
+            .await?;
+        if writes
+            && let Some(e) =
+                crate::events::EventBus::of_tool(&tool, &answer, self.store.commit_seq())
+        {
+            self.events.emit(e);
+        }
+        Ok(answer)
+    }
+
+    /// The map's change events ([`crate::events`]).
+    pub fn events(&self) -> &crate::events::EventBus {
+        &self.events
     }
 
     /// The map's summary (`opengraph info --json`): node and relationship counts.

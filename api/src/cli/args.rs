@@ -473,6 +473,38 @@ pub(crate) enum Command {
         /// A language model for POST /api/ask (default: none).
         #[command(flatten)]
         llm: LlmArgs,
+        #[command(flatten)]
+        zenoh: ZenohArgs,
+    },
+    /// Publish a KITTI-layout sequence (scans, poses, calibration, detections) as ROS 2
+    /// messages on rmw_zenoh keys at a chosen rate, for `serve --zenoh` or any ROS 2 node on
+    /// rmw_zenoh (docs/live.md).
+    Replay {
+        /// The sequence directory (velodyne/, poses.txt, calib.txt; times.txt and image_2/
+        /// when present).
+        #[arg(long)]
+        kitti: PathBuf,
+        /// The detections directory (default: <kitti>/detections).
+        #[arg(long)]
+        detections: Option<PathBuf>,
+        /// Poses A..B (half-open frame numbers); default: all.
+        #[arg(long, value_parser = parse_range)]
+        frames: Option<std::ops::Range<u32>>,
+        /// Speed: 1 is real time (times.txt, or 10 Hz), 2 twice as fast, 0 as fast as zenoh
+        /// takes it.
+        #[arg(long, default_value_t = 1.0, value_parser = in_range(0.0, 1000.0), allow_hyphen_values = true)]
+        rate: f64,
+        /// A build configuration whose [live] table gives the topics, domain and frames.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Seconds to wait for a subscriber to the clouds before publishing.
+        #[arg(long, default_value_t = 10.0, value_parser = in_range(0.0, 3600.0), allow_hyphen_values = true)]
+        wait_secs: f64,
+        #[command(flatten)]
+        session: ZenohSession,
+        /// Print what was published as JSON.
+        #[arg(long)]
+        json: bool,
     },
     /// Ask a question about the map in words; a language model answers by calling the agent
     /// tools (find_objects, locate, plan_route, read_cypher, ...). Prints each tool call and the
@@ -733,6 +765,62 @@ impl PlanArgs {
             png: self.png.clone(),
         }
     }
+}
+
+/// How to join zenoh: a configuration file, or endpoints (a peer with multicast scouting
+/// off; default: listen on tcp/127.0.0.1:7447).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub(crate) struct ZenohSession {
+    /// A zenoh JSON5 configuration file (mode, endpoints, scouting), used as it is.
+    #[arg(long)]
+    pub(crate) zenoh_config: Option<PathBuf>,
+    /// An endpoint to listen on, e.g. tcp/127.0.0.1:7447; repeatable.
+    #[arg(long)]
+    pub(crate) zenoh_listen: Vec<String>,
+    /// An endpoint to connect to (a router or a peer), e.g. tcp/127.0.0.1:7447; repeatable.
+    #[arg(long)]
+    pub(crate) zenoh_connect: Vec<String>,
+}
+
+impl ZenohSession {
+    pub(crate) fn options(&self) -> og_zenoh::SessionOptions {
+        og_zenoh::SessionOptions {
+            config_file: self.zenoh_config.clone(),
+            listen: self.zenoh_listen.clone(),
+            connect: self.zenoh_connect.clone(),
+        }
+    }
+}
+
+/// `serve --zenoh`: the map over zenoh, and live ingest from ROS 2 topics.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub(crate) struct ZenohArgs {
+    /// Serve over zenoh too: events, read-only queries, the whole graph and status under
+    /// opengraph/<map>[/<region>]; and map live from the ROS 2 topics of [live] (unless
+    /// --no-live). The store is created when missing (docs/live.md).
+    #[arg(long)]
+    pub(crate) zenoh: bool,
+    #[command(flatten)]
+    pub(crate) session: ZenohSession,
+    /// Serve over zenoh without live ingest (a map built in batch, a region shard).
+    #[arg(long, requires = "zenoh")]
+    pub(crate) no_live: bool,
+    /// The map's name in zenoh keys (default: the store file's name without its extension).
+    #[arg(long, requires = "zenoh")]
+    pub(crate) map_name: Option<String>,
+    /// The region of a sharded map this server holds: its keys are
+    /// opengraph/<map>/<region>/..., and `opengraph zenoh-query` fans out over the regions.
+    #[arg(long, requires = "zenoh")]
+    pub(crate) region: Option<String>,
+    /// A build configuration (TOML: [mapping], [dynamic], [hierarchy], [live]).
+    #[arg(long, requires = "zenoh")]
+    pub(crate) config: Option<PathBuf>,
+    /// A KITTI calib.txt whose Tr is the LiDAR-to-camera calibration ([live] cam_from_velo).
+    #[arg(long, requires = "zenoh")]
+    pub(crate) calib: Option<PathBuf>,
+    /// Sentence embedder for live captions: minilm or hash.
+    #[arg(long, default_value = "minilm", value_parser = ["minilm", "hash"], requires = "zenoh")]
+    pub(crate) embedder: String,
 }
 
 /// Which language model to use: the same three flags on every command that needs one.

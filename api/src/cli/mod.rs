@@ -23,6 +23,7 @@ pub(crate) mod oracle;
 pub(crate) mod plan;
 pub(crate) mod query;
 pub(crate) mod relations;
+pub(crate) mod replay;
 pub(crate) mod run;
 pub(crate) mod serve;
 pub(crate) mod sim;

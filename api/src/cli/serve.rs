@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use super::args::{Command, LlmArgs};
+use super::args::{Command, LlmArgs, ZenohArgs};
 use super::common::*;
 
 /// `opengraph serve`'s arguments.
@@ -23,6 +23,7 @@ pub(crate) struct ServeArgs {
     pub(crate) max_connections: usize,
     pub(crate) max_connections_per_client: usize,
     pub(crate) llm: LlmArgs,
+    pub(crate) zenoh: ZenohArgs,
 }
 
 /// Reads a write token from a file: trimmed, 16 characters or more, printable ASCII.
@@ -93,7 +94,42 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .unwrap_or(2)
             .min(8)
     });
-    let first = open_toolbox(&a.db, writes)?;
+    let live = a.zenoh.zenoh && !a.zenoh.no_live;
+    if live && a.read_only {
+        return Err(UsageError(
+            "--zenoh maps live into the store, which --read-only forbids: add --no-live to only serve it"
+                .into(),
+        )
+        .into());
+    }
+    let live_req = if live {
+        Some(live_request(&a.zenoh)?)
+    } else {
+        None
+    };
+    let first = if live {
+        // live ingest writes into the store (created when missing); the tools still write
+        // only with the token
+        let store = if a.db.exists() {
+            open_store(&a.db, true)?
+        } else {
+            graphstore::Store::create(&a.db)
+                .map_err(|e| UsageError(format!("creating {}: {e}", a.db.display())))?
+        };
+        let finder = {
+            let r = store.read()?;
+            finder_for(
+                &r,
+                Some(a.zenoh.embedder.clone()),
+                false,
+                &LlmArgs::default(),
+            )?
+        };
+        api::tools::Toolbox::new(store, finder, writes)
+    } else {
+        open_toolbox(&a.db, writes)?
+    };
+    let embedder_name = live.then(|| a.zenoh.embedder.clone());
     let cfg = a.llm.config(llm_tools::LlmConfig::default(), "none");
     let model = if cfg.backend == "none" {
         None
@@ -113,7 +149,7 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             let r = store
                 .read()
                 .map_err(|e| api::error::ToolError::Failed(e.to_string()))?;
-            finder_for(&r, None, false, &LlmArgs::default())
+            finder_for(&r, embedder_name.clone(), false, &LlmArgs::default())
                 .map_err(|e| api::error::ToolError::Failed(format!("{e:#}")))
         })?;
     let opts = api::http::ServeOptions {
@@ -137,6 +173,34 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .await
             .map_err(|e| UsageError(format!("cannot listen on {}: {e}", opts.bind)))?;
         let addr = listener.local_addr()?;
+        let zenoh = if a.zenoh.zenoh {
+            let map = match &a.zenoh.map_name {
+                Some(m) => m.clone(),
+                None => a
+                    .db
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| "map".into()),
+            };
+            let cfg = api::zenoh_front::ZenohServe {
+                session: a.zenoh.session.options(),
+                map,
+                region: a.zenoh.region.clone(),
+                live: live_req,
+            };
+            let svc = service.clone();
+            let rt = tokio::runtime::Handle::current();
+            let front = tokio::task::spawn_blocking(move || api::zenoh_front::start(svc, cfg, rt))
+                .await??;
+            errln!(
+                "zenoh: {}/{{events,query,graph,status}}{}",
+                front.prefix,
+                if live { "; mapping live from the [live] topics" } else { "" }
+            );
+            Some(front)
+        } else {
+            None
+        };
         let app = api::http::router(service, &opts);
         // leave a note where to reach the server: a writer's lock keeps every other process
         // out, a read-only server's keeps writers out
@@ -160,6 +224,16 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             shutdown_signal().await;
         })
         .await?;
+        if let Some(front) = zenoh {
+            let report = tokio::task::spawn_blocking(move || front.stop()).await??;
+            if let Some(r) = report {
+                errln!(
+                    "live ingest: {} frames mapped in {} commits",
+                    r.frames_run,
+                    r.commits
+                );
+            }
+        }
         if let Some(m) = &marker {
             let _ = std::fs::remove_file(m);
         }
@@ -211,6 +285,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         max_connections,
         max_connections_per_client,
         llm,
+        zenoh,
     } = cmd
     else {
         unreachable!("run dispatches only Command::Serve here")
@@ -232,5 +307,37 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         max_connections,
         max_connections_per_client,
         llm,
+        zenoh,
+    })
+}
+
+/// The live ingest settings of `serve --zenoh`: the configuration file's tables (or the
+/// defaults), the calibration from --calib, the embedder.
+fn live_request(z: &ZenohArgs) -> anyhow::Result<api::live::LiveRequest> {
+    let mut build = match &z.config {
+        Some(p) => {
+            ingest::build::BuildConfig::from_toml_file(p).map_err(|e| UsageError(e.to_string()))?
+        }
+        None => ingest::build::BuildConfig::default(),
+    };
+    if let Some(c) = &z.calib {
+        let calib = ingest::sources::kitti::read_calib(c).map_err(|e| UsageError(e.to_string()))?;
+        build.live.cam_from_velo = scene::pose::row_major(&calib.cam0_from_velo).to_vec();
+    }
+    if build.live.cam_from_velo.is_empty() {
+        return Err(UsageError(
+            "live ingest needs the LiDAR-to-camera calibration: --calib calib.txt (KITTI's Tr), or [live] cam_from_velo in --config; --no-live serves without ingest"
+                .into(),
+        )
+        .into());
+    }
+    build
+        .live
+        .validate()
+        .map_err(|e| UsageError(e.to_string()))?;
+    Ok(api::live::LiveRequest {
+        live: build.live.clone(),
+        embedder: api::find::EmbedderChoice::from_name(&z.embedder).unwrap_or_default(),
+        build,
     })
 }

@@ -112,6 +112,11 @@ pub mod key {
     pub const FINISHED: &str = "finished";
     /// `Build.hierarchy_done`.
     pub const HIERARCHY_DONE: &str = "hierarchy_done";
+    /// `Build.last_stamp_ns`: a live build's last committed cloud stamp (nanoseconds).
+    pub const LAST_STAMP_NS: &str = "last_stamp_ns";
+    /// `Build.trajectory`: a live build's poses so far, as `[x, y, z]` world positions of
+    /// the LiDAR (a flat list, three numbers a pose), for the hierarchy after a restart.
+    pub const TRAJECTORY: &str = "trajectory";
     /// `LANE.length_m`.
     pub const LENGTH_M: &str = "length_m";
     /// `LANE.polyline`.

@@ -135,6 +135,8 @@ pub fn opengraph_schema() -> Schema {
                 req(key::FINISHED, T::Bool),
                 opt(key::HIERARCHY_DONE, T::Bool),
                 opt(key::SOURCE, T::String),
+                opt(key::LAST_STAMP_NS, T::Int),
+                opt(key::TRAJECTORY, T::List),
             ],
             unique: vec![key::BUILD_ID.into()],
             description:

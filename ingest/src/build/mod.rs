@@ -26,9 +26,11 @@ use scene::key;
 use scene::records::InstanceRecord;
 
 mod describe;
+mod live;
 mod resume;
 mod sources;
 use describe::*;
+pub use live::{LiveBuild, MapEvent, MapEventKind, run_live};
 use resume::*;
 pub use sources::*;
 
@@ -48,6 +50,9 @@ pub struct BuildConfig {
     /// `openai` or `none`, the default). Not part of the build's resume arguments: the merge
     /// is its own resumable pass ([`crate::llm::merge_captions`]).
     pub llm: llm_tools::LlmConfig,
+    /// Live ingest (`[live]`: topics, frames, calibration, timing), for `serve --zenoh`. Not
+    /// part of a batch build's resume arguments.
+    pub live: crate::sources::live::LiveConfig,
 }
 
 impl BuildConfig {
@@ -74,6 +79,7 @@ impl BuildConfig {
             .and_then(|()| cfg.hierarchy.validate())
             .and_then(|()| cfg.oracle.validate())
             .and_then(|()| cfg.dynamic.validate())
+            .and_then(|()| cfg.live.validate())
             .map_err(|e| Error::File {
                 path: path.to_path_buf(),
                 detail: e.to_string(),
@@ -178,6 +184,8 @@ struct Run<'a> {
     prompts: Vec<(u8, Vec<f32>)>,
     producer: String,
     checkpoint_node: u64,
+    /// More checkpoint values for the next commit (a live build's stamp and poses).
+    checkpoint_extra: Vec<(&'static str, Value)>,
 }
 
 impl Run<'_> {
@@ -216,6 +224,7 @@ impl Run<'_> {
             .filter_map(|(k, g)| Some((*known.get(k)?, *known.get(g)?)))
             .collect();
         let checkpoint = self.checkpoint_node;
+        let extra = &self.checkpoint_extra;
         let created = self.store.write(|tx| {
             // an absorbed object's observations move to the object that absorbed it
             if !merged_nodes.is_empty() {
@@ -320,6 +329,10 @@ impl Run<'_> {
             tx.set_node_prop(checkpoint, k, Value::Int(next_id as i64))?;
             let k = tx.prop_key_id(key::FINISHED)?;
             tx.set_node_prop(checkpoint, k, Value::Bool(finished))?;
+            for (name, v) in extra {
+                let k = tx.prop_key_id(name)?;
+                tx.set_node_prop(checkpoint, k, v.clone())?;
+            }
             Ok(created)
         })?;
         for (iid, n) in created {
@@ -338,6 +351,108 @@ impl Run<'_> {
             }
         }
         Ok(())
+    }
+}
+
+/// One key frame, ready for mapping.
+struct KeyFrame<'f> {
+    index: u32,
+    world_from_velo: Rigid3,
+    timestamp_secs: Option<f64>,
+    /// Its points (velodyne frame), non-finite ones dropped, accumulated scans included.
+    points: &'f [[f32; 4]],
+    /// The points the dynamic filter took out.
+    removed: &'f [[f32; 4]],
+    camera: &'f Camera,
+    detections: &'f DetectionFrame,
+}
+
+impl Run<'_> {
+    /// Integrates one key frame (captions embedded, detections classed, objects associated
+    /// and fused); counts go to `report`, stage times to `times` and `t_embed`. Returns the
+    /// frame's record for the next commit.
+    fn map_key_frame(
+        &mut self,
+        cfg: &BuildConfig,
+        kf: KeyFrame<'_>,
+        report: &mut BuildReport,
+        times: &mut StageTimes,
+        t_embed: &mut f64,
+    ) -> Result<FrameRecord> {
+        let dets = kf.detections;
+        if self.producer.is_empty() {
+            self.producer = dets.producer.as_str().to_string();
+        }
+        let t = Instant::now();
+        let captions: Vec<&str> = dets.detections.iter().map(|d| d.caption.as_str()).collect();
+        let cap_emb = self.emb.get_all(&captions)?;
+        let tagged: Vec<(&[String], &str)> = dets
+            .detections
+            .iter()
+            .map(|d| (d.tags.as_slice(), d.caption.as_str()))
+            .collect();
+        let det_classes = classify(&tagged, &mut self.emb, &self.prompts)?;
+        let features: Vec<Vec<f32>> = dets
+            .detections
+            .iter()
+            .zip(cap_emb)
+            .map(|(d, e)| d.feature.clone().unwrap_or(e))
+            .collect();
+        *t_embed += t.elapsed().as_secs_f64() * 1e3;
+        let stats = self.mapper.integrate(&FrameInput {
+            index: kf.index,
+            world_from_velo: kf.world_from_velo,
+            points: kf.points,
+            camera: kf.camera,
+            detections: dets,
+            features: &features,
+            moving: cfg.dynamic.enabled.then_some(crate::mapping::MovingPoints {
+                points: kf.removed,
+                detection_share: cfg.dynamic.moving_detection_share,
+            }),
+            classes: &det_classes,
+        });
+        times.add(&stats.times);
+        report.detections += stats.detections;
+        report.detections_dropped += stats.dropped;
+        report.detections_moving += stats.moving;
+        report.frames_run += 1;
+        Ok(FrameRecord {
+            index: kf.index,
+            world_from_velo: kf.world_from_velo,
+            timestamp_secs: kf.timestamp_secs,
+        })
+    }
+
+    /// Post-processing over the whole map (small and duplicate objects, then touching
+    /// buildings, fences and vegetation joined) committed as the finished state, with the
+    /// checkpoint's next frame `next_frame`.
+    fn finish_objects(&mut self, cfg: &BuildConfig, next_frame: i64) -> Result<PostReport> {
+        let mut post = self.mapper.post_process();
+        // buildings, fences and vegetation: objects that touch are one object
+        let mut by_class: BTreeMap<u8, Vec<u64>> = BTreeMap::new();
+        for (id, o) in self.mapper.objects() {
+            if o.tile.is_none() {
+                let c = object_class(o, &cfg.mapping, &mut self.emb, &self.prompts)?;
+                by_class.entry(c).or_default().push(*id);
+            }
+        }
+        for class in JOINED_CLASSES {
+            if let Some(ids) = by_class.get(&class) {
+                let joined = self.mapper.join_touching(ids, cfg.mapping.join_eps_m);
+                post.merged.extend(joined);
+            }
+        }
+        let removed: Vec<u64> = post
+            .dropped
+            .iter()
+            .copied()
+            .chain(post.merged.iter().map(|m| m.1))
+            .collect();
+        // observations of absorbed objects move to the survivor with the rest of its state
+        let merged = post.merged.clone();
+        self.commit(&[], next_frame, &removed, &merged, true)?;
+        Ok(post)
     }
 }
 
@@ -482,6 +597,7 @@ pub fn build(
         prompts,
         producer,
         checkpoint_node,
+        checkpoint_extra: Vec::new(),
     };
     // frames are ascending: the ones still to do are a suffix
     let first = frames.partition_point(|f| i64::from(*f) < start_frame);
@@ -592,48 +708,22 @@ pub fn build(
         };
         // the filter ran inside the load's time span; it is counted on its own
         t_load += load_ms - dyn_ms;
-        if run.producer.is_empty() {
-            run.producer = dets.producer.as_str().to_string();
-        }
-        let t = Instant::now();
-        let captions: Vec<&str> = dets.detections.iter().map(|d| d.caption.as_str()).collect();
-        let cap_emb = run.emb.get_all(&captions)?;
-        let tagged: Vec<(&[String], &str)> = dets
-            .detections
-            .iter()
-            .map(|d| (d.tags.as_slice(), d.caption.as_str()))
-            .collect();
-        let det_classes = classify(&tagged, &mut run.emb, &run.prompts)?;
-        let features: Vec<Vec<f32>> = dets
-            .detections
-            .iter()
-            .zip(cap_emb)
-            .map(|(d, e)| d.feature.clone().unwrap_or(e))
-            .collect();
-        t_embed += since(t);
-        let stats = run.mapper.integrate(&FrameInput {
-            index: i,
-            world_from_velo,
-            points: &points,
-            camera: &camera,
-            detections: &dets,
-            features: &features,
-            moving: cfg.dynamic.enabled.then_some(crate::mapping::MovingPoints {
-                points: &removed,
-                detection_share: cfg.dynamic.moving_detection_share,
-            }),
-            classes: &det_classes,
-        });
-        times.add(&stats.times);
-        report.detections += stats.detections;
-        report.detections_dropped += stats.dropped;
-        report.detections_moving += stats.moving;
-        report.frames_run += 1;
-        pending.push(FrameRecord {
-            index: i,
-            world_from_velo,
-            timestamp_secs: seq.times.as_ref().and_then(|t| t.get(i as usize).copied()),
-        });
+        let record = run.map_key_frame(
+            cfg,
+            KeyFrame {
+                index: i,
+                world_from_velo,
+                timestamp_secs: seq.times.as_ref().and_then(|t| t.get(i as usize).copied()),
+                points: &points,
+                removed: &removed,
+                camera: &camera,
+                detections: &dets,
+            },
+            &mut report,
+            &mut times,
+            &mut t_embed,
+        )?;
+        pending.push(record);
         progress(Progress::Frame { frame: i });
         if (pos + 1) % cfg.mapping.commit_every == 0 || pos + 1 == frames.len() {
             let t = Instant::now();
@@ -649,32 +739,8 @@ pub fn build(
     }
     progress(Progress::Finishing);
     if !finished {
-        report.post = run.mapper.post_process();
-        // buildings, fences and vegetation: objects that touch are one object
-        let mut by_class: BTreeMap<u8, Vec<u64>> = BTreeMap::new();
-        for (id, o) in run.mapper.objects() {
-            if o.tile.is_none() {
-                let c = object_class(o, &cfg.mapping, &mut run.emb, &run.prompts)?;
-                by_class.entry(c).or_default().push(*id);
-            }
-        }
-        for class in JOINED_CLASSES {
-            if let Some(ids) = by_class.get(&class) {
-                let joined = run.mapper.join_touching(ids, cfg.mapping.join_eps_m);
-                report.post.merged.extend(joined);
-            }
-        }
-        let removed: Vec<u64> = report
-            .post
-            .dropped
-            .iter()
-            .copied()
-            .chain(report.post.merged.iter().map(|m| m.1))
-            .collect();
-        // observations of absorbed objects move to the survivor with the rest of its state
         let last = frames.last().map_or(0, |f| i64::from(*f) + 1);
-        let merged = report.post.merged.clone();
-        run.commit(&[], last, &removed, &merged, true)?;
+        report.post = run.finish_objects(cfg, last)?;
         report.commits += 1;
     }
     if !hierarchy_done {

@@ -88,11 +88,12 @@ pub(super) fn load_objects(
 }
 
 /// The configuration as a resumed build must match it: everything but `[llm]`, whose caption
-/// merge is a pass of its own.
+/// merge is a pass of its own, and `[live]` (topics and timing, not the map).
 pub(super) fn resume_config(cfg: &BuildConfig) -> Result<serde_json::Value> {
     let mut v = serde_json::to_value(cfg).map_err(|e| Error::Invalid(e.to_string()))?;
     if let Some(o) = v.as_object_mut() {
         o.remove("llm");
+        o.remove("live");
     }
     Ok(v)
 }

@@ -2,6 +2,8 @@
 
 pub mod detections;
 pub mod kitti;
+pub mod live;
 pub mod oracle;
 pub mod rle;
+pub mod ros;
 pub mod sim;

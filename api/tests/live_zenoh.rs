@@ -1,0 +1,417 @@
+//! Live ingest over zenoh, end to end, on loopback with real zenoh sessions (multicast
+//! scouting off, explicit endpoints): `opengraph replay` publishes a simulated drive as ROS 2
+//! messages on rmw_zenoh keys, `opengraph serve --zenoh` maps it while serving, and the
+//! result is compared with a batch `build` of the same frames. Also: a server killed with
+//! SIGKILL mid-stream resumes without losing a committed frame; malformed samples are
+//! counted and ignored; the events stream and the query, graph and status queryables.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::*;
+use serde_json::{Value as Json, json};
+use zenoh::Wait;
+
+/// A free TCP port on loopback (bound, read, released).
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// `opengraph serve --zenoh` on `port`, its stderr in `log`.
+fn live_server(db: &Path, port: u16, sim: &Path, cfg: &Path, log: &Path, extra: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0", "--zenoh"])
+        .args(["--zenoh-listen", &format!("tcp/127.0.0.1:{port}")])
+        .args(["--calib", s(&sim.join("calib.txt"))])
+        .args([
+            "--config",
+            s(cfg),
+            "--embedder",
+            "hash",
+            "--map-name",
+            "live",
+        ])
+        .args(extra)
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).unwrap())
+        .spawn()
+        .unwrap()
+}
+
+/// A client session connected to the server on `port`.
+fn client(port: u16) -> zenoh::Session {
+    og_zenoh::SessionOptions::peer(&[], &[format!("tcp/127.0.0.1:{port}")])
+        .open()
+        .unwrap()
+}
+
+/// One reply of `key` (a queryable), as JSON; `None` when nothing answers in 5 s.
+fn get(z: &zenoh::Session, key: &str, payload: Option<Json>) -> Option<Result<Json, Json>> {
+    let mut g = z.get(key).timeout(Duration::from_secs(5));
+    if let Some(p) = payload {
+        g = g.payload(p.to_string());
+    }
+    let replies = g.wait().ok()?;
+    let reply = replies
+        .recv_timeout(Duration::from_secs(6))
+        .ok()
+        .flatten()?;
+    Some(match reply.result() {
+        Ok(sample) => Ok(serde_json::from_slice(&sample.payload().to_bytes()).unwrap()),
+        Err(e) => Err(serde_json::from_slice(&e.payload().to_bytes()).unwrap()),
+    })
+}
+
+/// Waits (`secs` at most) until the server's status satisfies `done`; returns the status.
+fn wait_status(z: &zenoh::Session, secs: u64, log: &Path, done: impl Fn(&Json) -> bool) -> Json {
+    let start = Instant::now();
+    loop {
+        if let Some(Ok(st)) = get(z, "opengraph/live/status", None)
+            && done(&st)
+        {
+            return st;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(secs),
+            "the server did not get there within {secs} s; log:\n{}",
+            std::fs::read_to_string(log).unwrap_or_default()
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+fn replay(sim: &Path, port: u16, extra: &[&str]) -> Json {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_opengraph"));
+    cmd.args(["replay", "--kitti", s(sim), "--json", "--wait-secs", "30"])
+        .args(["--zenoh-connect", &format!("tcp/127.0.0.1:{port}")])
+        .args(extra);
+    json_of_run(cmd, 600)
+}
+
+/// SIGTERM, then waits for the process (it finishes the live map first).
+fn stop(mut child: Child, log: &Path) {
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let start = Instant::now();
+    loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            assert!(
+                st.success(),
+                "the server exited with {st:?}; log:\n{}",
+                std::fs::read_to_string(log).unwrap_or_default()
+            );
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "the server did not stop"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// What two maps are compared on: instances per class, frames, lane nodes and lanes, segment
+/// kinds, and each instance's feature by its first frame and point count.
+fn summary(db: &Path) -> Json {
+    let q = |c: &str| read_query(db, c);
+    json!({
+        "classes": q("MATCH (i:Instance) RETURN i.class AS class, count(*) AS n ORDER BY class"),
+        "frames": q("MATCH (f:Frame) RETURN count(*) AS n")[0]["n"],
+        "lane_nodes": q("MATCH (l:LaneNode) RETURN count(*) AS n")[0]["n"],
+        "lanes": q("MATCH (:LaneNode)-[r:LANE]->(:LaneNode) RETURN count(r) AS n")[0]["n"],
+        "segments": q("MATCH (s:Segment) RETURN s.kind AS kind, count(*) AS n ORDER BY kind"),
+    })
+}
+
+/// A `[live]` table: the map is finished after `idle_secs` without frames.
+fn config(dir: &Path, idle_secs: f64) -> PathBuf {
+    let cfg = dir.join("live.toml");
+    std::fs::write(
+        &cfg,
+        format!("[live]\nidle_finish_secs = {idle_secs}\nqueue_frames = 1024\nhierarchy_period_secs = 2.0\nmax_wait_secs = 5.0\n"),
+    )
+    .unwrap();
+    cfg
+}
+
+/// The sorted features of every instance (with its point count), for a tolerance check.
+fn features(db: &Path) -> Vec<(i64, Vec<f64>)> {
+    let rows = read_query(
+        db,
+        "MATCH (i:Instance) RETURN i.point_count AS n, i.feature AS f ORDER BY n, i.caption",
+    );
+    rows.as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["n"].as_i64().unwrap_or(0),
+                r["f"]
+                    .as_array()
+                    .map(|v| v.iter().map(|x| x.as_f64().unwrap()).collect())
+                    .unwrap_or_default(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_replayed_drive_mapped_live_matches_the_batch_build() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    json(&og(&["sim", "--out", s(&sim), "--frames", "30", "--json"]));
+    let batch = dir.path().join("batch.og");
+    build_map(&sim, &batch, &["--embedder", "hash"]);
+    let live = dir.path().join("live.og");
+    let log = dir.path().join("serve.log");
+    let port = free_port();
+    let server = live_server(&live, port, &sim, &config(dir.path(), 2.0), &log, &[]);
+    let z = client(port);
+    // the events stream, from before the first frame
+    let events = z
+        .declare_subscriber("opengraph/live/events")
+        .with(flume_bounded())
+        .wait()
+        .unwrap();
+    let rep = replay(&sim, port, &["--rate", "0"]);
+    assert_eq!(rep["clouds"], 30, "{rep}");
+    let st = wait_status(&z, 300, &log, |st| {
+        st["live"]["frames_mapped"] == 30 && st["live"]["hierarchy_refreshes"].as_u64() > Some(0)
+    });
+    let l = &st["live"];
+    assert_eq!(l["malformed"], json!({}), "{st}");
+    assert_eq!(l["dropped_behind"], 0, "{st}");
+    assert_eq!(l["incomplete"], json!({}), "{st}");
+    // read-only Cypher, find and the graph over zenoh while the server runs
+    let n = get(
+        &z,
+        "opengraph/live/query",
+        Some(json!({"tool": "read_cypher", "args": {"query": "MATCH (i:Instance) RETURN count(i) AS n"}})),
+    )
+    .unwrap()
+    .unwrap();
+    assert!(n.to_string().contains("\"n\""), "{n}");
+    let found = get(
+        &z,
+        "opengraph/live/query",
+        Some(json!({"tool": "find_objects", "args": {"text": "a car", "k": 3}})),
+    )
+    .unwrap()
+    .unwrap();
+    assert!(!found["results"].as_array().unwrap().is_empty(), "{found}");
+    let refused = get(
+        &z,
+        "opengraph/live/query",
+        Some(json!({"tool": "write_cypher", "args": {"query": "CREATE (:X)"}})),
+    )
+    .unwrap()
+    .unwrap_err();
+    assert_eq!(refused["error"]["code"], "bad_request", "{refused}");
+    let graph = get(&z, "opengraph/live/graph", None).unwrap().unwrap();
+    assert!(
+        graph["nodes"].as_array().unwrap().len() > 30,
+        "a node-link graph"
+    );
+    // events: consecutive numbers, instances added, a hierarchy refresh
+    let mut seen = Vec::new();
+    while let Ok(Some(s)) = events.try_recv() {
+        seen.push(serde_json::from_slice::<Json>(&s.payload().to_bytes()).unwrap());
+    }
+    assert!(!seen.is_empty());
+    for (i, e) in seen.iter().enumerate() {
+        assert_eq!(e["seq"], i as u64 + 1, "{e}");
+    }
+    assert!(seen.iter().any(|e| e["kind"] == "instance_added"));
+    assert!(seen.iter().any(|e| e["kind"] == "hierarchy_refreshed"));
+    drop(events);
+    z.close().wait().unwrap();
+    stop(server, &log);
+    // the live map is the batch map
+    let (a, b) = (summary(&batch), summary(&live));
+    assert_eq!(a, b, "batch vs live");
+    let (fa, fb) = (features(&batch), features(&live));
+    assert_eq!(fa.len(), fb.len());
+    let mut worst = 0.0f64;
+    for ((na, va), (nb, vb)) in fa.iter().zip(&fb) {
+        assert_eq!(na, nb, "point counts");
+        for (x, y) in va.iter().zip(vb) {
+            worst = worst.max((x - y).abs());
+        }
+    }
+    assert!(worst < 1e-5, "features differ by up to {worst}");
+}
+
+fn flume_bounded() -> zenoh::handlers::FifoChannel {
+    zenoh::handlers::FifoChannel::new(100_000)
+}
+
+#[test]
+fn a_server_killed_mid_stream_resumes_without_losing_a_committed_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    json(&og(&["sim", "--out", s(&sim), "--frames", "24", "--json"]));
+    let live = dir.path().join("live.og");
+    // no finish while the drive goes on (a finish post-processes the map so far, and the
+    // frames after it build on that): the replay below pauses 3 s between scans
+    let cfg = config(dir.path(), 60.0);
+    let log = dir.path().join("serve.log");
+    let port = free_port();
+    let mut server = live_server(&live, port, &sim, &cfg, &log, &[]);
+    let z = client(port);
+    // replay in the background; kill the server once some frames are committed
+    let sim2 = sim.clone();
+    let replaying = std::thread::spawn(move || {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_opengraph"));
+        cmd.args([
+            "replay",
+            "--kitti",
+            s(&sim2),
+            "--rate",
+            "4",
+            "--wait-secs",
+            "30",
+        ])
+        .args(["--zenoh-connect", &format!("tcp/127.0.0.1:{port}")]);
+        output_within(cmd, 600)
+    });
+    let st = wait_status(&z, 300, &log, |st| {
+        st["live"]["commits"].as_u64() >= Some(1)
+    });
+    let committed_before = st["live"]["frames_mapped"].as_u64().unwrap();
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let _ = replaying.join();
+    let frames_then = read_query(&live, "MATCH (f:Frame) RETURN count(*) AS n")[0]["n"]
+        .as_u64()
+        .unwrap();
+    assert!(
+        (1..24).contains(&frames_then),
+        "{frames_then} frames committed ({committed_before} mapped)"
+    );
+    // restart, replay the whole drive again: what is in the map is skipped
+    let log2 = dir.path().join("serve2.log");
+    let server = live_server(&live, port, &sim, &cfg, &log2, &[]);
+    let rep = replay(&sim, port, &["--rate", "0"]);
+    assert_eq!(rep["clouds"], 24);
+    let st = wait_status(&z, 300, &log2, |st| {
+        st["live"]["already_mapped"].as_u64() == Some(frames_then)
+            && st["live"]["frames_mapped"].as_u64() == Some(24 - frames_then)
+    });
+    assert_eq!(st["live"]["malformed"], json!({}));
+    stop(server, &log2);
+    z.close().wait().unwrap();
+    // every frame exactly once, numbered without a gap, every observation pointing at one
+    let rows = read_query(&live, "MATCH (f:Frame) RETURN f.index AS i ORDER BY i");
+    let idx: Vec<u64> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["i"].as_u64().unwrap())
+        .collect();
+    assert_eq!(idx, (0..24).collect::<Vec<u64>>());
+    // and the map is the one an uninterrupted batch build makes of the same frames
+    let batch = dir.path().join("batch.og");
+    build_map(&sim, &batch, &["--embedder", "hash"]);
+    assert_eq!(
+        summary(&batch),
+        summary(&live),
+        "batch vs killed-and-resumed live"
+    );
+}
+
+#[test]
+fn malformed_samples_are_counted_and_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    json(&og(&["sim", "--out", s(&sim), "--frames", "2", "--json"]));
+    let live = dir.path().join("live.og");
+    let log = dir.path().join("serve.log");
+    let port = free_port();
+    let server = live_server(&live, port, &sim, &config(dir.path(), 2.0), &log, &[]);
+    let z = client(port);
+    use ingest::sources::ros::*;
+    let key = |topic: &str, ty: &RosType| og_zenoh::keys::ros_topic(0, topic, ty);
+    let cloud = PointCloud2::from_xyzi(Header::default(), &[[1.0, 2.0, 3.0, 0.0]; 4]);
+    let good = encode(&cloud).unwrap();
+    let mut hostile = vec![
+        Vec::new(),
+        vec![0, 1, 0],
+        good[..good.len() / 2].to_vec(),
+        b"\x07\x07\0\0garbage".to_vec(),
+    ];
+    // a 4 GiB declared width and a field past point_step
+    let mut wide = cloud.clone();
+    wide.width = u32::MAX;
+    hostile.push(encode(&wide).unwrap());
+    let mut odd = cloud.clone();
+    odd.fields[2].offset = 100;
+    hostile.push(encode(&odd).unwrap());
+    let pubc = z
+        .declare_publisher(key("velodyne_points", &POINT_CLOUD2))
+        .wait()
+        .unwrap();
+    let start = Instant::now();
+    while !pubc.matching_status().wait().unwrap().matching() {
+        assert!(start.elapsed() < Duration::from_secs(30), "no subscriber");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    for h in &hostile {
+        pubc.put(h.clone()).wait().unwrap();
+    }
+    let odom = Odometry {
+        pose: PoseWithCovariance {
+            pose: Pose {
+                orientation: Quaternion {
+                    x: f64::NAN,
+                    ..Quaternion::default()
+                },
+                ..Pose::default()
+            },
+            ..PoseWithCovariance::default()
+        },
+        ..Odometry::default()
+    };
+    z.put(key("odom", &ODOMETRY), encode(&odom).unwrap())
+        .wait()
+        .unwrap();
+    z.put(
+        key("detections", &STRING),
+        encode(&RosString {
+            data: "{not json".into(),
+        })
+        .unwrap(),
+    )
+    .wait()
+    .unwrap();
+    let st = wait_status(&z, 60, &log, |st| {
+        st["live"]["malformed"]["cloud"] == hostile.len() as u64
+            && st["live"]["malformed"]["odometry"] == 1
+            && st["live"]["malformed"]["detections"] == 1
+    });
+    assert!(
+        st["live"]["last_error"]
+            .as_str()
+            .unwrap()
+            .contains("detections"),
+        "{st}"
+    );
+    // nothing reached the store, and the server still answers
+    let n = get(
+        &z,
+        "opengraph/live/query",
+        Some(json!({"tool": "read_cypher", "args": {"query": "MATCH (i:Instance) RETURN count(i) AS n"}})),
+    )
+    .unwrap()
+    .unwrap();
+    assert!(n.to_string().contains("\"n\":0"), "{n}");
+    z.close().wait().unwrap();
+    stop(server, &log);
+}
