@@ -15,7 +15,8 @@
 #   - a Python virtual environment at $OPENGRAPH_VENV (default ~/.cache/opengraph/venv) with
 #     the official MCP client (PyPI mcp==2.3.0), which the MCP tests drive the server with, and
 #     the libraries the export tests read each export back with (networkx, shapely, plyfile,
-#     kuzu, spark-dsg), and maturin, pytest and pandas for the Python package (api/python)
+#     kuzu, spark-dsg), maturin, pytest and pandas for the Python package (api/python), and
+#     rosbags and eclipse-zenoh, which the live-ingest test publishes ROS 2 messages with
 # Models go to $OPENGRAPH_MODELS (default ~/.cache/opengraph/models), never into the repo.
 # Prints the environment to use on its last lines (also written to $OPENGRAPH_MODELS/env.sh).
 set -euo pipefail
@@ -143,6 +144,8 @@ VENV="${OPENGRAPH_VENV:-$HOME/.cache/opengraph/venv}"
 PY_CONSUMERS=(networkx==3.6.1 shapely==2.2.0 plyfile==1.1.5 kuzu==0.11.3 spark-dsg==1.1.3)
 # the Python package's build and tests: maturin builds the wheel, pytest runs api/python/tests
 PY_PACKAGE=(maturin==1.16.0 pytest==9.2.0 pandas==3.1.1 numpy)
+# the live-ingest interop test: ROS 2 messages serialised by rosbags, sent by Python zenoh
+PY_ROS=(rosbags==0.11.9 eclipse-zenoh==1.10.2)
 
 install_venv() {
   if [ ! -x "$VENV/bin/python" ]; then
@@ -163,6 +166,10 @@ install_venv() {
   if ! "$VENV/bin/python" -c 'import maturin, pytest, pandas, numpy' 2>/dev/null; then
     log "installing the Python package's build and test tools (${PY_PACKAGE[*]}) into $VENV"
     "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "${PY_PACKAGE[@]}"
+  fi
+  if ! "$VENV/bin/python" -c 'import rosbags, zenoh' 2>/dev/null; then
+    log "installing the ROS 2 interop peers (${PY_ROS[*]}) into $VENV"
+    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "${PY_ROS[@]}"
   fi
 }
 

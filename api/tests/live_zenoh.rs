@@ -415,3 +415,87 @@ fn malformed_samples_are_counted_and_ignored() {
     z.close().wait().unwrap();
     stop(server, &log);
 }
+
+/// The venv's Python when it has PyPI `rosbags` and `eclipse-zenoh` (setup.sh installs them).
+fn python_with_ros() -> Option<PathBuf> {
+    let py = python_with_mcp()?;
+    Command::new(&py)
+        .args(["-c", "import rosbags, zenoh"])
+        .status()
+        .is_ok_and(|s| s.success())
+        .then_some(py)
+}
+
+/// Messages serialised by PyPI `rosbags` and published by PyPI `eclipse-zenoh` on rmw_zenoh
+/// keys are mapped, and the Python session's own query finds the object.
+#[test]
+fn ros_messages_from_rosbags_over_python_zenoh_are_mapped() {
+    let Some(py) = python_with_ros() else {
+        eprintln!("skipped: no Python with rosbags and eclipse-zenoh (run scripts/setup.sh)");
+        return;
+    };
+    // the type hashes `replay` publishes with are the ones rosbags computes (REP 2011)
+    use ingest::sources::ros::{CAMERA_INFO, ODOMETRY, POINT_CLOUD2, POSE_STAMPED, STRING};
+    let types = [POINT_CLOUD2, ODOMETRY, POSE_STAMPED, CAMERA_INFO, STRING];
+    let names: Vec<String> = types.iter().map(|t| format!("{:?}", t.name)).collect();
+    let out = Command::new(&py)
+        .args([
+            "-c",
+            &format!(
+                "from rosbags.typesys import Stores, get_typestore\nts = get_typestore(Stores.ROS2_JAZZY)\nfor t in [{}]: print(ts.hash_rihs01(t))",
+                names.join(", ")
+            ),
+        ])
+        .output()
+        .unwrap();
+    let hashes: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(str::to_string)
+        .collect();
+    assert_eq!(
+        hashes,
+        types.iter().map(|t| t.hash.to_string()).collect::<Vec<_>>()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("py.toml");
+    std::fs::write(
+        &cfg,
+        "[live]\nidle_finish_secs = 1.0\ncam_from_velo = [0.0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    let db = dir.path().join("py.og");
+    let log = dir.path().join("serve.log");
+    let port = free_port();
+    let server = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args(["serve", "--db", s(&db), "--bind", "127.0.0.1:0", "--zenoh"])
+        .args(["--zenoh-listen", &format!("tcp/127.0.0.1:{port}")])
+        .args([
+            "--config",
+            s(&cfg),
+            "--embedder",
+            "hash",
+            "--map-name",
+            "live",
+        ])
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/ros_publish.py");
+    let mut cmd = Command::new(py);
+    cmd.arg(script).arg(format!("tcp/127.0.0.1:{port}"));
+    let out = json_of_run(cmd, 180);
+    let live = &out["status"]["live"];
+    assert_eq!(live["frames_mapped"], 3, "{out}");
+    assert_eq!(live["malformed"], json!({}), "{out}");
+    assert_eq!(
+        live["received"],
+        json!({"camera_info": 3, "cloud": 3, "detections": 3, "odometry": 3})
+    );
+    let best = &out["found"]["results"][0];
+    assert_eq!(best["caption"], "a red post box", "{out}");
+    // the box is 10 m ahead of the robot: KITTI-style world z forward, y down
+    let c = xyz(&best["centroid"]);
+    assert!((c[2] - 10.0).abs() < 0.2 && c[0].abs() < 0.2, "{c:?}");
+    stop(server, &log);
+}

@@ -768,7 +768,7 @@ impl PlanArgs {
 }
 
 /// How to join zenoh: a configuration file, or endpoints (a peer with multicast scouting
-/// off; default: listen on tcp/127.0.0.1:7447).
+/// off). Default: `serve` listens on tcp/127.0.0.1:7447 and `replay` connects there.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub(crate) struct ZenohSession {
     /// A zenoh JSON5 configuration file (mode, endpoints, scouting), used as it is.

@@ -82,9 +82,16 @@ pub struct LiveBuild<'a> {
     pending: Vec<FrameRecord>,
     /// The stamp of the last frame in `pending`.
     pending_stamp: Option<i64>,
+    /// When the frames in `pending` arrived (the input's clock).
+    pending_arrivals: Vec<f64>,
+    /// Arrivals of frames committed since [`LiveBuild::take_committed`].
+    committed_arrivals: Vec<f64>,
     next_index: u32,
     last_stamp_ns: Option<i64>,
     last_hierarchy: Option<Instant>,
+    /// How long the last refresh took: the next waits at least ten times as long, so the
+    /// refreshes take at most a tenth of the mapping's time as the map grows.
+    last_hierarchy_secs: f64,
     /// Frames were mapped since the last finish.
     unfinished: bool,
     /// The hierarchy is older than the poses.
@@ -229,9 +236,12 @@ impl<'a> LiveBuild<'a> {
             resumed_through_ns: stamp,
             pending: Vec::new(),
             pending_stamp: None,
+            pending_arrivals: Vec::new(),
+            committed_arrivals: Vec::new(),
             next_index: u32::try_from(next_frame.max(0)).unwrap_or(u32::MAX),
             last_stamp_ns: stamp,
             last_hierarchy: None,
+            last_hierarchy_secs: 0.0,
             unfinished: false,
             hierarchy_stale: false,
             report: BuildReport {
@@ -407,6 +417,8 @@ impl<'a> LiveBuild<'a> {
         self.next_index = index.saturating_add(1);
         self.pending.push(record);
         self.pending_stamp = Some(stamp);
+        self.pending_arrivals
+            .push(self.window[k].frame.arrived_secs);
         self.unfinished = true;
         stats.frames_mapped += 1;
         // commits fall on the same frames whether or not the server was restarted (a
@@ -469,12 +481,14 @@ impl<'a> LiveBuild<'a> {
             .run
             .commit(&pending, i64::from(self.next_index), &[], &[], false);
         self.run.checkpoint_extra.clear();
+        let arrivals = std::mem::take(&mut self.pending_arrivals);
         if let Err(e) = out {
             // the store is as it was: these frames are lost, not half-written
             self.pending_stamp = None;
             return Err(e);
         }
         self.last_stamp_ns = self.pending_stamp.take().or(self.last_stamp_ns);
+        self.committed_arrivals.extend(arrivals);
         self.report.commits += 1;
         stats.commits += 1;
         let added: Vec<u64> = dirty
@@ -495,17 +509,20 @@ impl<'a> LiveBuild<'a> {
     /// Rewrites the lanes, segments and relations from the poses so far. Too few poses for
     /// a lane graph is not an error: the refresh waits for more.
     fn refresh_hierarchy(&mut self, stats: &mut LiveStats) -> Result<Vec<MapEvent>> {
-        self.last_hierarchy = Some(Instant::now());
+        let started = Instant::now();
+        self.last_hierarchy = Some(started);
         if self.trajectory.len() < 2 {
             return Ok(Vec::new());
         }
-        match build_hierarchy(
+        let out = build_hierarchy(
             self.store,
             &self.positions(),
             GroundFrame::KittiCam,
             &self.live.environment,
             &self.cfg.hierarchy,
-        ) {
+        );
+        self.last_hierarchy_secs = started.elapsed().as_secs_f64();
+        match out {
             Ok((_, _, h)) => {
                 self.hierarchy_stale = false;
                 stats.hierarchy_refreshes += 1;
@@ -570,7 +587,8 @@ impl<'a> LiveBuild<'a> {
 
     /// What the clock asks for, `idle_secs` after the last frame: the map finished once the
     /// stream has been idle for `[live] idle_finish_secs`, otherwise the hierarchy refreshed
-    /// when it is stale and `[live] hierarchy_period_secs` have passed since the last one.
+    /// when it is stale and `[live] hierarchy_period_secs` (or ten times the last refresh's
+    /// duration, when longer) have passed since the last one.
     ///
     /// # Errors
     /// As [`LiveBuild::push`].
@@ -580,13 +598,22 @@ impl<'a> LiveBuild<'a> {
         {
             return self.finish(stats);
         }
+        let period = self
+            .live
+            .hierarchy_period_secs
+            .max(10.0 * self.last_hierarchy_secs);
         let due = self
             .last_hierarchy
-            .is_none_or(|t| t.elapsed().as_secs_f64() >= self.live.hierarchy_period_secs);
+            .is_none_or(|t| t.elapsed().as_secs_f64() >= period);
         if self.hierarchy_stale && due && self.report.commits > 0 {
             return self.refresh_hierarchy(stats);
         }
         Ok(Vec::new())
+    }
+
+    /// When the frames committed since the last call arrived (the input's clock).
+    pub fn take_committed(&mut self) -> Vec<f64> {
+        std::mem::take(&mut self.committed_arrivals)
     }
 
     /// What this run did, in the batch build's terms.
@@ -643,6 +670,7 @@ pub fn run_live(
                 Ok(ev) => ev.into_iter().for_each(&mut *emit),
                 Err(e) => fail(e),
             }
+            input.record_committed(&build.take_committed());
             input.record_mapping(&stats);
             break;
         }
@@ -657,6 +685,7 @@ pub fn run_live(
             Ok(ev) => ev.into_iter().for_each(&mut *emit),
             Err(e) => fail(e),
         }
+        input.record_committed(&build.take_committed());
         input.record_mapping(&stats);
     }
     Ok(build.report().clone())

@@ -54,7 +54,8 @@ pub struct LiveConfig {
     /// Frames waiting for the mapping at most; beyond it the oldest is dropped.
     pub queue_frames: usize,
     /// The hierarchy (lanes, segments, relations) is refreshed from the poses so far at most
-    /// this often, while frames arrive.
+    /// this often (and at most every ten times the last refresh's duration), while frames
+    /// arrive.
     pub hierarchy_period_secs: f64,
     /// With no frame for this long, post-processing and the hierarchy run over the whole map
     /// (as at the end of a batch build).
@@ -91,7 +92,7 @@ impl Default for LiveConfig {
             world_from_odom: WORLD_FROM_ROS.to_vec(),
             stamp_tolerance_secs: 0.02,
             max_wait_secs: 2.0,
-            queue_frames: 8,
+            queue_frames: 32,
             hierarchy_period_secs: 10.0,
             idle_finish_secs: 3.0,
             environment: "live".into(),
@@ -255,6 +256,8 @@ pub struct LiveFrame {
     pub camera: Camera,
     /// The detections.
     pub detections: DetectionFrame,
+    /// When its cloud arrived, in seconds on the input's clock ([`LiveInput::clock_secs`]).
+    pub arrived_secs: f64,
 }
 
 /// What the live path has seen, in counts. Every message either becomes part of a frame or
@@ -286,6 +289,11 @@ pub struct LiveStats {
     pub hierarchy_refreshes: u64,
     /// The last malformed message: its key and what was wrong.
     pub last_error: Option<String>,
+    /// Milliseconds from a cloud's arrival to the commit that makes its frame queryable,
+    /// median over the last 10,000 frames.
+    pub latency_ms_p50: Option<f64>,
+    /// The same, 99th percentile.
+    pub latency_ms_p99: Option<f64>,
 }
 
 impl LiveStats {
@@ -434,6 +442,7 @@ impl Assembler {
                         world_from_velo,
                         camera,
                         detections,
+                        arrived_secs: cloud.arrived_secs,
                     });
                 }
                 (pose, _, camera) => {
@@ -605,7 +614,12 @@ struct MappingCounts {
     frames_mapped: std::sync::atomic::AtomicU64,
     commits: std::sync::atomic::AtomicU64,
     hierarchy_refreshes: std::sync::atomic::AtomicU64,
+    /// Arrival-to-commit latencies (ms), the last [`LATENCY_WINDOW`].
+    latencies_ms: Mutex<VecDeque<f64>>,
 }
+
+/// Latencies kept for the percentiles.
+const LATENCY_WINDOW: usize = 10_000;
 
 /// The input side of live ingest, shared by the transport's callbacks and the mapping
 /// thread: messages in ([`LiveInput::accept`]), assembled frames out through the bounded
@@ -647,6 +661,27 @@ impl LiveInput {
 
     fn now(&self) -> f64 {
         self.clock.elapsed().as_secs_f64()
+    }
+
+    /// Seconds on the input's clock (what [`LiveFrame::arrived_secs`] is measured on).
+    pub fn clock_secs(&self) -> f64 {
+        self.now()
+    }
+
+    /// Records that frames which arrived at `arrivals` (clock seconds) are now committed.
+    pub fn record_committed(&self, arrivals: &[f64]) {
+        let now = self.now();
+        let mut l = self
+            .mapping
+            .latencies_ms
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        for a in arrivals {
+            if l.len() >= LATENCY_WINDOW {
+                l.pop_front();
+            }
+            l.push_back((now - a) * 1e3);
+        }
     }
 
     fn decode(&self, kind: MessageKind, payload: &[u8], stats: &mut LiveStats) -> Result<Part> {
@@ -780,6 +815,23 @@ impl LiveInput {
         s.frames_mapped = self.mapping.frames_mapped.load(Relaxed);
         s.commits = self.mapping.commits.load(Relaxed);
         s.hierarchy_refreshes = self.mapping.hierarchy_refreshes.load(Relaxed);
+        let mut l: Vec<f64> = self
+            .mapping
+            .latencies_ms
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .iter()
+            .copied()
+            .collect();
+        l.sort_by(f64::total_cmp);
+        let pct = |q: f64| {
+            (!l.is_empty()).then(|| {
+                let i = ((l.len() - 1) as f64 * q).round() as usize;
+                (l[i] * 10.0).round() / 10.0
+            })
+        };
+        s.latency_ms_p50 = pct(0.5);
+        s.latency_ms_p99 = pct(0.99);
         s
     }
 }
@@ -981,6 +1033,7 @@ mod tests {
                 height: 1,
             },
             detections: dets(i),
+            arrived_secs: 0.0,
         };
         assert_eq!(q.push(frame(1)) + q.push(frame(2)), 0);
         assert_eq!(q.push(frame(3)), 1);

@@ -519,6 +519,10 @@ impl PointCloud2 {
                 ),
             ));
         }
+        if n == 0 {
+            // no points (a zero width leaves rows that need no bytes)
+            return Ok(CloudPoints::default());
+        }
         let big = self.is_bigendian;
         let mut out = CloudPoints {
             points: Vec::with_capacity(n as usize),
