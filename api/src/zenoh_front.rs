@@ -19,6 +19,7 @@ use opengraph_service::error::ToolError;
 use opengraph_service::export::{ExportFormat, ExportRequest};
 use opengraph_service::live::{LiveHandle, LiveRequest};
 use opengraph_service::service::{Service, error_body};
+use opengraph_service::shards::{ShardQuery, ShardTransport};
 use serde_json::{Value as Json, json};
 use zenoh::Wait;
 
@@ -65,22 +66,37 @@ fn readable(tool: &str) -> bool {
         && !matches!(tool, "ask")
 }
 
-fn reply_json(query: &zenoh::query::Query, answer: Result<Json, ToolError>) {
+/// Replies `answer`; an error as its body with the server's `region`, if it has one (an
+/// error reply names no key, so a fanned-out question could not tell whose it is).
+fn reply_json(
+    query: &zenoh::query::Query,
+    key: &str,
+    answer: Result<Json, ToolError>,
+    region: Option<&str>,
+) {
     let r = match answer {
-        Ok(v) => query.reply(query.key_expr().clone(), v.to_string()).wait(),
-        Err(e) => query.reply_err(error_body(&e).to_string()).wait(),
+        // the queryable's own key, not the query's (which may hold a wildcard over regions)
+        Ok(v) => query.reply(key, v.to_string()).wait(),
+        Err(e) => {
+            let mut body = error_body(&e);
+            if let Some(r) = region {
+                body["region"] = Json::String(r.to_string());
+            }
+            query.reply_err(body.to_string()).wait()
+        }
     };
     if let Err(e) = r {
         tracing::warn!(target: "opengraph::zenoh", "reply to {} failed: {e}", query.key_expr());
     }
 }
 
-/// A query's request: `{"tool": NAME, "args": {...}}`.
+/// A query's request: `{"tool": NAME, "args": {...}}`, with `"shard": {"pass": ...}` for a
+/// pass of a fanned-out `find_objects` or `locate` ([`opengraph_service::shards`]).
 ///
 /// # Errors
 /// [`ToolError::BadArguments`] for a payload that is not such JSON, or a tool that is not
 /// a read-only one.
-pub fn parse_query(payload: Option<&[u8]>) -> Result<(String, Json), ToolError> {
+pub fn parse_query(payload: Option<&[u8]>) -> Result<ShardQuery, ToolError> {
     let bad = |m: String| ToolError::BadArguments(m);
     let bytes = payload.ok_or_else(|| {
         bad("the query has no payload: send {\"tool\": NAME, \"args\": {...}}".into())
@@ -107,8 +123,12 @@ pub fn parse_query(payload: Option<&[u8]>) -> Result<(String, Json), ToolError> 
                 .join(", ")
         )));
     }
-    let args = v.get("args").cloned().unwrap_or_else(|| json!({}));
-    Ok((tool.to_string(), args))
+    let mut q: ShardQuery =
+        serde_json::from_value(v).map_err(|e| bad(format!("the payload is not a query: {e}")))?;
+    if q.args.is_null() {
+        q.args = json!({});
+    }
+    Ok(q)
 }
 
 /// Starts the front end over `service` on `rt`: the session, the queryables, the event
@@ -142,18 +162,29 @@ pub fn start(
     {
         let svc = service.clone();
         let rt = rt.clone();
+        let region = cfg.region.clone();
+        let key = format!("{prefix}/query");
         queryables.push(
             session
-                .declare_queryable(format!("{prefix}/query"))
+                .declare_queryable(key.clone())
                 .callback(move |query: zenoh::query::Query| {
                     let parsed = parse_query(query.payload().map(|p| p.to_bytes()).as_deref());
                     let svc = svc.clone();
+                    let region = region.clone();
+                    let key = key.clone();
                     rt.spawn(async move {
                         let answer = match parsed {
-                            Ok((tool, args)) => svc.call(&tool, args, false).await,
+                            Ok(ShardQuery {
+                                tool,
+                                args,
+                                shard: Some(pass),
+                            }) => svc.call_shard(&tool, args, pass).await,
+                            Ok(q) => svc.call(&q.tool, q.args, false).await,
                             Err(e) => Err(e),
                         };
-                        tokio::task::spawn_blocking(move || reply_json(&query, answer));
+                        tokio::task::spawn_blocking(move || {
+                            reply_json(&query, &key, answer, region.as_deref())
+                        });
                     });
                 })
                 .wait()
@@ -164,20 +195,20 @@ pub fn start(
     {
         let svc = service.clone();
         let rt = rt.clone();
+        let key = format!("{prefix}/graph");
         queryables.push(
             session
-                .declare_queryable(format!("{prefix}/graph"))
+                .declare_queryable(key.clone())
                 .callback(move |query: zenoh::query::Query| {
                     let svc = svc.clone();
+                    let key = key.clone();
                     rt.spawn(async move {
                         let out = svc
                             .export(ExportRequest::new(ExportFormat::NodeLink))
                             .await;
                         tokio::task::spawn_blocking(move || {
                             let r = match out {
-                                Ok((_, bytes, _)) => {
-                                    query.reply(query.key_expr().clone(), bytes).wait()
-                                }
+                                Ok((_, bytes, _)) => query.reply(&key, bytes).wait(),
                                 Err(e) => query.reply_err(error_body(&e).to_string()).wait(),
                             };
                             if let Err(e) = r {
@@ -216,16 +247,22 @@ pub fn start(
     {
         let svc = service.clone();
         let rt = rt.clone();
+        let region = cfg.region.clone();
+        let key = format!("{prefix}/status");
         queryables.push(
             session
-                .declare_queryable(format!("{prefix}/status"))
+                .declare_queryable(key.clone())
                 .callback(move |query: zenoh::query::Query| {
                     let svc = svc.clone();
                     let live = watch.as_ref().map(|w| w.stats());
+                    let region = region.clone();
+                    let key = key.clone();
                     rt.spawn(async move {
                         let info = svc.info().await;
                         let answer = info.map(|info| json!({"live": live, "info": info}));
-                        tokio::task::spawn_blocking(move || reply_json(&query, answer));
+                        tokio::task::spawn_blocking(move || {
+                            reply_json(&query, &key, answer, region.as_deref())
+                        });
                     });
                 })
                 .wait()
@@ -300,5 +337,119 @@ impl ZenohFront {
             .wait()
             .map_err(|e| anyhow::anyhow!("zenoh: {e}"))?;
         Ok(report)
+    }
+}
+
+/// The regions of a sharded map over zenoh: a fanned-out question is one query on
+/// `opengraph/<map>/*/query`, each region's queryable answering; the regions there are
+/// the liveliness tokens `opengraph/<map>/*/alive`.
+#[derive(Debug)]
+pub struct ZenohShards {
+    session: zenoh::Session,
+    map: String,
+}
+
+impl ZenohShards {
+    /// Over `session`, for the map named `map`.
+    ///
+    /// # Errors
+    /// [`ToolError::BadArguments`] for a map name that cannot be a key chunk.
+    pub fn new(session: zenoh::Session, map: &str) -> Result<ZenohShards, ToolError> {
+        if !og_zenoh::keys::is_chunk(map) {
+            return Err(ToolError::BadArguments(format!(
+                "the map name {map:?} cannot be part of a zenoh key: use letters, digits, _, - and ."
+            )));
+        }
+        Ok(ZenohShards {
+            session,
+            map: map.to_string(),
+        })
+    }
+
+    /// The region of a key under `opengraph/<map>/<region>/...`.
+    fn region_of(&self, key: &str) -> Option<String> {
+        let rest = key.strip_prefix(&format!("opengraph/{}/", self.map))?;
+        let (region, _) = rest.split_once('/')?;
+        og_zenoh::keys::is_chunk(region).then(|| region.to_string())
+    }
+}
+
+impl ShardTransport for ZenohShards {
+    fn ask(
+        &self,
+        query: &ShardQuery,
+        deadline: Duration,
+    ) -> Vec<(String, Result<Json, ToolError>)> {
+        let payload = match serde_json::to_vec(query) {
+            Ok(p) => p,
+            Err(e) => {
+                tracing::warn!(target: "opengraph::zenoh", "query not encoded: {e}");
+                return Vec::new();
+            }
+        };
+        let replies = match self
+            .session
+            .get(format!("opengraph/{}/*/query", self.map))
+            .payload(payload)
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .target(zenoh::query::QueryTarget::All)
+            .timeout(deadline)
+            .wait()
+        {
+            Ok(r) => r,
+            Err(e) => {
+                tracing::warn!(target: "opengraph::zenoh", "query not sent: {e}");
+                return Vec::new();
+            }
+        };
+        let mut out = Vec::new();
+        while let Ok(reply) = replies.recv() {
+            match reply.result() {
+                Ok(sample) => {
+                    let Some(region) = self.region_of(sample.key_expr().as_str()) else {
+                        continue;
+                    };
+                    let answer = serde_json::from_slice::<Json>(&sample.payload().to_bytes())
+                        .map_err(|e| {
+                            ToolError::Failed(format!("region {region} sent no JSON: {e}"))
+                        });
+                    out.push((region, answer));
+                }
+                Err(err) => {
+                    // an error reply names no key: its body says which region when it can
+                    let body: Json =
+                        serde_json::from_slice(&err.payload().to_bytes()).unwrap_or_default();
+                    let region = body["region"].as_str().map(str::to_string);
+                    match region {
+                        Some(r) => out.push((r, Err(ToolError::from_body(&body)))),
+                        None => tracing::warn!(
+                            target: "opengraph::zenoh",
+                            "an error reply without its region: {body}"
+                        ),
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn regions(&self, deadline: Duration) -> Vec<String> {
+        let mut out = std::collections::BTreeSet::new();
+        if let Ok(replies) = self
+            .session
+            .liveliness()
+            .get(format!("opengraph/{}/*/alive", self.map))
+            .timeout(deadline)
+            .wait()
+        {
+            while let Ok(reply) = replies.recv() {
+                if let Ok(sample) = reply.result()
+                    && let Some(r) = self.region_of(sample.key_expr().as_str())
+                {
+                    out.insert(r);
+                }
+            }
+        }
+        out.into_iter().collect()
     }
 }

@@ -256,6 +256,30 @@ fn user_errors_exit_2_on_every_command() {
             ],
         ),
         ("demo", vec!["demo".into(), "--db".into(), db.clone()]),
+        (
+            "replay",
+            vec!["replay".into(), "--kitti".into(), nowhere.clone()],
+        ),
+        (
+            "shard",
+            vec![
+                "shard".into(),
+                "--db".into(),
+                missing_db.clone(),
+                "--out".into(),
+                format!("{nowhere}/shards"),
+            ],
+        ),
+        (
+            "zenoh-query",
+            vec![
+                "zenoh-query".into(),
+                "--map".into(),
+                "city".into(),
+                "read_cypher".into(),
+                "{not json".into(),
+            ],
+        ),
     ];
     // every command of the binary is in the table
     let help = String::from_utf8_lossy(&og(&["--help"]).stdout).to_string();

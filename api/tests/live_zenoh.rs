@@ -499,3 +499,313 @@ fn ros_messages_from_rosbags_over_python_zenoh_are_mapped() {
     assert!((c[2] - 10.0).abs() < 0.2 && c[0].abs() < 0.2, "{c:?}");
     stop(server, &log);
 }
+
+/// `serve --zenoh --no-live` of one region shard, listening on `port`.
+fn shard_server(db: &Path, region: &str, port: u16, log: &Path) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0", "--zenoh"])
+        .args(["--no-live", "--map-name", "city", "--region", region])
+        .args(["--zenoh-listen", &format!("tcp/127.0.0.1:{port}")])
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).unwrap())
+        .spawn()
+        .unwrap()
+}
+
+/// `opengraph zenoh-query` over the servers on `ports`: the merged answer.
+fn fan_out(ports: &[u16], tool: &str, args: &Json, regions: &str, deadline_secs: &str) -> Json {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_opengraph"));
+    cmd.args(["zenoh-query", "--map", "city", tool, &args.to_string()])
+        .args(["--deadline-secs", deadline_secs]);
+    if !regions.is_empty() {
+        cmd.args(["--regions", regions]);
+    }
+    for p in ports {
+        cmd.args(["--zenoh-connect", &format!("tcp/127.0.0.1:{p}")]);
+    }
+    pretty_json_of_run(cmd)
+}
+
+/// Runs `cmd` (2 minutes at most); asserts it succeeded; its whole stdout as JSON.
+fn pretty_json_of_run(cmd: Command) -> Json {
+    let shown = format!("{cmd:?}");
+    let out = output_within(cmd, 120);
+    assert!(
+        out.status.success(),
+        "{shown} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// `opengraph tool` on one store: the tool's answer.
+fn tool_on(db: &Path, tool: &str, args: &Json) -> Json {
+    json(&og(&["tool", "--db", s(db), tool, &args.to_string()]))
+}
+
+/// (id, score) of each result, best first.
+fn ranked(answer: &Json, id: &str) -> Vec<(u64, f64)> {
+    answer["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| (r[id].as_u64().unwrap(), r["score"].as_f64().unwrap()))
+        .collect()
+}
+
+#[test]
+fn three_region_shards_answer_as_the_whole_map_and_a_stopped_one_is_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_sim, db) = sim_map(
+        dir.path(),
+        &["--seed", "0", "--frames", "200"],
+        &["--embedder", "hash"],
+    );
+    let out = dir.path().join("shards");
+    let split = json(&og(&[
+        "shard",
+        "--db",
+        s(&db),
+        "--parts",
+        "3",
+        "--out",
+        s(&out),
+        "--json",
+    ]));
+    let regions = split["regions"].as_array().unwrap();
+    assert_eq!(regions.len(), 3, "{split}");
+    // every instance of the whole map is in exactly one region, under the same node id
+    let ids = |db: &Path| -> Vec<u64> {
+        read_query(db, "MATCH (i:Instance) RETURN id(i) AS id ORDER BY id")
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["id"].as_u64().unwrap())
+            .collect()
+    };
+    let whole = ids(&db);
+    let mut region_of = std::collections::BTreeMap::new();
+    for r in regions {
+        let name = r["region"].as_str().unwrap().to_string();
+        let own = ids(Path::new(r["db"].as_str().unwrap()));
+        assert!(!own.is_empty(), "region {name} holds no instance: {split}");
+        for id in own {
+            assert!(region_of.insert(id, name.clone()).is_none(), "{id} twice");
+        }
+    }
+    assert_eq!(region_of.keys().copied().collect::<Vec<_>>(), whole);
+    // a segment is in one region only
+    let segs: u64 = regions
+        .iter()
+        .map(|r| {
+            read_query(
+                Path::new(r["db"].as_str().unwrap()),
+                "MATCH (s:Segment) RETURN count(*) AS n",
+            )[0]["n"]
+                .as_u64()
+                .unwrap()
+        })
+        .sum();
+    assert_eq!(
+        segs,
+        read_query(&db, "MATCH (s:Segment) RETURN count(*) AS n")[0]["n"]
+            .as_u64()
+            .unwrap()
+    );
+
+    let ports: Vec<u16> = (0..3).map(|_| free_port()).collect();
+    let mut servers: Vec<Option<Child>> = regions
+        .iter()
+        .zip(&ports)
+        .map(|(r, &p)| {
+            let name = r["region"].as_str().unwrap();
+            Some(shard_server(
+                Path::new(r["db"].as_str().unwrap()),
+                name,
+                p,
+                &dir.path().join(format!("{name}.log")),
+            ))
+        })
+        .collect();
+    // the whole map as one region of another map name, for the latency against one store
+    let whole_port = free_port();
+    let whole_log = dir.path().join("whole.log");
+    let mut whole_server = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args(["serve", "--db", s(&db), "--bind", "127.0.0.1:0", "--zenoh"])
+        .args(["--no-live", "--map-name", "whole", "--region", "all"])
+        .args(["--zenoh-listen", &format!("tcp/127.0.0.1:{whole_port}")])
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&whole_log).unwrap())
+        .spawn()
+        .unwrap();
+    let z = og_zenoh::SessionOptions::peer(
+        &[],
+        &ports
+            .iter()
+            .chain([&whole_port])
+            .map(|p| format!("tcp/127.0.0.1:{p}"))
+            .collect::<Vec<_>>(),
+    )
+    .open()
+    .unwrap();
+    let start = Instant::now();
+    for key in [
+        "opengraph/city/r1/status",
+        "opengraph/city/r2/status",
+        "opengraph/city/r3/status",
+        "opengraph/whole/all/status",
+    ] {
+        while !matches!(get(&z, key, None), Some(Ok(_))) {
+            assert!(
+                start.elapsed() < Duration::from_secs(120),
+                "{key} never answered; r1 log:\n{}",
+                std::fs::read_to_string(dir.path().join("r1.log")).unwrap_or_default()
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+
+    // find: the whole map's answer, by `opengraph tool` on its store, against the fan-out
+    let queries = [
+        "a bus stop",
+        "a bench",
+        "a tree",
+        "a parked car",
+        "a street sign",
+        "a trash bin",
+        "a bench next to a bus stop",
+        "a tree near a street sign",
+        "a car parked by the bus stop",
+    ];
+    let (mut same, mut local_evidence) = (0, 0);
+    for q in queries {
+        let args = json!({"text": q, "k": 5});
+        let one = tool_on(&db, "find_objects", &args);
+        let fanned = fan_out(&ports, "find_objects", &args, "r1,r2,r3", "10");
+        assert!(fanned["missing"].as_array().unwrap().is_empty(), "{fanned}");
+        assert_eq!(fanned["passes"], 2);
+        let (a, b) = (ranked(&one, "id"), ranked(&fanned["answer"], "id"));
+        for r in fanned["answer"]["results"].as_array().unwrap() {
+            assert_eq!(
+                r["region"].as_str(),
+                region_of
+                    .get(&r["id"].as_u64().unwrap())
+                    .map(String::as_str)
+            );
+        }
+        // an anchor in another region is not seen: where every result's evidence is in its
+        // own region, the answers are the same; elsewhere a region can only score lower
+        let local = one["results"].as_array().unwrap().iter().all(|r| {
+            let home = &region_of[&r["id"].as_u64().unwrap()];
+            r["evidence"].as_array().unwrap().iter().all(|e| {
+                region_of
+                    .get(&e["anchor_id"].as_u64().unwrap())
+                    .is_none_or(|h| h == home)
+            })
+        });
+        let equal = a.len() == b.len()
+            && a.iter()
+                .zip(&b)
+                .all(|(x, y)| x.0 == y.0 && (x.1 - y.1).abs() < 1e-9);
+        if local {
+            local_evidence += 1;
+            assert!(equal, "{q}: one map {a:?}, fanned out {b:?}");
+        } else {
+            let best_one = a.first().map_or(0.0, |x| x.1);
+            assert!(b.iter().all(|y| y.1 <= best_one + 1e-9), "{q}: {a:?} {b:?}");
+        }
+        same += usize::from(equal);
+    }
+    eprintln!(
+        "find: {same} of {} queries the same over three regions as on the whole map ({local_evidence} with every anchor in its target's region)",
+        queries.len()
+    );
+    assert!(local_evidence >= 6, "the target-only queries at least");
+
+    // locate: three passes; the same where no landmark crosses a region's border
+    let args = json!({"text": "I'm at a T-junction with a bus stop and a bench", "k": 3});
+    let one = tool_on(&db, "locate", &args);
+    let fanned = fan_out(&ports, "locate", &args, "", "10");
+    assert_eq!(fanned["passes"], 3, "{fanned}");
+    assert_eq!(fanned["regions"], json!(["r1", "r2", "r3"]));
+    eprintln!(
+        "locate: one map {:?}, fanned out {:?}",
+        ranked(&one, "segment"),
+        ranked(&fanned["answer"], "segment")
+    );
+    assert!(!ranked(&fanned["answer"], "segment").is_empty());
+
+    // Cypher: the union of the rows, each with its region
+    let cy = fan_out(
+        &ports,
+        "read_cypher",
+        &json!({"query": "MATCH (i:Instance) RETURN count(*) AS n"}),
+        "",
+        "10",
+    );
+    let rows = cy["answer"]["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3, "{cy}");
+    let total: u64 = rows.iter().map(|r| r["n"].as_u64().unwrap()).sum();
+    assert_eq!(total as usize, whole.len());
+
+    // latency: the fan-out over three regions against the whole map as one region
+    let args = json!({"text": "a bench next to a bus stop", "k": 5});
+    let mut t3 = Vec::new();
+    let mut t1 = Vec::new();
+    for _ in 0..5 {
+        t3.push(
+            fan_out(&ports, "find_objects", &args, "r1,r2,r3", "10")["time_ms"]
+                .as_f64()
+                .unwrap(),
+        );
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_opengraph"));
+        cmd.args([
+            "zenoh-query",
+            "--map",
+            "whole",
+            "find_objects",
+            &args.to_string(),
+        ])
+        .args([
+            "--regions",
+            "all",
+            "--zenoh-connect",
+            &format!("tcp/127.0.0.1:{whole_port}"),
+        ]);
+        t1.push(pretty_json_of_run(cmd)["time_ms"].as_f64().unwrap());
+    }
+    t3.sort_by(f64::total_cmp);
+    t1.sort_by(f64::total_cmp);
+    eprintln!(
+        "fan-out find latency, median of 5: three regions {:.1} ms, the whole map as one {:.1} ms (ratio {:.2})",
+        t3[2],
+        t1[2],
+        t3[2] / t1[2]
+    );
+
+    // a stopped region is reported missing, and the others still answer
+    let mut r2 = servers[1].take().unwrap();
+    r2.kill().unwrap();
+    r2.wait().unwrap();
+    let fanned = fan_out(
+        &ports,
+        "find_objects",
+        &json!({"text": "a tree", "k": 5}),
+        "r1,r2,r3",
+        "2",
+    );
+    let missing = fanned["missing"].as_array().unwrap();
+    assert_eq!(missing.len(), 1, "{fanned}");
+    assert_eq!(missing[0]["region"], "r2");
+    assert_eq!(fanned["regions"], json!(["r1", "r3"]));
+    for r in fanned["answer"]["results"].as_array().unwrap() {
+        assert_ne!(r["region"], "r2");
+    }
+    let _ = z.close().wait();
+    for mut c in servers.into_iter().flatten() {
+        let _ = c.kill();
+        let _ = c.wait();
+    }
+    let _ = whole_server.kill();
+    let _ = whole_server.wait();
+}

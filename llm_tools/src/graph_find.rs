@@ -278,12 +278,30 @@ pub fn similarity_gates_and_best(
     plateau: f64,
     falloff: f64,
 ) -> Result<(Vec<Option<f64>>, f64)> {
+    similarity_gates_relative(scene, embedder, phrases, allowed, plateau, falloff, None)
+}
+
+/// [`similarity_gates_and_best`] with the gates relative to `best` when given (the whole
+/// map's best, for one part of it); the best returned is still this map's own.
+///
+/// # Errors
+/// The embedder fails or disagrees with the map's features.
+pub fn similarity_gates_relative(
+    scene: &MapView,
+    embedder: &mut dyn Embedder,
+    phrases: &[&str],
+    allowed: impl Fn(&SceneObject) -> bool,
+    plateau: f64,
+    falloff: f64,
+    best: Option<f64>,
+) -> Result<(Vec<Option<f64>>, f64)> {
     let sims = colour_checked_similarities(scene, embedder, phrases, allowed)?;
-    let best = sims
+    let own = sims
         .iter()
         .flatten()
         .copied()
         .fold(f64::NEG_INFINITY, f64::max);
+    let best = best.unwrap_or(own);
     let gates = sims
         .into_iter()
         // the raw cosine orders candidates that the gate leaves tied
@@ -291,7 +309,7 @@ pub fn similarity_gates_and_best(
             s.map(|s| gate(s, best, plateau, falloff) * (0.9 + 0.1 * (s / best).clamp(0.0, 1.0)))
         })
         .collect();
-    Ok((gates, best))
+    Ok((gates, own))
 }
 
 /// Indices of the `n` best, best first (ties by index), and the best value.
@@ -357,6 +375,91 @@ pub fn caption_places_by(caption: &str, rel: Relation, phrase: &str) -> bool {
     agrees && !content.is_empty() && content.iter().all(|w| cap[at + 1..].contains(w))
 }
 
+/// The candidate cosines one part of a map (a region shard) holds for a request, best first:
+/// the first pass of a find fanned out over shards. [`FindCuts::merge`] of every shard's
+/// gives the [`FindNorms`] that make each shard score as the union of them would.
+#[derive(
+    Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+pub struct FindCuts {
+    /// How many target candidates a map takes.
+    pub target_n: usize,
+    /// The target's candidate cosines, best first (at most `target_n`).
+    pub target: Vec<f64>,
+    /// How many candidates per anchor a map takes.
+    pub anchor_n: usize,
+    /// Per anchor of the request, its candidate cosines (colour-checked), best first.
+    pub anchors: Vec<Vec<f64>>,
+}
+
+/// The best candidate cosine, which gates are relative to, and the lowest one that is still
+/// a candidate.
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+pub struct Cut {
+    /// The best cosine.
+    pub best: f64,
+    /// The last candidate's cosine (lower ones are not candidates).
+    pub last: f64,
+}
+
+/// What the whole map's candidates are, for scoring one part of it ([`FindCuts::merge`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+pub struct FindNorms {
+    /// The target's cut; None when no part holds a candidate.
+    pub target: Option<Cut>,
+    /// Each anchor's cut, in the request's order.
+    pub anchors: Vec<Option<Cut>>,
+}
+
+fn merged_cut(lists: &[&[f64]], n: usize) -> Option<Cut> {
+    let mut all: Vec<f64> = lists.iter().flat_map(|l| l.iter().copied()).collect();
+    all.sort_by(|a, b| b.total_cmp(a));
+    all.truncate(n);
+    Some(Cut {
+        best: *all.first()?,
+        last: *all.last()?,
+    })
+}
+
+impl FindCuts {
+    /// The norms of the union of the parts whose cuts are `parts`: the best and the n-th
+    /// best cosine over all of them.
+    pub fn merge(parts: &[FindCuts]) -> FindNorms {
+        let target_n = parts.iter().map(|p| p.target_n).max().unwrap_or(0);
+        let anchor_n = parts.iter().map(|p| p.anchor_n).max().unwrap_or(0);
+        let lists: Vec<&[f64]> = parts.iter().map(|p| p.target.as_slice()).collect();
+        let n_anchors = parts.iter().map(|p| p.anchors.len()).max().unwrap_or(0);
+        FindNorms {
+            target: merged_cut(&lists, target_n),
+            anchors: (0..n_anchors)
+                .map(|a| {
+                    let lists: Vec<&[f64]> = parts
+                        .iter()
+                        .filter_map(|p| p.anchors.get(a).map(Vec::as_slice))
+                        .collect();
+                    merged_cut(&lists, anchor_n)
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The candidates of `sims` under `cut` (best first, ties by index) and the best they are
+/// gated against; without a cut, the `n` best of this map ([`top`]).
+fn candidates(sims: &[Option<f64>], n: usize, cut: Option<Option<Cut>>) -> (Vec<usize>, f64) {
+    match cut {
+        None => top(sims, n),
+        Some(None) => (Vec::new(), 1.0),
+        Some(Some(c)) => {
+            let (mut idx, _) = top(sims, sims.len());
+            idx.retain(|&i| sims[i].is_some_and(|s| s >= c.last));
+            (idx, c.best)
+        }
+    }
+}
+
 /// Answers `req` over `scene` (see the module docs). `r` is read for `RELATED` edges.
 ///
 /// # Errors
@@ -368,6 +471,24 @@ pub fn find_graph(
     req: &Request,
     opts: &GraphFindOptions,
 ) -> Result<Vec<GraphFound>> {
+    Ok(find_graph_normed(r, scene, embedder, req, opts, None)?.0)
+}
+
+/// [`find_graph`] over one part of a map (a region shard): with `norms` from
+/// [`FindCuts::merge`] the candidates and gates are the whole map's, so each result scores as
+/// it would in the union (support from an anchor in another part is not seen). Returns the
+/// results and this part's [`FindCuts`] (the first pass: call it without norms).
+///
+/// # Errors
+/// As [`find_graph`].
+pub fn find_graph_normed(
+    r: &impl GraphRead,
+    scene: &MapView,
+    embedder: &mut dyn Embedder,
+    req: &Request,
+    opts: &GraphFindOptions,
+    norms: Option<&FindNorms>,
+) -> Result<(Vec<GraphFound>, FindCuts)> {
     let target_phrases: Vec<&str> = if req.objects.is_empty() {
         vec![req.target.as_str()]
     } else {
@@ -387,15 +508,34 @@ pub fn find_graph(
                 (p[0] - g[0]).hypot(p[1] - g[1]) <= radius_m
             })
     })?;
-    let (targets, t_best) = top(&t_sims, opts.target_candidates.max(opts.k));
+    let target_n = opts.target_candidates.max(opts.k);
+    let mut cuts = FindCuts {
+        target_n,
+        target: top(&t_sims, target_n)
+            .0
+            .iter()
+            .filter_map(|&i| t_sims[i])
+            .collect(),
+        anchor_n: opts.anchor_candidates,
+        anchors: Vec::new(),
+    };
+    let (targets, t_best) = candidates(&t_sims, target_n, norms.map(|n| n.target));
     // anchors: candidates and similarities
     let mut anchors: Vec<(Vec<usize>, Vec<Option<f64>>, f64)> = Vec::new();
-    for a in &req.anchors {
+    for (ai, a) in req.anchors.iter().enumerate() {
         let surface = names_surface(&[], &a.phrase);
         let sims = colour_checked_similarities(scene, embedder, &[a.phrase.as_str()], |o| {
             o.surface == surface
         })?;
-        let (idx, best) = top(&sims, opts.anchor_candidates);
+        cuts.anchors.push(
+            top(&sims, opts.anchor_candidates)
+                .0
+                .iter()
+                .filter_map(|&i| sims[i])
+                .collect(),
+        );
+        let cut = norms.map(|n| n.anchors.get(ai).copied().flatten());
+        let (idx, best) = candidates(&sims, opts.anchor_candidates, cut);
         anchors.push((idx, sims, best));
     }
     let related = r.rel_type(scene::rel::RELATED);
@@ -534,7 +674,7 @@ pub fn find_graph(
     }
     out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.id.cmp(&b.id)));
     out.truncate(opts.k);
-    Ok(out)
+    Ok((out, cuts))
 }
 
 /// The JSON Schema of a re-ranking answer: up to three candidate numbers, best first.
@@ -679,6 +819,53 @@ mod tests {
             "the street"
         ));
         assert!(!caption_places_by(mailbox, Relation::On, "the"));
+    }
+
+    #[test]
+    fn merged_cuts_are_the_best_and_the_nth_best_of_every_part() {
+        let a = FindCuts {
+            target_n: 3,
+            target: vec![0.9, 0.5, 0.1],
+            anchor_n: 2,
+            anchors: vec![vec![0.4, 0.3], vec![]],
+        };
+        let b = FindCuts {
+            target_n: 3,
+            target: vec![0.7, 0.6],
+            anchor_n: 2,
+            anchors: vec![vec![0.8], vec![]],
+        };
+        let n = FindCuts::merge(&[a, b]);
+        assert_eq!(
+            n.target,
+            Some(Cut {
+                best: 0.9,
+                last: 0.6
+            })
+        );
+        assert_eq!(
+            n.anchors,
+            vec![
+                Some(Cut {
+                    best: 0.8,
+                    last: 0.4
+                }),
+                None
+            ]
+        );
+        // under a cut, the candidates are those at or over it, best first
+        let sims = [Some(0.2), None, Some(0.9), Some(0.6), Some(0.6)];
+        let (idx, best) = candidates(
+            &sims,
+            1,
+            Some(Some(Cut {
+                best: 0.95,
+                last: 0.6,
+            })),
+        );
+        assert_eq!((idx, best), (vec![2, 3, 4], 0.95));
+        assert_eq!(candidates(&sims, 2, None).0, vec![2, 3]);
+        assert!(candidates(&sims, 2, Some(None)).0.is_empty());
     }
 
     fn obj(id: u64, lo: [f64; 2], hi: [f64; 2], h: (f64, f64)) -> SceneObject {

@@ -19,7 +19,7 @@
 use crate::chat::ChatModel;
 use crate::embed::Embedder;
 use crate::error::{Error, Result};
-use crate::graph_find::{MapView, SceneObject, similarity_gates_and_best};
+use crate::graph_find::{MapView, SceneObject, similarity_gates_relative};
 use crate::request::{self, SegmentConstraint};
 use crate::vocab::{colour_agreement, names_surface, without_colours};
 
@@ -260,22 +260,93 @@ pub fn locate_with_floor(
     k: usize,
     floor: f64,
 ) -> Result<(Vec<Located>, Vec<UnmatchedLandmark>)> {
+    let (located, unmatched, _) = locate_normed(
+        scene,
+        segments,
+        embedder,
+        desc,
+        k,
+        floor,
+        &LocateNorms::default(),
+    )?;
+    Ok((located, unmatched))
+}
+
+/// What the whole map says of a description's landmarks, for ranking one part of it (a
+/// region shard) as the union of the parts would be ranked. Fanned out, locate takes three
+/// passes: without norms each part gives its best cosines ([`LocateStats::bests`]); with the
+/// bests (the maximum over the parts) each gives its segments with a good match
+/// ([`LocateStats::hits`]); with the bests and the summed hits and segments, the ranking.
+#[derive(
+    Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+pub struct LocateNorms {
+    /// Per landmark of the description, the best cosine over the whole map (None: no
+    /// instance to match). Empty: this map's own.
+    pub bests: Vec<Option<f64>>,
+    /// Per landmark, the segments of the whole map with a good match in reach.
+    pub hits: Option<Vec<usize>>,
+    /// The whole map's segments.
+    pub segments: Option<usize>,
+}
+
+/// What one map (or part) says of a description's landmarks ([`LocateNorms`]).
+#[derive(
+    Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+pub struct LocateStats {
+    /// Per landmark, this map's best cosine (None: no instance to match).
+    pub bests: Vec<Option<f64>>,
+    /// Per landmark, this map's segments with a good match in reach (0 for a landmark left
+    /// out under the floor).
+    pub hits: Vec<usize>,
+    /// This map's segments.
+    pub segments: usize,
+}
+
+/// [`locate_with_floor`] under `norms` (see [`LocateNorms`]); also returns this map's
+/// [`LocateStats`].
+///
+/// # Errors
+/// The embedder fails or disagrees with the map's features.
+pub fn locate_normed(
+    scene: &MapView,
+    segments: &[SegmentInfo],
+    embedder: &mut dyn Embedder,
+    desc: &Description,
+    k: usize,
+    floor: f64,
+    norms: &LocateNorms,
+) -> Result<(Vec<Located>, Vec<UnmatchedLandmark>, LocateStats)> {
     // per landmark: (object index, gate) of every candidate with a positive gate; what the
     // thing is is matched without its colour, and the colour is checked apart
     let mut kept = desc.clone();
     kept.landmarks.clear();
+    let mut kept_at: Vec<usize> = Vec::new();
     let mut unmatched = Vec::new();
     let mut cands: Vec<Vec<(usize, f64)>> = Vec::new();
-    for l in &desc.landmarks {
+    let mut stats = LocateStats {
+        bests: Vec::new(),
+        hits: vec![0; desc.landmarks.len()],
+        segments: segments.len(),
+    };
+    for (li, l) in desc.landmarks.iter().enumerate() {
         let kind_phrase = without_colours(l);
-        let (gates, best) = similarity_gates_and_best(
+        let given = norms.bests.get(li).copied();
+        let (gates, own) = similarity_gates_relative(
             scene,
             embedder,
             &[kind_phrase.as_str()],
             |o: &SceneObject| !o.surface,
             0.1,
             0.2,
+            given.flatten(),
         )?;
+        stats.bests.push(own.is_finite().then_some(own));
+        let best = match given {
+            Some(g) => g.unwrap_or(f64::NEG_INFINITY),
+            None => own,
+        };
         if best < floor {
             unmatched.push(UnmatchedLandmark {
                 landmark: l.clone(),
@@ -284,6 +355,7 @@ pub fn locate_with_floor(
             continue;
         }
         kept.landmarks.push(l.clone());
+        kept_at.push(li);
         cands.push(
             gates
                 .into_iter()
@@ -297,7 +369,7 @@ pub fn locate_with_floor(
     }
     if kept.landmarks.is_empty() && desc.segment.is_none() {
         // nothing said that the map holds: no ranking to give
-        return Ok((Vec::new(), unmatched));
+        return Ok((Vec::new(), unmatched, stats));
     }
     let ground: Vec<[f64; 2]> = scene
         .objects
@@ -315,18 +387,26 @@ pub fn locate_with_floor(
             .fold(f64::INFINITY, f64::min)
     };
     // how common each landmark is: the share of segments with a good match in reach
+    let n_segments = norms.segments.unwrap_or(segments.len());
     let weights: Vec<f64> = cands
         .iter()
-        .map(|cs| {
-            let hit = spots
+        .zip(&kept_at)
+        .map(|(cs, &li)| {
+            let own = spots
                 .iter()
                 .filter(|sp| {
                     cs.iter()
                         .any(|&(i, g)| g > 0.5 && near_spots(sp, ground[i]) <= TOGETHER_M)
                 })
                 .count();
+            stats.hits[li] = own;
+            let hit = norms
+                .hits
+                .as_ref()
+                .and_then(|h| h.get(li).copied())
+                .unwrap_or(own);
             // information content, as in IDF: a landmark found at few segments tells more
-            ((segments.len() as f64 + 1.0) / (hit as f64 + 0.5))
+            ((n_segments as f64 + 1.0) / (hit as f64 + 0.5))
                 .ln()
                 .max(0.05)
         })
@@ -391,7 +471,7 @@ pub fn locate_with_floor(
     }
     out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.segment.cmp(&b.segment)));
     out.truncate(k);
-    Ok((out, unmatched))
+    Ok((out, unmatched, stats))
 }
 
 /// Spacing of the places along a road where the speaker may stand.

@@ -64,6 +64,30 @@ impl ToolError {
         }
     }
 
+    /// The error an error body (`{"error": {"code", "message"}}`, [`ToolError::code`]) stands
+    /// for, as another server sent it (a region shard over zenoh); a body of another shape
+    /// is a failure named by its text.
+    pub fn from_body(body: &serde_json::Value) -> ToolError {
+        let e = &body["error"];
+        let (Some(code), Some(m)) = (e["code"].as_str(), e["message"].as_str()) else {
+            return ToolError::Failed(format!("an error reply of no known shape: {body}"));
+        };
+        let m = m.to_string();
+        match code {
+            // its text already says "no tool named …"
+            "unknown_tool" => ToolError::BadArguments(m),
+            "bad_request" => {
+                ToolError::BadArguments(m.trim_start_matches("bad arguments: ").into())
+            }
+            "not_found" => ToolError::NotFound(m),
+            "constraint" => ToolError::Constraint(m),
+            "unauthorized" => ToolError::Forbidden(m),
+            "busy" => ToolError::Busy(m),
+            "timeout" => ToolError::TimedOut(m),
+            _ => ToolError::Failed(m),
+        }
+    }
+
     /// The CLI's exit code: 2 for the caller's input, 1 otherwise.
     pub fn exit_code(&self) -> i32 {
         match self {

@@ -331,6 +331,22 @@ impl Finder {
     /// # Errors
     /// Empty text, a map built with another embedder, no ground frame, a failing model.
     pub fn locate(&mut self, r: &impl GraphRead, req: &LocateRequest) -> Result<LocateAnswer> {
+        Ok(self
+            .locate_normed(r, req, &locate::LocateNorms::default())?
+            .0)
+    }
+
+    /// [`Finder::locate`] over one part of a map (a region shard) under the whole map's
+    /// `norms` ([`locate::LocateNorms`]); also this part's [`locate::LocateStats`].
+    ///
+    /// # Errors
+    /// As [`Finder::locate`].
+    pub fn locate_normed(
+        &mut self,
+        r: &impl GraphRead,
+        req: &LocateRequest,
+        norms: &locate::LocateNorms,
+    ) -> Result<(LocateAnswer, locate::LocateStats)> {
         check_text(&req.text, "description")?;
         self.check_embedder(r)?;
         let t0 = Instant::now();
@@ -358,21 +374,25 @@ impl Finder {
         let floor = Some(self.weak_match_cosine())
             .filter(|w| *w > 0.0)
             .unwrap_or(f64::NEG_INFINITY);
-        let (results, unmatched) = locate::locate_with_floor(
+        let (results, unmatched, stats) = locate::locate_normed(
             scene,
             &scene.segments,
             self.embedder.as_mut(),
             &description,
             req.k,
             floor,
+            norms,
         )?;
-        Ok(LocateAnswer {
-            description,
-            parsed_by,
-            results,
-            unmatched,
-            timings_ms: [parse_ms, t1.elapsed().as_secs_f64() * 1e3],
-        })
+        Ok((
+            LocateAnswer {
+                description,
+                parsed_by,
+                results,
+                unmatched,
+                timings_ms: [parse_ms, t1.elapsed().as_secs_f64() * 1e3],
+            },
+            stats,
+        ))
     }
 
     fn check_embedder(&self, r: &impl GraphRead) -> Result<()> {
@@ -392,6 +412,22 @@ impl Finder {
     /// Empty text, a map built with another embedder, a store without a ground frame
     /// (graph-aware ranking), or a language model that fails.
     pub fn find(&mut self, r: &impl GraphRead, req: &FindRequest) -> Result<FindAnswer> {
+        Ok(self.find_normed(r, req, None)?.0)
+    }
+
+    /// [`Finder::find`] over one part of a map (a region shard): graph-aware ranking under
+    /// the whole map's `norms` ([`graph_find::FindNorms`]); also this part's
+    /// [`graph_find::FindCuts`] (empty for plain ranking, which needs no norms: its scores
+    /// are cosines).
+    ///
+    /// # Errors
+    /// As [`Finder::find`].
+    pub fn find_normed(
+        &mut self,
+        r: &impl GraphRead,
+        req: &FindRequest,
+        norms: Option<&graph_find::FindNorms>,
+    ) -> Result<(FindAnswer, graph_find::FindCuts)> {
         check_text(&req.text, "query")?;
         if let Some(c) = &req.class
             && !scene::classes::CLASSES.contains(&c.as_str())
@@ -425,13 +461,16 @@ impl Finder {
                         evidence: Vec::new(),
                     })
                     .collect();
-                return Ok(FindAnswer {
-                    request: None,
-                    parsed_by: None,
-                    reranked_by: None,
-                    results,
-                    timings_ms: [0.0, t.embed_ms + t.rank_ms, 0.0],
-                });
+                return Ok((
+                    FindAnswer {
+                        request: None,
+                        parsed_by: None,
+                        reranked_by: None,
+                        results,
+                        timings_ms: [0.0, t.embed_ms + t.rank_ms, 0.0],
+                    },
+                    graph_find::FindCuts::default(),
+                ));
             }
             Ranking::Graph { parser, rerank } => (parser, rerank),
         };
@@ -465,7 +504,8 @@ impl Finder {
             near: req.near,
             ..GraphFindOptions::default()
         };
-        let mut results = graph_find::find_graph(r, scene, self.embedder.as_mut(), &parsed, &opts)?;
+        let (mut results, cuts) =
+            graph_find::find_graph_normed(r, scene, self.embedder.as_mut(), &parsed, &opts, norms)?;
         let rank_ms = t1.elapsed().as_secs_f64() * 1e3;
         let t2 = Instant::now();
         let mut reranked_by = None;
@@ -477,12 +517,15 @@ impl Finder {
             reranked_by = Some(format!("{model} ({})", llm_tools::prompts::RERANK.id()));
         }
         results.truncate(req.k);
-        Ok(FindAnswer {
-            request: Some(parsed),
-            parsed_by,
-            reranked_by,
-            results,
-            timings_ms: [parse_ms, rank_ms, t2.elapsed().as_secs_f64() * 1e3],
-        })
+        Ok((
+            FindAnswer {
+                request: Some(parsed),
+                parsed_by,
+                reranked_by,
+                results,
+                timings_ms: [parse_ms, rank_ms, t2.elapsed().as_secs_f64() * 1e3],
+            },
+            cuts,
+        ))
     }
 }

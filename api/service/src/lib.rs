@@ -17,6 +17,7 @@ pub mod ops;
 pub mod plan;
 pub mod query_cache;
 pub mod service;
+pub mod shards;
 pub mod sim;
 pub mod toolbox;
 pub mod tools;

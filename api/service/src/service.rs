@@ -203,6 +203,24 @@ impl Service {
         Ok(answer)
     }
 
+    /// One pass of a `find_objects` or `locate` fanned out over region shards
+    /// ([`crate::shards`]), on a reader.
+    ///
+    /// # Errors
+    /// As [`crate::toolbox::Toolbox::call_shard`]; busy or timed out as [`Service::call`].
+    pub async fn call_shard(
+        self: &Arc<Self>,
+        name: &str,
+        args: Json,
+        pass: crate::shards::ShardPass,
+    ) -> ToolResult<Json> {
+        let name = name.to_string();
+        self.run_on(&self.readers, self.timeout, move |tb| {
+            tb.call_shard(&name, &args, &pass)
+        })
+        .await
+    }
+
     /// The map's change events ([`crate::events`]).
     pub fn events(&self) -> &crate::events::EventBus {
         &self.events

@@ -181,41 +181,18 @@ impl Toolbox {
                 self.cypher(&req.query, req.params.as_ref(), tool.name == "read_cypher")
             }
             "find_objects" => {
-                let req: FindObjectsRequest = parse(args)?;
-                non_blank("text", &req.text)?;
+                let req = find_request(args)?;
                 let r = self.store.read().map_err(failed)?;
-                let a = self.finder.find(
-                    &r,
-                    &FindRequest {
-                        text: req.text,
-                        k: req.k as usize,
-                        class: req.class,
-                        near: None,
-                        ranking: Ranking::Graph {
-                            parser: ParserKind::Rules,
-                            rerank: false,
-                        },
-                        rerank_n: 10,
-                    },
-                )?;
+                let a = self.finder.find(&r, &req)?;
                 answer(&FindObjectsAnswer {
                     request: a.request,
                     results: a.results,
                 })
             }
             "locate" => {
-                let req: LocateToolRequest = parse(args)?;
-                non_blank("text", &req.text)?;
+                let req = locate_request(args)?;
                 let r = self.store.read().map_err(failed)?;
-                let a = self.finder.locate(
-                    &r,
-                    &LocateRequest {
-                        text: req.text,
-                        k: req.k as usize,
-                        parser: ParserKind::Rules,
-                    },
-                )?;
-                answer(&a)
+                answer(&self.finder.locate(&r, &req)?)
             }
             "plan_route" => {
                 let req: PlanRouteRequest = parse(args)?;
@@ -269,6 +246,99 @@ impl Toolbox {
 }
 
 /// An answer as JSON.
+/// `find_objects`' arguments as a find request (graph-aware, rule parser).
+fn find_request(args: &Json) -> ToolResult<FindRequest> {
+    let req: FindObjectsRequest = parse(args)?;
+    non_blank("text", &req.text)?;
+    Ok(FindRequest {
+        text: req.text,
+        k: req.k as usize,
+        class: req.class,
+        near: None,
+        ranking: Ranking::Graph {
+            parser: ParserKind::Rules,
+            rerank: false,
+        },
+        rerank_n: 10,
+    })
+}
+
+/// `locate`'s arguments as a locate request (rule parser).
+fn locate_request(args: &Json) -> ToolResult<LocateRequest> {
+    let req: LocateToolRequest = parse(args)?;
+    non_blank("text", &req.text)?;
+    Ok(LocateRequest {
+        text: req.text,
+        k: req.k as usize,
+        parser: ParserKind::Rules,
+    })
+}
+
+impl Toolbox {
+    /// One pass of `find_objects` or `locate` fanned out over region shards
+    /// ([`crate::shards`]): the arguments are the tool's own, checked as [`Toolbox::call`]
+    /// checks them; the answer is the pass's ([`crate::shards::ShardPass`]). Any other tool
+    /// has no passes: call it plainly.
+    ///
+    /// # Errors
+    /// As [`Toolbox::call`]; [`ToolError::BadArguments`] for a pass that is not the tool's.
+    pub fn call_shard(
+        &mut self,
+        name: &str,
+        args: &Json,
+        pass: &crate::shards::ShardPass,
+    ) -> ToolResult<Json> {
+        use crate::shards::ShardPass;
+        let (_, validator) = registry()
+            .iter()
+            .find(|(t, _)| t.name == name && !t.writes)
+            .ok_or_else(|| ToolError::Unknown(name.to_string()))?;
+        check_args(args, validator)?;
+        match (name, pass) {
+            ("find_objects", ShardPass::FindCuts | ShardPass::Find { .. }) => {
+                let req = find_request(args)?;
+                let r = self.store.read().map_err(failed)?;
+                let norms = match pass {
+                    ShardPass::Find { norms } => Some(norms),
+                    _ => None,
+                };
+                let (a, cuts) = self.finder.find_normed(&r, &req, norms)?;
+                match pass {
+                    ShardPass::FindCuts => answer(&cuts),
+                    _ => answer(&FindObjectsAnswer {
+                        request: a.request,
+                        results: a.results,
+                    }),
+                }
+            }
+            (
+                "locate",
+                ShardPass::LocateBests | ShardPass::LocateHits { .. } | ShardPass::Locate { .. },
+            ) => {
+                let req = locate_request(args)?;
+                let r = self.store.read().map_err(failed)?;
+                let norms = match pass {
+                    ShardPass::LocateHits { bests } => llm_tools::locate::LocateNorms {
+                        bests: bests.clone(),
+                        ..Default::default()
+                    },
+                    ShardPass::Locate { norms } => norms.clone(),
+                    _ => llm_tools::locate::LocateNorms::default(),
+                };
+                let (a, stats) = self.finder.locate_normed(&r, &req, &norms)?;
+                match pass {
+                    ShardPass::Locate { .. } => answer(&a),
+                    _ => answer(&stats),
+                }
+            }
+            _ => Err(ToolError::BadArguments(format!(
+                "{name} has no shard pass {:?}: find_objects takes find_cuts and find, locate takes locate_bests, locate_hits and locate",
+                pass.name()
+            ))),
+        }
+    }
+}
+
 fn answer<T: serde::Serialize>(v: &T) -> ToolResult<Json> {
     serde_json::to_value(v).map_err(failed)
 }

@@ -506,6 +506,48 @@ pub(crate) enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Cut a map into region shards: one store per region (r1.og, r2.og, ...; node ids kept)
+    /// to serve on several servers with `serve --zenoh --no-live --map-name M --region rN`,
+    /// asked together with `opengraph zenoh-query` (docs/live.md).
+    Shard {
+        /// The map's store.
+        #[arg(long)]
+        db: PathBuf,
+        /// How many regions (cut across the map's longer side, about as many road segments
+        /// in each).
+        #[arg(long, default_value_t = 3)]
+        parts: usize,
+        /// The folder for the regions' stores (made if missing; existing stores are not
+        /// overwritten).
+        #[arg(long)]
+        out: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Ask a sharded map served over zenoh: a read-only tool fanned out over its regions
+    /// (opengraph/<map>/*/query) and the answers merged: find_objects and locate give the
+    /// global top k, read_cypher the union of the rows with their region; a region that does
+    /// not answer is reported missing. Prints JSON.
+    ZenohQuery {
+        /// The map's name in keys.
+        #[arg(long)]
+        map: String,
+        /// A read-only tool (find_objects, locate, read_cypher, describe_area, ...).
+        tool: String,
+        /// Its arguments as a JSON object.
+        #[arg(default_value = "{}")]
+        args: String,
+        /// The regions expected, comma-separated (one that does not answer is missing);
+        /// default: those whose liveliness token is seen.
+        #[arg(long, value_delimiter = ',')]
+        regions: Vec<String>,
+        /// Seconds each pass waits for the regions' replies.
+        #[arg(long, default_value_t = 5.0, value_parser = in_range(0.01, 3600.0), allow_hyphen_values = true)]
+        deadline_secs: f64,
+        #[command(flatten)]
+        session: ZenohSession,
+    },
     /// Ask a question about the map in words; a language model answers by calling the agent
     /// tools (find_objects, locate, plan_route, read_cypher, ...). Prints each tool call and the
     /// answer; --json prints the whole transcript.

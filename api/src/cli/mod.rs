@@ -26,6 +26,7 @@ pub(crate) mod relations;
 pub(crate) mod replay;
 pub(crate) mod run;
 pub(crate) mod serve;
+pub(crate) mod shard;
 pub(crate) mod sim;
 pub(crate) mod tool;
 pub(crate) mod tools;

@@ -3,7 +3,7 @@
 use super::args::*;
 use super::{
     ask, build, captions, demo, eval, export, find, hierarchy, info, init, lanes, locate, mcp,
-    navigate, oracle, plan, query, relations, replay, serve, sim, tool, tools, update,
+    navigate, oracle, plan, query, relations, replay, serve, shard, sim, tool, tools, update,
 };
 
 pub(crate) fn run(cli: Cli) -> anyhow::Result<()> {
@@ -22,6 +22,8 @@ pub(crate) fn run(cli: Cli) -> anyhow::Result<()> {
         cmd @ Command::Update { .. } => update::run(cmd)?,
         cmd @ Command::Serve { .. } => serve::run(cmd)?,
         cmd @ Command::Replay { .. } => replay::run(cmd)?,
+        cmd @ Command::Shard { .. } => shard::split(cmd)?,
+        cmd @ Command::ZenohQuery { .. } => shard::zenoh_query(cmd)?,
         cmd @ Command::Mcp { .. } => mcp::run(cmd)?,
         cmd @ Command::Ask { .. } => ask::run(cmd)?,
         cmd @ Command::Tools { .. } => tools::run(cmd)?,

@@ -10,6 +10,7 @@ pub mod names;
 mod obb;
 pub mod pose;
 pub mod records;
+pub mod regions;
 mod schema;
 pub mod view;
 
