@@ -262,27 +262,12 @@ pub fn similarity_gates(
     plateau: f64,
     falloff: f64,
 ) -> Result<Vec<Option<f64>>> {
-    Ok(similarity_gates_and_best(scene, embedder, phrases, allowed, plateau, falloff)?.0)
+    Ok(similarity_gates_relative(scene, embedder, phrases, allowed, plateau, falloff, None)?.0)
 }
 
-/// [`similarity_gates`], and the best (colour-checked) cosine they are relative to: low when
-/// the map holds nothing like the phrases.
-///
-/// # Errors
-/// The embedder fails or disagrees with the map's features.
-pub fn similarity_gates_and_best(
-    scene: &MapView,
-    embedder: &mut dyn Embedder,
-    phrases: &[&str],
-    allowed: impl Fn(&SceneObject) -> bool,
-    plateau: f64,
-    falloff: f64,
-) -> Result<(Vec<Option<f64>>, f64)> {
-    similarity_gates_relative(scene, embedder, phrases, allowed, plateau, falloff, None)
-}
-
-/// [`similarity_gates_and_best`] with the gates relative to `best` when given (the whole
-/// map's best, for one part of it); the best returned is still this map's own.
+/// [`similarity_gates`] relative to `best` when given (the whole map's best, for one part
+/// of it), else to this map's best; also returns this map's best (colour-checked) cosine:
+/// low when the map holds nothing like the phrases.
 ///
 /// # Errors
 /// The embedder fails or disagrees with the map's features.

@@ -832,6 +832,19 @@ impl ZenohSession {
             connect: self.zenoh_connect.clone(),
         }
     }
+
+    /// Opens a client's session: as given, or connected to a server on this machine at the
+    /// default listener when nothing is given. A bad configuration is the user's error.
+    pub(crate) fn open_client(&self) -> anyhow::Result<zenoh::Session> {
+        let mut opts = self.options();
+        if opts.config_file.is_none() && opts.listen.is_empty() && opts.connect.is_empty() {
+            opts.connect = vec![og_zenoh::DEFAULT_LISTEN.to_string()];
+        }
+        opts.open().map_err(|e| match e {
+            og_zenoh::Error::Config(m) => anyhow::Error::from(super::common::UsageError(m)),
+            other => other.into(),
+        })
+    }
 }
 
 /// `serve --zenoh`: the map over zenoh, and live ingest from ROS 2 topics.

@@ -46,15 +46,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         image_size: build.mapping.image_size,
         wait_secs,
     };
-    let mut opts = session.options();
-    if opts.config_file.is_none() && opts.listen.is_empty() && opts.connect.is_empty() {
-        // a server on this machine listens there by default
-        opts.connect = vec![og_zenoh::DEFAULT_LISTEN.to_string()];
-    }
-    let z = opts.open().map_err(|e| match e {
-        og_zenoh::Error::Config(m) => anyhow::Error::from(UsageError(m)),
-        other => other.into(),
-    })?;
+    let z = session.open_client()?;
     let bar = indicatif::ProgressBar::new_spinner();
     bar.set_style(
         indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] frame {msg}")

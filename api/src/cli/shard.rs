@@ -55,15 +55,7 @@ pub(crate) fn zenoh_query(cmd: Command) -> anyhow::Result<()> {
     };
     let args: serde_json::Value = serde_json::from_str(&args)
         .map_err(|e| UsageError(format!("the arguments are not JSON: {e}")))?;
-    let mut opts = session.options();
-    if opts.config_file.is_none() && opts.listen.is_empty() && opts.connect.is_empty() {
-        // a server on this machine listens there by default
-        opts.connect = vec![og_zenoh::DEFAULT_LISTEN.to_string()];
-    }
-    let z = opts.open().map_err(|e| match e {
-        og_zenoh::Error::Config(m) => anyhow::Error::from(UsageError(m)),
-        other => other.into(),
-    })?;
+    let z = session.open_client()?;
     let shards = api::zenoh_front::ZenohShards::new(z.clone(), &map)?;
     let a = opengraph_service::shards::fan_out(
         &shards,

@@ -191,19 +191,7 @@ impl<'a> LiveBuild<'a> {
                         path.display()
                     )));
                 }
-                let node = store.write(|tx| {
-                    tx.create_node_named(
-                        &[scene::label::BUILD],
-                        &[
-                            (key::BUILD_ID, Value::Int(BUILD_ID)),
-                            (key::ARGS, Value::String(args_json.clone())),
-                            (key::NEXT_FRAME, Value::Int(0)),
-                            (key::NEXT_INSTANCE_ID, Value::Int(0)),
-                            (key::FINISHED, Value::Bool(false)),
-                            (key::SOURCE, Value::String("live".into())),
-                        ],
-                    )
-                })?;
+                let node = create_checkpoint(store, &args_json, 0, "live")?;
                 (node, 0, 0)
             }
         };

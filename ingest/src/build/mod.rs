@@ -552,19 +552,8 @@ pub fn build(
                     path.display()
                 )));
             }
-            let node = store.write(|tx| {
-                tx.create_node_named(
-                    &[scene::label::BUILD],
-                    &[
-                        (key::BUILD_ID, Value::Int(BUILD_ID)),
-                        (key::ARGS, Value::String(args_json.clone())),
-                        (key::NEXT_FRAME, Value::Int(i64::from(frames[0]))),
-                        (key::NEXT_INSTANCE_ID, Value::Int(0)),
-                        (key::FINISHED, Value::Bool(false)),
-                        (key::SOURCE, Value::String(args.source.kind().into())),
-                    ],
-                )
-            })?;
+            let node =
+                create_checkpoint(store, &args_json, i64::from(frames[0]), args.source.kind())?;
             (node, i64::from(frames[0]), 0, false, false)
         }
     };

@@ -15,6 +15,29 @@ pub(super) struct Checkpoint {
     pub(super) hierarchy_done: bool,
 }
 
+/// Writes a new build's checkpoint (`Build` node): its arguments, the first frame to map,
+/// unfinished, and what it maps from (`source`); returns the node.
+pub(super) fn create_checkpoint(
+    store: &Store,
+    args_json: &str,
+    next_frame: i64,
+    source: &str,
+) -> Result<u64> {
+    Ok(store.write(|tx| {
+        tx.create_node_named(
+            &[scene::label::BUILD],
+            &[
+                (key::BUILD_ID, Value::Int(BUILD_ID)),
+                (key::ARGS, Value::String(args_json.to_string())),
+                (key::NEXT_FRAME, Value::Int(next_frame)),
+                (key::NEXT_INSTANCE_ID, Value::Int(0)),
+                (key::FINISHED, Value::Bool(false)),
+                (key::SOURCE, Value::String(source.to_string())),
+            ],
+        )
+    })?)
+}
+
 pub(super) fn load_checkpoint(r: &impl GraphRead) -> Result<Option<Checkpoint>> {
     let Some(&node) = r
         .find_nodes(scene::label::BUILD, key::BUILD_ID, &Value::Int(BUILD_ID))?
