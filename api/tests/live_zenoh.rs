@@ -69,6 +69,17 @@ fn get(z: &zenoh::Session, key: &str, payload: Option<Json>) -> Option<Result<Js
     })
 }
 
+/// The live server's `read_cypher` answer for its instance count, over zenoh.
+fn count_instances(z: &zenoh::Session) -> Json {
+    get(
+        z,
+        "opengraph/live/query",
+        Some(json!({"tool": "read_cypher", "args": {"query": "MATCH (i:Instance) RETURN count(i) AS n"}})),
+    )
+    .unwrap()
+    .unwrap()
+}
+
 /// Waits (`secs` at most) until the server's status satisfies `done`; returns the status.
 fn wait_status(z: &zenoh::Session, secs: u64, log: &Path, done: impl Fn(&Json) -> bool) -> Json {
     let start = Instant::now();
@@ -191,13 +202,7 @@ fn a_replayed_drive_mapped_live_matches_the_batch_build() {
     assert_eq!(l["dropped_behind"], 0, "{st}");
     assert_eq!(l["incomplete"], json!({}), "{st}");
     // read-only Cypher, find and the graph over zenoh while the server runs
-    let n = get(
-        &z,
-        "opengraph/live/query",
-        Some(json!({"tool": "read_cypher", "args": {"query": "MATCH (i:Instance) RETURN count(i) AS n"}})),
-    )
-    .unwrap()
-    .unwrap();
+    let n = count_instances(&z);
     assert!(n.to_string().contains("\"n\""), "{n}");
     let found = get(
         &z,
@@ -404,13 +409,7 @@ fn malformed_samples_are_counted_and_ignored() {
         "{st}"
     );
     // nothing reached the store, and the server still answers
-    let n = get(
-        &z,
-        "opengraph/live/query",
-        Some(json!({"tool": "read_cypher", "args": {"query": "MATCH (i:Instance) RETURN count(i) AS n"}})),
-    )
-    .unwrap()
-    .unwrap();
+    let n = count_instances(&z);
     assert!(n.to_string().contains("\"n\":0"), "{n}");
     z.close().wait().unwrap();
     stop(server, &log);
