@@ -800,6 +800,36 @@ fn three_region_shards_answer_as_the_whole_map_and_a_stopped_one_is_missing() {
     for r in fanned["answer"]["results"].as_array().unwrap() {
         assert_ne!(r["region"], "r2");
     }
+    // only the regions named are asked for
+    let one = fan_out(
+        &ports,
+        "find_objects",
+        &json!({"text": "a tree", "k": 5}),
+        "r1",
+        "2",
+    );
+    assert_eq!(one["regions"], json!(["r1"]), "{one}");
+    assert!(one["missing"].as_array().unwrap().is_empty(), "{one}");
+    for r in one["answer"]["results"].as_array().unwrap() {
+        assert_eq!(r["region"], "r1");
+    }
+    // a map no server holds is the caller's mistake
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_opengraph"));
+    cmd.args(["zenoh-query", "--map", "nosuchmap", "get_schema", "{}"])
+        .args([
+            "--deadline-secs",
+            "1",
+            "--zenoh-connect",
+            &format!("tcp/127.0.0.1:{}", ports[0]),
+        ]);
+    let out = output_within(cmd, 60);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no region answered"));
     let _ = z.close().wait();
     for mut c in servers.into_iter().flatten() {
         let _ = c.kill();

@@ -148,6 +148,10 @@ struct Round<'a> {
     /// regions still in the answer
     live: BTreeMap<String, ()>,
     missing: BTreeMap<String, String>,
+    /// the regions asked for, when the caller named them: no other region's reply counts
+    only: Option<std::collections::BTreeSet<String>>,
+    /// regions that answered "not found" (their error bodies)
+    not_found: BTreeMap<String, Json>,
     passes: u32,
 }
 
@@ -161,7 +165,8 @@ impl Round<'_> {
         let mut got: BTreeMap<String, ToolResult<Json>> = BTreeMap::new();
         for (region, answer) in self.transport.ask(query, self.deadline) {
             // a region heard from for the first time joins when nothing was listed
-            if !self.missing.contains_key(&region) {
+            let wanted = self.only.as_ref().is_none_or(|o| o.contains(&region));
+            if wanted && !self.missing.contains_key(&region) {
                 got.insert(region, answer);
             }
         }
@@ -184,9 +189,9 @@ impl Round<'_> {
                 self.missing.insert(
                     region,
                     format!(
-                        "no reply within the deadline ({:.1} s) to pass {}",
+                        "no reply to pass {} (it waited at most {:.1} s; a stopped region's is missing at once)",
+                        query.shard.as_ref().map_or("call", ShardPass::name),
                         self.deadline.as_secs_f64(),
-                        query.shard.as_ref().map_or("call", ShardPass::name)
                     ),
                 );
             }
@@ -208,6 +213,10 @@ impl Round<'_> {
                 }
                 Err(e) => {
                     self.live.remove(&region);
+                    if matches!(e, ToolError::NotFound(_)) {
+                        self.not_found
+                            .insert(region.clone(), crate::service::error_body(&e));
+                    }
                     self.missing.insert(region, e.to_string());
                 }
             }
@@ -245,6 +254,8 @@ pub fn fan_out(transport: &dyn ShardTransport, req: &FanOutRequest) -> ToolResul
         deadline,
         live: expected.into_iter().map(|r| (r, ())).collect(),
         missing: BTreeMap::new(),
+        only: req.regions.as_ref().map(|r| r.iter().cloned().collect()),
+        not_found: BTreeMap::new(),
         passes: 0,
     };
     let args = if req.args.is_null() {
@@ -295,10 +306,27 @@ pub fn fan_out(transport: &dyn ShardTransport, req: &FanOutRequest) -> ToolResul
             merge_rows(answers)
         }
         _ => {
-            let answers: BTreeMap<String, Json> = round.pass(&query(None))?;
+            let mut answers: BTreeMap<String, Json> = round.pass(&query(None))?;
+            if answers.is_empty()
+                && let Some(body) = round.not_found.values().next()
+            {
+                // nowhere: the caller named something the map does not hold
+                return Err(ToolError::from_body(body));
+            }
+            // "not found" in one region is that region's answer, not its absence
+            for (region, body) in std::mem::take(&mut round.not_found) {
+                round.missing.remove(&region);
+                round.live.insert(region.clone(), ());
+                answers.insert(region, body);
+            }
             json!({ "by_region": answers })
         }
     };
+    if round.live.is_empty() && round.missing.is_empty() {
+        return Err(ToolError::NotFound(
+            "no region answered and none was named: is the map's name right, and are its servers reachable? (give --regions to have the silent ones named)".into(),
+        ));
+    }
     Ok(FanOutAnswer {
         answer,
         regions: round.live.into_keys().collect(),
@@ -580,6 +608,20 @@ mod tests {
         assert_eq!(a.missing.len(), 1);
         assert_eq!(a.missing[0].region, "r3");
         assert!(a.missing[0].reason.contains("no reply"), "{:?}", a.missing);
+        // only the regions named are asked for
+        let a = fan_out(
+            &f,
+            &FanOutRequest {
+                tool: "read_cypher".into(),
+                args: json!({"query": "RETURN 1 AS n"}),
+                regions: Some(vec!["r2".into()]),
+                deadline_secs: 0.5,
+            },
+        )
+        .unwrap();
+        assert_eq!(a.regions, vec!["r2"]);
+        assert_eq!(a.answer["row_count"], 2);
+        assert!(a.missing.is_empty());
     }
 
     #[test]

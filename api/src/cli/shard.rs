@@ -22,12 +22,16 @@ pub(crate) fn split(cmd: Command) -> anyhow::Result<()> {
         return Ok(());
     }
     let cuts: Vec<String> = a.cuts_m.iter().map(|c| format!("{c:.1}")).collect();
-    outln!(
-        "{} regions across {} (cuts at {} m)",
-        a.regions.len(),
-        a.axis,
-        cuts.join(", ")
-    );
+    if cuts.is_empty() {
+        outln!("1 region (no cut)");
+    } else {
+        outln!(
+            "{} regions across {} (cuts at {} m)",
+            a.regions.len(),
+            a.axis,
+            cuts.join(", ")
+        );
+    }
     for r in &a.regions {
         outln!(
             "  {}: {} ({} own nodes; {} of the others' removed)",
@@ -55,6 +59,12 @@ pub(crate) fn zenoh_query(cmd: Command) -> anyhow::Result<()> {
     };
     let args: serde_json::Value = serde_json::from_str(&args)
         .map_err(|e| UsageError(format!("the arguments are not JSON: {e}")))?;
+    if let Some(bad) = regions.iter().find(|r| !og_zenoh::keys::is_chunk(r)) {
+        return Err(UsageError(format!(
+            "the region name {bad:?} cannot be part of a zenoh key: use letters, digits, _, - and ."
+        ))
+        .into());
+    }
     let z = session.open_client()?;
     let shards = api::zenoh_front::ZenohShards::new(z.clone(), &map)?;
     let a = opengraph_service::shards::fan_out(

@@ -83,6 +83,13 @@ pub fn plan_regions(r: &impl GraphRead, parts: usize) -> Result<RegionPlan> {
         along = pts.iter().map(|p| p[axis]).collect();
     }
     along.sort_by(f64::total_cmp);
+    if parts > along.len().max(1) {
+        return Err(crate::Error::Invalid(format!(
+            "the map has {} road segments: cut it into at most {} regions",
+            view.segments.len(),
+            along.len().max(1)
+        )));
+    }
     // cut half-way between neighbours at each quantile, so no centroid sits on a cut
     let cuts_m: Vec<f64> = (1..parts)
         .filter_map(|i| {
