@@ -432,17 +432,25 @@ impl FindCuts {
 }
 
 /// The candidates of `sims` under `cut` (best first, ties by index) and the best they are
-/// gated against; without a cut, the `n` best of this map ([`top`]).
-fn candidates(sims: &[Option<f64>], n: usize, cut: Option<Option<Cut>>) -> (Vec<usize>, f64) {
-    match cut {
-        None => top(sims, n),
+/// gated against; without a cut, the `n` best of this map ([`top`]). Also this map's own `n`
+/// best cosines, best first (its part of [`FindCuts`]), from the same ranking.
+fn candidates(
+    sims: &[Option<f64>],
+    n: usize,
+    cut: Option<Option<Cut>>,
+) -> (Vec<usize>, f64, Vec<f64>) {
+    let (own, own_best) = top(sims, n);
+    let cosines = own.iter().filter_map(|&i| sims[i]).collect();
+    let (idx, best) = match cut {
+        None => (own, own_best),
         Some(None) => (Vec::new(), 1.0),
         Some(Some(c)) => {
             let (mut idx, _) = top(sims, sims.len());
             idx.retain(|&i| sims[i].is_some_and(|s| s >= c.last));
             (idx, c.best)
         }
-    }
+    };
+    (idx, best, cosines)
 }
 
 /// Answers `req` over `scene` (see the module docs). `r` is read for `RELATED` edges.
@@ -494,17 +502,13 @@ pub fn find_graph_normed(
             })
     })?;
     let target_n = opts.target_candidates.max(opts.k);
+    let (targets, t_best, own_target) = candidates(&t_sims, target_n, norms.map(|n| n.target));
     let mut cuts = FindCuts {
         target_n,
-        target: top(&t_sims, target_n)
-            .0
-            .iter()
-            .filter_map(|&i| t_sims[i])
-            .collect(),
+        target: own_target,
         anchor_n: opts.anchor_candidates,
         anchors: Vec::new(),
     };
-    let (targets, t_best) = candidates(&t_sims, target_n, norms.map(|n| n.target));
     // anchors: candidates and similarities
     let mut anchors: Vec<(Vec<usize>, Vec<Option<f64>>, f64)> = Vec::new();
     for (ai, a) in req.anchors.iter().enumerate() {
@@ -512,15 +516,9 @@ pub fn find_graph_normed(
         let sims = colour_checked_similarities(scene, embedder, &[a.phrase.as_str()], |o| {
             o.surface == surface
         })?;
-        cuts.anchors.push(
-            top(&sims, opts.anchor_candidates)
-                .0
-                .iter()
-                .filter_map(|&i| sims[i])
-                .collect(),
-        );
         let cut = norms.map(|n| n.anchors.get(ai).copied().flatten());
-        let (idx, best) = candidates(&sims, opts.anchor_candidates, cut);
+        let (idx, best, own) = candidates(&sims, opts.anchor_candidates, cut);
+        cuts.anchors.push(own);
         anchors.push((idx, sims, best));
     }
     let related = r.rel_type(scene::rel::RELATED);
@@ -840,7 +838,7 @@ mod tests {
         );
         // under a cut, the candidates are those at or over it, best first
         let sims = [Some(0.2), None, Some(0.9), Some(0.6), Some(0.6)];
-        let (idx, best) = candidates(
+        let (idx, best, own) = candidates(
             &sims,
             1,
             Some(Some(Cut {
@@ -848,7 +846,7 @@ mod tests {
                 last: 0.6,
             })),
         );
-        assert_eq!((idx, best), (vec![2, 3, 4], 0.95));
+        assert_eq!((idx, best, own), (vec![2, 3, 4], 0.95, vec![0.9]));
         assert_eq!(candidates(&sims, 2, None).0, vec![2, 3]);
         assert!(candidates(&sims, 2, Some(None)).0.is_empty());
     }

@@ -18,7 +18,7 @@
 //! - A region that does not answer a pass within the deadline, or answers with an error, is
 //!   reported in `missing` with the reason; its results are not in the answer.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -146,10 +146,10 @@ struct Round<'a> {
     transport: &'a dyn ShardTransport,
     deadline: Duration,
     /// regions still in the answer
-    live: BTreeMap<String, ()>,
+    live: BTreeSet<String>,
     missing: BTreeMap<String, String>,
-    /// the regions asked for, when the caller named them: no other region's reply counts
-    only: Option<std::collections::BTreeSet<String>>,
+    /// the caller named the regions: no other region's reply counts
+    named: bool,
     /// regions that answered "not found" (their error bodies)
     not_found: BTreeMap<String, Json>,
     passes: u32,
@@ -165,7 +165,7 @@ impl Round<'_> {
         let mut got: BTreeMap<String, ToolResult<Json>> = BTreeMap::new();
         for (region, answer) in self.transport.ask(query, self.deadline) {
             // a region heard from for the first time joins when nothing was listed
-            let wanted = self.only.as_ref().is_none_or(|o| o.contains(&region));
+            let wanted = !self.named || self.live.contains(&region);
             if wanted && !self.missing.contains_key(&region) {
                 got.insert(region, answer);
             }
@@ -182,7 +182,7 @@ impl Round<'_> {
             return Err(e);
         }
         let mut out = BTreeMap::new();
-        let expected: Vec<String> = self.live.keys().cloned().collect();
+        let expected: Vec<String> = self.live.iter().cloned().collect();
         for region in expected {
             if !got.contains_key(&region) {
                 self.live.remove(&region);
@@ -197,7 +197,7 @@ impl Round<'_> {
             }
         }
         for (region, answer) in got {
-            if self.passes > 1 && !self.live.contains_key(&region) {
+            if self.passes > 1 && !self.live.contains(&region) {
                 // it missed an earlier pass: its answer would not be under the same norms
                 continue;
             }
@@ -208,7 +208,7 @@ impl Round<'_> {
             });
             match parsed {
                 Ok(v) => {
-                    self.live.insert(region.clone(), ());
+                    self.live.insert(region.clone());
                     out.insert(region, v);
                 }
                 Err(e) => {
@@ -252,9 +252,9 @@ pub fn fan_out(transport: &dyn ShardTransport, req: &FanOutRequest) -> ToolResul
     let mut round = Round {
         transport,
         deadline,
-        live: expected.into_iter().map(|r| (r, ())).collect(),
+        live: expected.into_iter().collect(),
         missing: BTreeMap::new(),
-        only: req.regions.as_ref().map(|r| r.iter().cloned().collect()),
+        named: req.regions.is_some(),
         not_found: BTreeMap::new(),
         passes: 0,
     };
@@ -316,7 +316,7 @@ pub fn fan_out(transport: &dyn ShardTransport, req: &FanOutRequest) -> ToolResul
             // "not found" in one region is that region's answer, not its absence
             for (region, body) in std::mem::take(&mut round.not_found) {
                 round.missing.remove(&region);
-                round.live.insert(region.clone(), ());
+                round.live.insert(region.clone());
                 answers.insert(region, body);
             }
             json!({ "by_region": answers })
@@ -329,7 +329,7 @@ pub fn fan_out(transport: &dyn ShardTransport, req: &FanOutRequest) -> ToolResul
     }
     Ok(FanOutAnswer {
         answer,
-        regions: round.live.into_keys().collect(),
+        regions: round.live.into_iter().collect(),
         missing: round
             .missing
             .into_iter()
@@ -479,10 +479,6 @@ pub fn split(req: &SplitRequest) -> ToolResult<SplitAnswer> {
             other => crate::error::failed(other),
         })?
     };
-    let frame = {
-        let r = store.read().map_err(crate::error::failed)?;
-        scene::records::ground_frame(&r).map_err(|e| ToolError::BadArguments(e.to_string()))?
-    };
     drop(store);
     std::fs::create_dir_all(&req.out)
         .map_err(|e| ToolError::Input(format!("{}: {e}", req.out.display())))?;
@@ -512,7 +508,7 @@ pub fn split(req: &SplitRequest) -> ToolResult<SplitAnswer> {
             removed_nodes: removed.len(),
         });
     }
-    let axis = match (frame, plan.axis) {
+    let axis = match (plan.ground, plan.axis) {
         (scene::GroundFrame::KittiCam, 0) | (scene::GroundFrame::Enu, 0) => "x",
         (scene::GroundFrame::KittiCam, _) => "z",
         (scene::GroundFrame::Enu, _) => "y",

@@ -245,7 +245,6 @@ impl Toolbox {
     }
 }
 
-/// An answer as JSON.
 /// `find_objects`' arguments as a find request (graph-aware, rule parser).
 fn find_request(args: &Json) -> ToolResult<FindRequest> {
     let req: FindObjectsRequest = parse(args)?;
@@ -339,6 +338,7 @@ impl Toolbox {
     }
 }
 
+/// An answer as JSON.
 fn answer<T: serde::Serialize>(v: &T) -> ToolResult<Json> {
     serde_json::to_value(v).map_err(failed)
 }

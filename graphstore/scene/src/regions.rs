@@ -16,6 +16,8 @@ use crate::{Result, label};
 /// The cut of a map into regions.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RegionPlan {
+    /// The map's ground frame, which the axis is of.
+    pub ground: crate::GroundFrame,
     /// The ground-plane axis the bands run across (0 or 1 of [`crate::GroundFrame::ground`]).
     pub axis: usize,
     /// The `parts - 1` cuts along it, metres, ascending; band `i` is between cut `i - 1`
@@ -98,6 +100,7 @@ pub fn plan_regions(r: &impl GraphRead, parts: usize) -> Result<RegionPlan> {
         })
         .collect();
     let mut plan = RegionPlan {
+        ground: g,
         axis,
         cuts_m,
         owned: vec![BTreeSet::new(); parts],
@@ -132,6 +135,7 @@ mod tests {
     #[test]
     fn bands_are_between_the_cuts() {
         let p = RegionPlan {
+            ground: crate::GroundFrame::KittiCam,
             axis: 0,
             cuts_m: vec![-10.0, 5.0],
             owned: vec![BTreeSet::from([1]), BTreeSet::from([2, 3]), BTreeSet::new()],
