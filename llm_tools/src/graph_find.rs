@@ -168,9 +168,12 @@ pub struct Evidence {
 pub struct GraphFound {
     /// Node id.
     pub id: u64,
+    /// What it is: its open-vocabulary label ("post box"); empty on maps built without
+    /// labels.
+    pub label: String,
     /// Caption.
     pub caption: String,
-    /// Class.
+    /// Its SemanticKITTI class (or `other-object`).
     pub class: String,
     /// The combined score (see the module docs).
     pub score: f64,
@@ -643,6 +646,7 @@ pub fn find_graph_normed(
         };
         out.push(GraphFound {
             id: t.id,
+            label: t.label.clone(),
             caption: t.caption.clone(),
             class: t.class.clone(),
             // the raw cosine orders results the gate and support leave tied
@@ -704,8 +708,9 @@ pub fn rerank_llm(
             })
             .collect();
         listing.push_str(&format!(
-            "{}. {} (class {}, {}){}\n",
+            "{}. {}: {} (class {}, {}){}\n",
             i + 1,
+            g.label,
             g.caption,
             g.class,
             seg,
@@ -855,6 +860,7 @@ mod tests {
         SceneObject {
             id,
             class: "x".into(),
+            label: String::new(),
             caption: String::new(),
             centroid: [0.0; 3],
             ground_min: lo,

@@ -583,6 +583,7 @@ mod tests {
             .map(|(&(id, caption, p), feature)| SceneObject {
                 id,
                 class: "x".into(),
+                label: String::new(),
                 caption: caption.into(),
                 centroid: [p[0], p[1], 0.5],
                 ground_min: [p[0] - 0.3, p[1] - 0.3],

@@ -34,6 +34,8 @@ impl Default for FindOptions {
 pub struct Found {
     /// Node id.
     pub id: u64,
+    /// Open-vocabulary label (empty on maps built without labels).
+    pub label: String,
     /// Fused caption.
     pub caption: String,
     /// Class.
@@ -115,6 +117,7 @@ pub fn find<R: GraphRead>(
         };
         out.push(Found {
             id,
+            label: text(scene::key::LABEL),
             caption: text(scene::key::CAPTION),
             class: text(scene::key::CLASS),
             score,

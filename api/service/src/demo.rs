@@ -122,6 +122,12 @@ pub fn build(store: &Store) -> graphstore::Result<()> {
                 instance_id: i,
                 caption: caption.into(),
                 class: class.into(),
+                label: Some(llm_tools::labels::noun_phrase(
+                    caption,
+                    &llm_tools::labels::Lexicon::default(),
+                )),
+                colour: llm_tools::labels::agreed_colour(&[caption.to_string()]),
+                material: llm_tools::labels::agreed_material(&[caption.to_string()]),
                 centroid: c,
                 bbox: (
                     [c[0] - 0.8, c[1] - 0.4, 0.0],

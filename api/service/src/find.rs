@@ -450,6 +450,7 @@ impl Finder {
                     .into_iter()
                     .map(|h| GraphFound {
                         id: h.id,
+                        label: h.label,
                         caption: h.caption,
                         class: h.class,
                         score: h.score,

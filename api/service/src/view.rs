@@ -71,6 +71,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
         pts.iter().for_each(|p| grow(*p));
         instances.push(json!({
             "id": id,
+            "label": inst.label,
             "class": inst.class,
             "caption": inst.caption,
             "surface": surface,

@@ -331,6 +331,29 @@ pub(crate) fn instances(cmd: Command) -> anyhow::Result<()> {
         for (c, k) in &r.precision_per_class {
             outln!("  {c:<18} {:>4}/{:<4} {:.3}", k.matched, k.total, k.share);
         }
+        outln!(
+            "matched objects: label accuracy {:.3}, semantic class accuracy {:.3}",
+            r.label_accuracy,
+            r.semantic_class_accuracy
+        );
+        outln!("per true class: label, semantic class, labels given (instances)");
+        for (c, k) in &r.label_accuracy_per_class {
+            let s = &r.semantic_class_accuracy_per_class[c];
+            let given: Vec<String> = r.labels_per_class[c]
+                .iter()
+                .map(|(l, n)| format!("{l} ({n})"))
+                .collect();
+            outln!(
+                "  {c:<18} {:>4}/{:<4} {:.3}   {:>4}/{:<4} {:.3}   {}",
+                k.matched,
+                k.total,
+                k.share,
+                s.matched,
+                s.total,
+                s.share,
+                given.join(", ")
+            );
+        }
     }
     Ok(())
 }

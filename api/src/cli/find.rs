@@ -45,17 +45,19 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         outln!("{}", serde_json::to_string_pretty(&a.results)?);
     } else {
         outln!(
-            "{:>8}  {:>6}  {:<16} {:>26}  caption",
+            "{:>8}  {:>6}  {:<18} {:<16} {:>26}  caption",
             "id",
             "score",
+            "label",
             "class",
             "centroid [x, y, z] m"
         );
         for h in &a.results {
             outln!(
-                "{:>8}  {:>6.3}  {:<16} {:>26}  {}",
+                "{:>8}  {:>6.3}  {:<18} {:<16} {:>26}  {}",
                 h.id,
                 h.score,
+                h.label,
                 h.class,
                 format!(
                     "[{:.1}, {:.1}, {:.1}]",

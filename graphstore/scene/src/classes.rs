@@ -24,6 +24,10 @@ pub const CLASSES: [&str; 19] = [
     "traffic-sign",
 ];
 
+/// The class of an object none of the 19 classes fits (SemanticKITTI's raw label 99, "other
+/// object", which its 19-class evaluation leaves unlabelled).
+pub const OTHER_OBJECT: &str = "other-object";
+
 /// Texts embedded to assign a class from a caption, per class in the order of [`CLASSES`]:
 /// the class name and the things SemanticKITTI's class definitions put in it. A caption gets
 /// the class of its most similar prompt.

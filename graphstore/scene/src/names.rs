@@ -74,8 +74,16 @@ pub mod key {
     pub const INSTANCE_ID: &str = "instance_id";
     /// `Instance.caption`.
     pub const CAPTION: &str = "caption";
-    /// `Instance.class`: a SemanticKITTI class name.
+    /// `Instance.class`: a SemanticKITTI class name, or `other-object` when none of the 19
+    /// fits the object's label.
     pub const CLASS: &str = "class";
+    /// `Instance.label`: the open-vocabulary label, the noun phrase its captions name it by,
+    /// one per kind of object across the map ("post box", "fire hydrant").
+    pub const LABEL: &str = "label";
+    /// `Instance.colour`: the colour its captions agree on ("red"), when they do.
+    pub const COLOUR: &str = "colour";
+    /// `Instance.material`: the material its captions agree on ("metal"), when they do.
+    pub const MATERIAL: &str = "material";
     /// `Instance.captions`: every caption seen.
     pub const CAPTIONS: &str = "captions";
     /// `Instance.feature`: the caption's sentence embedding.

@@ -561,8 +561,14 @@ pub struct InstanceRecord {
     pub instance_id: i64,
     /// Its caption.
     pub caption: String,
-    /// Its SemanticKITTI class.
+    /// Its SemanticKITTI class, or `other-object`.
     pub class: String,
+    /// Its open-vocabulary label ([`key::LABEL`]), when the build gave it one.
+    pub label: Option<String>,
+    /// The colour its captions agree on.
+    pub colour: Option<String>,
+    /// The material its captions agree on.
+    pub material: Option<String>,
     /// Its centre, world metres.
     pub centroid: [f64; 3],
     /// Its axis-aligned box (min, max), world metres.
@@ -600,6 +606,15 @@ impl InstanceRecord {
             (key::CENTROID, Value::Point3D(self.centroid)),
             (key::BBOX, Value::box3d(lo, hi)),
         ];
+        for (k, v) in [
+            (key::LABEL, &self.label),
+            (key::COLOUR, &self.colour),
+            (key::MATERIAL, &self.material),
+        ] {
+            if let Some(v) = v {
+                p.push((k, v.as_str().into()));
+            }
+        }
         if let Some(c) = &self.captions {
             p.push((
                 key::CAPTIONS,
@@ -655,6 +670,9 @@ impl InstanceRecord {
             instance_id: p.need(key::INSTANCE_ID, p.int(key::INSTANCE_ID))?,
             caption: p.str(key::CAPTION).unwrap_or_default(),
             class: p.str(key::CLASS).unwrap_or_default(),
+            label: p.str(key::LABEL),
+            colour: p.str(key::COLOUR),
+            material: p.str(key::MATERIAL),
             centroid: p.need(
                 key::CENTROID,
                 p.get(key::CENTROID).and_then(Value::as_point3),
@@ -853,6 +871,9 @@ mod tests {
                         instance_id,
                         caption,
                         class,
+                        label: None,
+                        colour: None,
+                        material: None,
                         centroid: c,
                         bbox: (
                             [0, 1, 2].map(|i| c[i] - half[i]),

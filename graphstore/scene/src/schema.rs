@@ -97,6 +97,9 @@ pub fn opengraph_schema() -> Schema {
                 req(key::CLASS, T::String),
                 req(key::CENTROID, T::Point3D),
                 req(key::BBOX, T::Box3D),
+                opt(key::LABEL, T::String),
+                opt(key::COLOUR, T::String),
+                opt(key::MATERIAL, T::String),
                 opt(key::CAPTIONS, T::List),
                 opt(key::FEATURE, T::Vector),
                 opt(key::POINT_COUNT, T::Int),
@@ -109,7 +112,7 @@ pub fn opengraph_schema() -> Schema {
                 opt(key::OBB, T::List),
             ],
             unique: vec![key::INSTANCE_ID.into()],
-            description: "A mapped object with caption, feature, class, box and points; obb is its oriented box on the ground plane: [center_0, center_1, half_length_m, half_width_m, yaw_rad, bottom_m, top_m] in the environment's ground frame.".into(),
+            description: "A mapped object with label (what it is, in words: one label per kind of object across the map), caption, feature, class (the SemanticKITTI class, or other-object), colour and material when its captions agree, box and points; obb is its oriented box on the ground plane: [center_0, center_1, half_length_m, half_width_m, yaw_rad, bottom_m, top_m] in the environment's ground frame.".into(),
         },
     );
     s.labels.insert(
@@ -229,6 +232,10 @@ pub fn opengraph_schema() -> Schema {
         PropertyIndexSpec {
             label: label::INSTANCE.into(),
             key: key::CLASS.into(),
+        },
+        PropertyIndexSpec {
+            label: label::INSTANCE.into(),
+            key: key::LABEL.into(),
         },
         PropertyIndexSpec {
             label: label::LANE_NODE.into(),

@@ -20,6 +20,8 @@ pub struct SceneObject {
     pub id: u64,
     /// Class name.
     pub class: String,
+    /// Open-vocabulary label (`Instance.label`; empty on maps built without labels).
+    pub label: String,
     /// Caption.
     pub caption: String,
     /// Centroid, world frame, metres.
@@ -129,6 +131,7 @@ impl MapView {
                 id,
                 surface: SURFACE_CLASSES.contains(&inst.class.as_str()) || inst.tile.is_some(),
                 class: inst.class,
+                label: inst.label.unwrap_or_default(),
                 caption: inst.caption,
                 centroid: inst.centroid,
                 ground_min: [g0[0].min(g1[0]), g0[1].min(g1[1])],

@@ -65,6 +65,21 @@ pub struct InstanceEval {
     pub precision_per_class: BTreeMap<String, ClassCounts>,
     /// Surface tiles in the map (not evaluated).
     pub surface_tiles: usize,
+    /// Label accuracy over matched pairs: the instance's label names the object's kind (the
+    /// kind's name, or the noun phrase of a noun the simulator gives that kind anywhere on
+    /// the map, e.g. "post box" for a mailbox), per true class.
+    pub label_accuracy_per_class: BTreeMap<String, ClassCounts>,
+    /// Label accuracy over all matched pairs.
+    pub label_accuracy: f64,
+    /// Distinct labels on the matched instances of each true class (1 when one kind has one
+    /// label), with how many instances carry each.
+    pub labels_per_class: BTreeMap<String, BTreeMap<String, usize>>,
+    /// SemanticKITTI class accuracy over matched pairs against the class of the object's
+    /// LiDAR points (the simulator's raw label through `learning_map`; `other-object` for
+    /// what the 19 classes leave unlabelled), per true class.
+    pub semantic_class_accuracy_per_class: BTreeMap<String, ClassCounts>,
+    /// Semantic class accuracy over all matched pairs.
+    pub semantic_class_accuracy: f64,
     /// With moving objects in the simulation (`ground_truth/movers.json`): unmatched
     /// instances whose footprint centre lies within [`GHOST_M`] of a line a mover drives or
     /// walks: the trails moving objects leave in a map. `None` without movers.
@@ -157,6 +172,7 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
     };
     let mut feet = Vec::new();
     let mut classes = Vec::new();
+    let mut labels: Vec<String> = Vec::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
         let Some(inst) = InstanceRecord::read(r, id)? else {
             continue;
@@ -166,6 +182,7 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
             continue;
         }
         feet.push(instance_footprint(&inst, frame));
+        labels.push(inst.label.clone().unwrap_or_default());
         classes.push(inst.class);
     }
     out.instances = feet.len();
@@ -213,12 +230,62 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
             .expect("counted")
             .matched += 1;
     }
+    // the names of each kind: its class and the noun phrases of the nouns it is given
+    let lexicon = llm_tools::labels::Lexicon::load_default().unwrap_or_default();
+    let mut names: BTreeMap<&str, std::collections::BTreeSet<String>> = BTreeMap::new();
+    for t in &truth {
+        let n = names.entry(t.class.as_str()).or_default();
+        n.insert(t.class.clone());
+        n.insert(llm_tools::labels::noun_phrase(&t.noun, &lexicon));
+    }
+    let (mut right_label, mut right_class) = (0usize, 0usize);
+    for (i, j) in &matches {
+        let t = &truth[*j];
+        let ok = names[t.class.as_str()].contains(&labels[*i]);
+        let c = out
+            .label_accuracy_per_class
+            .entry(t.class.clone())
+            .or_default();
+        c.total += 1;
+        c.matched += usize::from(ok);
+        right_label += usize::from(ok);
+        *out.labels_per_class
+            .entry(t.class.clone())
+            .or_default()
+            .entry(labels[*i].clone())
+            .or_insert(0) += 1;
+        let want = semantic_class_of(&t.class);
+        let ok = want.is_some_and(|w| w == classes[*i]);
+        let c = out
+            .semantic_class_accuracy_per_class
+            .entry(t.class.clone())
+            .or_default();
+        c.total += 1;
+        c.matched += usize::from(ok);
+        right_class += usize::from(ok);
+    }
     out.recall_per_class.values_mut().for_each(share);
     out.precision_per_class.values_mut().for_each(share);
+    out.label_accuracy_per_class.values_mut().for_each(share);
+    out.semantic_class_accuracy_per_class
+        .values_mut()
+        .for_each(share);
     let ratio = |a: usize, b: usize| if b == 0 { 0.0 } else { a as f64 / b as f64 };
     out.precision = ratio(out.matched, out.instances);
     out.recall = ratio(out.matched, out.objects);
+    out.label_accuracy = ratio(right_label, out.matched);
+    out.semantic_class_accuracy = ratio(right_class, out.matched);
     Ok(out)
+}
+
+/// The SemanticKITTI class of a simulator class's LiDAR points: its raw label through
+/// `learning_map`, or `other-object` when the 19 classes leave that label unlabelled;
+/// `None` for a class the simulator does not have.
+fn semantic_class_of(sim_class: &str) -> Option<&'static str> {
+    use ingest::sources::sim::scene::Kind;
+    let kind = Kind::ALL.iter().find(|k| k.class() == sim_class)?;
+    let id = scene::classes::learning_class(kind.semantic());
+    Some(scene::classes::class_name(id).unwrap_or(scene::classes::OTHER_OBJECT))
 }
 
 #[cfg(test)]

@@ -102,6 +102,40 @@ pub(super) struct Description {
     pub(super) caption: String,
     pub(super) class: u8,
     pub(super) feature: Vec<f32>,
+    /// The object's noun phrase (normalised across the map by the labelling pass).
+    pub(super) label: Option<String>,
+    pub(super) colour: Option<String>,
+    pub(super) material: Option<String>,
+}
+
+/// The thing class of a label phrase: the class prompt with the best score, where a
+/// compound's score is the mean of the phrase's and its head word's cosines (a "bus
+/// shelter" is a shelter, not a bus), or 0 (`other-object`) when the best is below `below`.
+pub(super) fn thing_class(
+    phrase: &str,
+    emb: &mut EmbedCache<'_>,
+    prompts: &[(u8, Vec<f32>)],
+    below: f64,
+) -> Result<u8> {
+    let head = llm_tools::labels::head_word(phrase);
+    let compound = head != phrase;
+    // with an article, as the prompts are written ("man" alone is far from "a man")
+    let article = |w: &str| format!("a {w}");
+    let (p, h) = (article(phrase), article(head));
+    let v = emb.get_all(&[p.as_str(), h.as_str()])?;
+    let mut best = (f64::NEG_INFINITY, 0u8);
+    for (class, p) in prompts.iter().filter(|(c, _)| !classes::is_surface(*c)) {
+        let cos = crate::mapping::associate::cosine(&v[0], p);
+        let score = if compound {
+            0.5 * (cos + crate::mapping::associate::cosine(&v[1], p))
+        } else {
+            cos
+        };
+        if score > best.0 {
+            best = (score, *class);
+        }
+    }
+    Ok(if best.0 < below { 0 } else { best.1 })
 }
 
 pub(super) fn describe(
@@ -110,16 +144,27 @@ pub(super) fn describe(
     emb: &mut EmbedCache<'_>,
     merger: &mut dyn CaptionMerger,
     prompts: &[(u8, Vec<f32>)],
+    lexicon: &llm_tools::labels::Lexicon,
 ) -> Result<Description> {
     let caption = merger.merge(o.recent_captions(cfg.merge_captions));
     let ce = emb.get_all(&[&caption])?.remove(0);
-    let class = match o.tile {
-        Some((c, _)) => c,
+    let (class, label) = match o.tile {
+        Some((c, _)) => (c, None),
         // an object is a thing whatever its merged caption says
         None => {
-            let subject = llm_tools::vocab::subject_phrase(&caption);
-            argmax_class(&emb.get_all(&[subject])?[0], prompts, false)
+            let phrase = llm_tools::labels::object_phrase(&o.captions, lexicon)
+                .unwrap_or_else(|| llm_tools::labels::noun_phrase(&caption, lexicon));
+            let class = thing_class(&phrase, emb, prompts, cfg.other_object_below)?;
+            (class, Some(phrase))
         }
+    };
+    let (colour, material) = if o.tile.is_none() {
+        (
+            llm_tools::labels::agreed_colour(&o.captions),
+            llm_tools::labels::agreed_material(&o.captions),
+        )
+    } else {
+        (None, None)
     };
     let feature = if o.feature.len() == ce.len() {
         let n = |v: &[f32]| v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
@@ -139,6 +184,9 @@ pub(super) fn describe(
         caption,
         class,
         feature,
+        label,
+        colour,
+        material,
     })
 }
 
@@ -152,7 +200,12 @@ pub(super) fn instance_record(
     InstanceRecord {
         instance_id: o.instance_id as i64,
         caption: d.caption.clone(),
-        class: classes::class_name(d.class).unwrap_or("unknown").into(),
+        class: classes::class_name(d.class)
+            .unwrap_or(classes::OTHER_OBJECT)
+            .into(),
+        label: d.label.clone(),
+        colour: d.colour.clone(),
+        material: d.material.clone(),
         centroid: o.bbox.center(),
         bbox: (o.bbox.min.map(f64::from), o.bbox.max.map(f64::from)),
         captions: Some(o.captions.to_vec()),

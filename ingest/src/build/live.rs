@@ -210,6 +210,7 @@ impl<'a> LiveBuild<'a> {
             emb,
             merger,
             prompts,
+            lexicon: super::labels::lexicon().0,
             producer: String::new(),
             checkpoint_node,
             checkpoint_extra: Vec::new(),
@@ -499,6 +500,10 @@ impl<'a> LiveBuild<'a> {
     fn refresh_hierarchy(&mut self, stats: &mut LiveStats) -> Result<Vec<MapEvent>> {
         let started = Instant::now();
         self.last_hierarchy = Some(started);
+        // labels are normalised over the whole map with the hierarchy
+        let labels =
+            super::labels::label_instances(self.store, &mut self.run.emb, &self.run.lexicon)?;
+        self.report.labels = Some(labels);
         if self.trajectory.len() < 2 {
             return Ok(Vec::new());
         }

@@ -26,10 +26,12 @@ use scene::key;
 use scene::records::InstanceRecord;
 
 mod describe;
+mod labels;
 mod live;
 mod resume;
 mod sources;
 use describe::*;
+pub use labels::LabelReport;
 pub use live::{LiveBuild, MapEvent, MapEventKind, run_live};
 use resume::*;
 pub use sources::*;
@@ -162,6 +164,8 @@ pub struct BuildReport {
     pub ms_per_frame: BTreeMap<String, f64>,
     /// Post-processing.
     pub post: PostReport,
+    /// The labelling pass at the end.
+    pub labels: Option<LabelReport>,
     /// The hierarchy written at the end.
     pub hierarchy: Option<HierarchyReport>,
     /// Commits made by this run.
@@ -182,6 +186,8 @@ struct Run<'a> {
     emb: EmbedCache<'a>,
     merger: &'a mut dyn CaptionMerger,
     prompts: Vec<(u8, Vec<f32>)>,
+    /// WordNet for labels (empty when it is not installed).
+    lexicon: llm_tools::labels::Lexicon,
     producer: String,
     checkpoint_node: u64,
     /// More checkpoint values for the next commit (a live build's stamp and poses).
@@ -202,7 +208,14 @@ impl Run<'_> {
         let cfg = self.mapper.config().clone();
         let mut writes = Vec::new();
         for o in self.mapper.objects().values().filter(|o| o.dirty) {
-            let d = describe(o, &cfg, &mut self.emb, self.merger, &self.prompts)?;
+            let d = describe(
+                o,
+                &cfg,
+                &mut self.emb,
+                self.merger,
+                &self.prompts,
+                &self.lexicon,
+            )?;
             let bytes = PointCloud {
                 xyz: o.points.clone(),
                 rgb: Vec::new(),
@@ -577,6 +590,7 @@ pub fn build(
     let texts: Vec<&str> = list.iter().map(|p| p.1).collect();
     let prompts: Vec<(u8, Vec<f32>)> = list.iter().map(|p| p.0).zip(emb.get_all(&texts)?).collect();
     let ground = GroundFrame::KittiCam;
+    let (lexicon, lexicon_missing) = labels::lexicon();
     let mut run = Run {
         store,
         mapper: Mapper::restore(cfg.mapping.clone(), ground, objects, next_id),
@@ -584,6 +598,7 @@ pub fn build(
         emb,
         merger,
         prompts,
+        lexicon,
         producer,
         checkpoint_node,
         checkpoint_extra: Vec::new(),
@@ -732,6 +747,9 @@ pub fn build(
         report.post = run.finish_objects(cfg, last)?;
         report.commits += 1;
     }
+    let mut l = labels::label_instances(store, &mut run.emb, &run.lexicon)?;
+    l.lexicon_missing = lexicon_missing;
+    report.labels = Some(l);
     if !hierarchy_done {
         let traj = seq.trajectory();
         let (_, _, h) = build_hierarchy(store, &traj, ground, &args.environment, &cfg.hierarchy)?;

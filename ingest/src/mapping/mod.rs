@@ -72,6 +72,10 @@ pub struct MappingConfig {
     pub commit_every: usize,
     /// Image size used when a sequence has no `image_2/` images: `[width, height]`.
     pub image_size: [u32; 2],
+    /// An object's SemanticKITTI class is `other-object` when its label's best class score
+    /// (the cosine of the label's embedding with a class prompt, averaged with its head
+    /// word's for a compound) is below this: none of the 19 classes fits well enough.
+    pub other_object_below: f64,
 }
 
 impl Default for MappingConfig {
@@ -98,6 +102,7 @@ impl Default for MappingConfig {
             accumulate: 1,
             commit_every: 10,
             image_size: [1242, 375],
+            other_object_below: 0.45,
         }
     }
 }
@@ -142,6 +147,9 @@ impl MappingConfig {
         }
         if !self.merge_feature_cos.is_finite() {
             return bad("merge_feature_cos must be finite");
+        }
+        if !(0.0..=1.0).contains(&self.other_object_below) {
+            return bad("other_object_below must be a cosine between 0 and 1");
         }
         if self.merge_captions == 0 || self.accumulate == 0 || self.commit_every == 0 {
             return bad("merge_captions, accumulate and commit_every must be at least 1");
