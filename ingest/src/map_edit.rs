@@ -471,15 +471,10 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                     tx.set_node_prop(*id, k, Value::String(c.clone()))?;
                 }
                 // the label and attributes follow the new caption
-                let one = std::slice::from_ref(caption);
-                let label =
-                    llm_tools::labels::noun_phrase(caption, &llm_tools::labels::Lexicon::default());
+                let (label, colour, material) = llm_tools::labels::of_caption(caption);
                 let k = tx.prop_key_id(key::LABEL)?;
                 tx.set_node_prop(*id, k, Value::String(label))?;
-                for (key_name, v) in [
-                    (key::COLOUR, llm_tools::labels::agreed_colour(one)),
-                    (key::MATERIAL, llm_tools::labels::agreed_material(one)),
-                ] {
+                for (key_name, v) in [(key::COLOUR, colour), (key::MATERIAL, material)] {
                     let k = tx.prop_key_id(key_name)?;
                     match v {
                         Some(v) => tx.set_node_prop(*id, k, Value::String(v))?,
@@ -517,16 +512,14 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 let min = [0, 1, 2].map(|k| a[k].min(b[k]));
                 let max = [0, 1, 2].map(|k| a[k].max(b[k]));
                 let centroid = [0, 1, 2].map(|k| (min[k] + max[k]) / 2.0);
+                let (label, colour, material) = llm_tools::labels::of_caption(caption);
                 let id = InstanceRecord {
                     instance_id: next,
                     caption: caption.clone(),
                     class: class.clone(),
-                    label: Some(llm_tools::labels::noun_phrase(
-                        caption,
-                        &llm_tools::labels::Lexicon::default(),
-                    )),
-                    colour: llm_tools::labels::agreed_colour(std::slice::from_ref(caption)),
-                    material: llm_tools::labels::agreed_material(std::slice::from_ref(caption)),
+                    label: Some(label),
+                    colour,
+                    material,
                     centroid,
                     bbox: (min, max),
                     captions: Some(vec![caption.clone()]),

@@ -31,24 +31,9 @@ const DETERMINERS: [&str; 9] = [
     "a", "an", "the", "one", "some", "this", "that", "two", "several",
 ];
 
-/// Colour words and words that only say a shade or a mix of colours.
-const COLOUR_WORDS: [&str; 23] = [
-    "red",
-    "green",
-    "blue",
-    "yellow",
-    "white",
-    "black",
-    "grey",
-    "gray",
-    "silver",
-    "brown",
-    "orange",
-    "beige",
-    "pink",
-    "purple",
-    "gold",
-    "cream",
+/// Words that say a mix of colours or a tint, besides the colour words of
+/// [`crate::vocab`].
+const MIXED_COLOUR_WORDS: [&str; 7] = [
     "colourful",
     "colorful",
     "multicoloured",
@@ -216,37 +201,35 @@ impl Lexicon {
                 }),
             }
         };
+        // every entry of an index file: (lemma, synset offsets), the licence header skipped
+        let entries = |name: &str| -> Result<Vec<(String, Vec<u32>)>> {
+            let (path, text) = read(name)?;
+            let mut out = Vec::new();
+            for (i, line) in text.lines().enumerate() {
+                if line.starts_with(' ') || line.is_empty() {
+                    continue;
+                }
+                let (lemma, offsets) = index_line(line).ok_or_else(|| Error::BadModel {
+                    path: path.clone(),
+                    detail: format!("line {}: not a WordNet index line", i + 1),
+                })?;
+                out.push((lemma.to_string(), offsets));
+            }
+            Ok(out)
+        };
         let mut lex = Lexicon::default();
-        let (path, text) = read("index.noun")?;
-        for (i, line) in text.lines().enumerate() {
-            if line.starts_with(' ') || line.is_empty() {
-                continue; // the licence header
-            }
-            let (lemma, offsets) = index_line(line).ok_or_else(|| Error::BadModel {
-                path: path.clone(),
-                detail: format!("line {}: not a WordNet index line", i + 1),
-            })?;
+        for (lemma, offsets) in entries("index.noun")? {
             for o in &offsets {
-                lex.members.entry(*o).or_default().push(lemma.to_string());
+                lex.members.entry(*o).or_default().push(lemma.clone());
             }
-            lex.nouns.insert(lemma.to_string(), offsets);
+            lex.nouns.insert(lemma, offsets);
         }
-        let (path, text) = read("index.adj")?;
-        for (i, line) in text.lines().enumerate() {
-            if line.starts_with(' ') || line.is_empty() {
-                continue;
-            }
-            let (lemma, _) = index_line(line).ok_or_else(|| Error::BadModel {
-                path: path.clone(),
-                detail: format!("line {}: not a WordNet index line", i + 1),
-            })?;
-            lex.adjectives.insert(lemma.to_string());
-        }
+        lex.adjectives = entries("index.adj")?.into_iter().map(|e| e.0).collect();
         Ok(lex)
     }
 
-    /// [`Lexicon::load`] from [`Lexicon::default_dir`], or `None` (with the reason) when
-    /// the files are not there: labels are then normalised without synonyms.
+    /// [`Lexicon::load`] from [`Lexicon::default_dir`], or the reason it cannot be read:
+    /// labels are then normalised without synonyms.
     pub fn load_default() -> std::result::Result<Lexicon, String> {
         Lexicon::load(&Lexicon::default_dir()).map_err(|e| e.to_string())
     }
@@ -307,9 +290,10 @@ fn words_of(text: &str) -> Vec<String> {
 }
 
 fn is_colour_word(w: &str) -> bool {
-    COLOUR_WORDS.contains(&w)
-        || (w.contains('-') && w.split('-').any(|p| COLOUR_WORDS.contains(&p)))
-        || w.ends_with("ish") && COLOUR_WORDS.contains(&w.trim_end_matches("ish"))
+    let colour = |x: &str| crate::vocab::COLOURS.contains(&x) || MIXED_COLOUR_WORDS.contains(&x);
+    colour(w)
+        || (w.contains('-') && w.split('-').any(colour))
+        || w.ends_with("ish") && colour(w.trim_end_matches("ish"))
 }
 
 /// The noun phrase a caption names its object by, lower case, without articles, colours,
@@ -418,6 +402,17 @@ pub fn object_phrase(captions: &[String], lexicon: &Lexicon) -> Option<String> {
         .into_iter()
         .max_by_key(|(_, (n, last))| (*n, *last))
         .map(|(p, _)| p)
+}
+
+/// The label, colour and material of an object known by one caption (a map edit's added or
+/// recaptioned object), before map-wide normalisation and without WordNet.
+pub fn of_caption(caption: &str) -> (String, Option<String>, Option<String>) {
+    let one = [caption.to_string()];
+    (
+        noun_phrase(caption, &Lexicon::default()),
+        agreed_colour(&one),
+        agreed_material(&one),
+    )
 }
 
 /// The attribute most of an object's captions agree on: the value named by at least

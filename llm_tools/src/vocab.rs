@@ -132,7 +132,7 @@ pub(crate) fn words(text: &str) -> Vec<String> {
 }
 
 /// Colour words.
-const COLOURS: [&str; 16] = [
+pub(crate) const COLOURS: [&str; 16] = [
     "red", "green", "blue", "yellow", "white", "black", "grey", "gray", "silver", "brown",
     "orange", "beige", "pink", "purple", "gold", "cream",
 ];

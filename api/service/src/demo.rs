@@ -118,16 +118,14 @@ pub fn build(store: &Store) -> graphstore::Result<()> {
         ];
         let mut inst = Vec::new();
         for (i, class, caption, c, seg) in objects {
+            let (label, colour, material) = llm_tools::labels::of_caption(caption);
             let n = InstanceRecord {
                 instance_id: i,
                 caption: caption.into(),
                 class: class.into(),
-                label: Some(llm_tools::labels::noun_phrase(
-                    caption,
-                    &llm_tools::labels::Lexicon::default(),
-                )),
-                colour: llm_tools::labels::agreed_colour(&[caption.to_string()]),
-                material: llm_tools::labels::agreed_material(&[caption.to_string()]),
+                label: Some(label),
+                colour,
+                material,
                 centroid: c,
                 bbox: (
                     [c[0] - 0.8, c[1] - 0.4, 0.0],

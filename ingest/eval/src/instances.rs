@@ -238,31 +238,22 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
         n.insert(t.class.clone());
         n.insert(llm_tools::labels::noun_phrase(&t.noun, &lexicon));
     }
-    let (mut right_label, mut right_class) = (0usize, 0usize);
+    let tally = |m: &mut BTreeMap<String, ClassCounts>, class: &str, ok: bool| {
+        let c = m.entry(class.to_string()).or_default();
+        c.total += 1;
+        c.matched += usize::from(ok);
+    };
     for (i, j) in &matches {
         let t = &truth[*j];
         let ok = names[t.class.as_str()].contains(&labels[*i]);
-        let c = out
-            .label_accuracy_per_class
-            .entry(t.class.clone())
-            .or_default();
-        c.total += 1;
-        c.matched += usize::from(ok);
-        right_label += usize::from(ok);
+        tally(&mut out.label_accuracy_per_class, &t.class, ok);
         *out.labels_per_class
             .entry(t.class.clone())
             .or_default()
             .entry(labels[*i].clone())
             .or_insert(0) += 1;
-        let want = semantic_class_of(&t.class);
-        let ok = want.is_some_and(|w| w == classes[*i]);
-        let c = out
-            .semantic_class_accuracy_per_class
-            .entry(t.class.clone())
-            .or_default();
-        c.total += 1;
-        c.matched += usize::from(ok);
-        right_class += usize::from(ok);
+        let ok = semantic_class_of(&t.class).is_some_and(|w| w == classes[*i]);
+        tally(&mut out.semantic_class_accuracy_per_class, &t.class, ok);
     }
     out.recall_per_class.values_mut().for_each(share);
     out.precision_per_class.values_mut().for_each(share);
@@ -273,8 +264,9 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
     let ratio = |a: usize, b: usize| if b == 0 { 0.0 } else { a as f64 / b as f64 };
     out.precision = ratio(out.matched, out.instances);
     out.recall = ratio(out.matched, out.objects);
-    out.label_accuracy = ratio(right_label, out.matched);
-    out.semantic_class_accuracy = ratio(right_class, out.matched);
+    let right = |m: &BTreeMap<String, ClassCounts>| m.values().map(|c| c.matched).sum();
+    out.label_accuracy = ratio(right(&out.label_accuracy_per_class), out.matched);
+    out.semantic_class_accuracy = ratio(right(&out.semantic_class_accuracy_per_class), out.matched);
     Ok(out)
 }
 
