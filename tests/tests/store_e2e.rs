@@ -206,7 +206,7 @@ fn schema_violations_are_refused_and_change_nothing() {
         .unwrap()
         .properties
         .push(graphstore::PropertyRule {
-            key: "colour".into(),
+            key: "owner".into(),
             ty: graphstore::ValueType::String,
             required: true,
         });
