@@ -354,6 +354,38 @@ pub(crate) fn instances(cmd: Command) -> anyhow::Result<()> {
                 given.join(", ")
             );
         }
+        if let Some(p) = &r.by_points {
+            outln!(
+                "by the points each object was seen with ({} scans; voxels of {} m, IoU >= {}): {} true objects seen ({} unseen), {} instances, {} matched: precision {:.3}, recall {:.3}",
+                p.scans,
+                og_eval::instance_points::VOXEL_M,
+                og_eval::instance_points::MATCH_IOU,
+                p.objects,
+                p.unseen,
+                p.instances,
+                p.matched,
+                p.precision,
+                p.recall
+            );
+            outln!("recall per true class; the unmatched: missed / split / fused / partial");
+            for (c, k) in &p.recall_per_class {
+                let f = p.failures_per_class.get(c).cloned().unwrap_or_default();
+                outln!(
+                    "  {c:<18} {:>4}/{:<4} {:.3}   {} / {} / {} / {}",
+                    k.matched,
+                    k.total,
+                    k.share,
+                    f.missed,
+                    f.split,
+                    f.fused,
+                    f.partial
+                );
+            }
+            outln!("precision per map label (labels with at least 5 instances)");
+            for (l, k) in p.precision_per_label.iter().filter(|(_, k)| k.total >= 5) {
+                outln!("  {l:<18} {:>4}/{:<4} {:.3}", k.matched, k.total, k.share);
+            }
+        }
     }
     Ok(())
 }

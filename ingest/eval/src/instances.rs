@@ -84,6 +84,9 @@ pub struct InstanceEval {
     /// instances whose footprint centre lies within [`GHOST_M`] of a line a mover drives or
     /// walks: the trails moving objects leave in a map. `None` without movers.
     pub ghosts: Option<usize>,
+    /// The same map scored by the points each object was seen with
+    /// ([`crate::instance_points`]); `None` when the simulation has no `labels/`.
+    pub by_points: Option<crate::instance_points::PointInstanceEval>,
 }
 
 /// How near a mover's line an unmatched instance counts as its ghost, metres.
@@ -267,6 +270,12 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
     let right = |m: &BTreeMap<String, ClassCounts>| m.values().map(|c| c.matched).sum();
     out.label_accuracy = ratio(right(&out.label_accuracy_per_class), out.matched);
     out.semantic_class_accuracy = ratio(right(&out.semantic_class_accuracy_per_class), out.matched);
+    if sim_dir.join("labels").is_dir() {
+        let image_size = ingest::mapping::MappingConfig::default().image_size;
+        out.by_points = Some(crate::instance_points::eval_instance_points(
+            r, sim_dir, image_size,
+        )?);
+    }
     Ok(out)
 }
 

@@ -2,6 +2,7 @@
 
 pub mod captions;
 mod error;
+pub mod instance_points;
 pub mod instances;
 pub mod locate;
 pub mod relations;

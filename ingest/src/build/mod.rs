@@ -438,7 +438,7 @@ impl Run<'_> {
     }
 
     /// Post-processing over the whole map (small and duplicate objects, then touching
-    /// buildings, fences and vegetation joined) committed as the finished state, with the
+    /// buildings, fences and vegetation joined, then touching objects of one noun phrase) committed as the finished state, with the
     /// checkpoint's next frame `next_frame`.
     fn finish_objects(&mut self, cfg: &BuildConfig, next_frame: i64) -> Result<PostReport> {
         let mut post = self.mapper.post_process();
@@ -455,6 +455,20 @@ impl Run<'_> {
                 let joined = self.mapper.join_touching(ids, cfg.mapping.join_eps_m);
                 post.merged.extend(joined);
             }
+        }
+        // parts of one object (a shelter's walls, a billboard's legs, seen apart): objects
+        // whose captions name them by the same noun phrase and whose points touch are one
+        let mut by_phrase: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+        for (id, o) in self.mapper.objects() {
+            if o.tile.is_none()
+                && let Some(p) = llm_tools::labels::object_phrase(&o.captions, &self.lexicon)
+            {
+                by_phrase.entry(p).or_default().push(*id);
+            }
+        }
+        for ids in by_phrase.values().filter(|ids| ids.len() > 1) {
+            let joined = self.mapper.join_touching(ids, cfg.mapping.join_eps_m);
+            post.merged.extend(joined);
         }
         let removed: Vec<u64> = post
             .dropped
