@@ -155,7 +155,7 @@ pub fn eval_instance_points(
             }
         }
         inst_size.push(voxels.len());
-        inst_label.push(inst.label.clone().unwrap_or(inst.class.clone()));
+        inst_label.push(inst.label.clone().unwrap_or_else(|| inst.class.clone()));
     }
     out.instances = inst_size.len();
     for l in &inst_label {
