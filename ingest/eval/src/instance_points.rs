@@ -22,7 +22,7 @@ use ingest::sources::kitti;
 use ingest::sources::sim::truth::read_truth;
 use scene::records::InstanceRecord;
 
-use crate::instances::ClassCounts;
+use crate::instances::{ClassCounts, share};
 use crate::{Error, Result};
 
 /// Voxel size of the point sets compared, metres.
@@ -227,13 +227,6 @@ pub fn eval_instance_points(
             f.partial += 1;
         }
     }
-    let share = |c: &mut ClassCounts| {
-        c.share = if c.total == 0 {
-            0.0
-        } else {
-            c.matched as f64 / c.total as f64
-        };
-    };
     out.recall_per_class.values_mut().for_each(share);
     out.precision_per_label.values_mut().for_each(share);
     let ratio = |a: usize, b: usize| if b == 0 { 0.0 } else { a as f64 / b as f64 };

@@ -150,7 +150,8 @@ fn bounds(p: &[[f64; 2]; 4]) -> ([f64; 2], [f64; 2]) {
     (lo, hi)
 }
 
-fn share(c: &mut ClassCounts) {
+/// Sets `share` to `matched / total` (0 for an empty class).
+pub(crate) fn share(c: &mut ClassCounts) {
     c.share = if c.total == 0 {
         0.0
     } else {

@@ -438,8 +438,8 @@ impl Run<'_> {
     }
 
     /// Post-processing over the whole map (small and duplicate objects, then touching
-    /// buildings, fences and vegetation joined, then touching objects of one noun phrase) committed as the finished state, with the
-    /// checkpoint's next frame `next_frame`.
+    /// buildings, fences and vegetation joined, then touching objects of one noun phrase)
+    /// committed as the finished state, with the checkpoint's next frame `next_frame`.
     fn finish_objects(&mut self, cfg: &BuildConfig, next_frame: i64) -> Result<PostReport> {
         let mut post = self.mapper.post_process();
         // buildings, fences and vegetation: objects that touch are one object
