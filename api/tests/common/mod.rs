@@ -84,21 +84,53 @@ pub fn xyz(v: &serde_json::Value) -> [f64; 3] {
     [0, 1, 2].map(|i| v[i].as_f64().expect("a number"))
 }
 
-/// Simulates a city into `dir/sim` (`sim_args`, e.g. `["--seed", "3", "--frames", "24"]`) and
-/// maps it from its detections into `dir/city.og` (`build_args`, e.g. `["--embedder",
-/// "hash"]`); returns (sim folder, store).
+/// Simulates a city (`sim_args`, e.g. `["--seed", "3", "--frames", "24"]`) and maps it from
+/// its detections (`build_args`, e.g. `["--embedder", "hash"]`); returns (sim folder, store),
+/// the store a private copy at `dir/city.og`.
+///
+/// The simulation and its map are made once per binary and arguments for the whole test run
+/// and kept in the target's temporary folder (several test files map the same small city;
+/// each debug-build mapping costs tens of seconds). The sim folder is shared: read it only.
 pub fn sim_map(
     dir: &Path,
     sim_args: &[&str],
     build_args: &[&str],
 ) -> (std::path::PathBuf, std::path::PathBuf) {
-    let sim = dir.join("sim");
+    let cached = cached_sim_map(sim_args, build_args);
     let db = dir.join("city.og");
-    let mut a = vec!["sim", "--out", s(&sim), "--json"];
-    a.extend_from_slice(sim_args);
-    json(&og(&a));
-    build_map(&sim, &db, build_args);
-    (sim, db)
+    std::fs::copy(cached.join("city.og"), &db).unwrap();
+    (cached.join("sim"), db)
+}
+
+/// The folder holding `sim/` and `city.og` made by `sim_args` and `build_args` with this
+/// build of the binary, made on first use. Test binaries (which cargo runs one after another)
+/// and the tests inside one (which run at once) wait on a file lock for the one that makes it;
+/// a folder is only used once complete.
+fn cached_sim_map(sim_args: &[&str], build_args: &[&str]) -> std::path::PathBuf {
+    use std::hash::{Hash, Hasher};
+    let exe = Path::new(env!("CARGO_BIN_EXE_opengraph"));
+    let meta = std::fs::metadata(exe).unwrap();
+    let mut h = std::hash::DefaultHasher::new();
+    (sim_args, build_args, meta.len(), meta.modified().unwrap()).hash(&mut h);
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("og-fixtures");
+    std::fs::create_dir_all(&root).unwrap();
+    let key = format!("{:016x}", h.finish());
+    let done = root.join(&key);
+    let lock = std::fs::File::create(root.join(format!("{key}.lock"))).unwrap();
+    lock.lock().unwrap();
+    if !done.join("city.og").exists() {
+        let tmp = root.join(format!("{key}.partial"));
+        let _ = std::fs::remove_dir_all(&tmp);
+        std::fs::create_dir_all(&tmp).unwrap();
+        let sim = tmp.join("sim");
+        let mut a = vec!["sim", "--out", s(&sim), "--json"];
+        a.extend_from_slice(sim_args);
+        json(&og(&a));
+        build_map(&sim, &tmp.join("city.og"), build_args);
+        std::fs::rename(&tmp, &done).unwrap();
+    }
+    lock.unlock().unwrap();
+    done
 }
 
 /// `opengraph build --json` of the simulator's sequence `sim` (its detections) into `db`,

@@ -18,12 +18,12 @@ use std::path::Path;
 use graphstore::GraphRead;
 use ingest::build::Sequence;
 use ingest::mapping::geometry::{VoxelKey, voxel_key};
-use ingest::sources::kitti;
 use ingest::sources::sim::truth::read_truth;
 use scene::records::InstanceRecord;
 
+use crate::Result;
 use crate::instances::{ClassCounts, share};
-use crate::{Error, Result};
+use crate::labelled::for_each_labelled_point;
 
 /// Voxel size of the point sets compared, metres.
 pub const VOXEL_M: f32 = 0.2;
@@ -89,36 +89,19 @@ pub fn eval_instance_points(
     let mut out = PointInstanceEval::default();
     // true voxels: voxel → object (the first one seen there keeps it)
     let mut owner: HashMap<VoxelKey, u16> = HashMap::new();
-    for &i in &seq.scans {
-        let lp = seq.label_path(i);
-        if !lp.exists() {
-            continue;
+    out.scans = for_each_labelled_point(&seq, None, image_size, |p| {
+        let [x, y, z] = p.velo;
+        if p.label.instance == 0
+            || !p.in_view
+            || !class_of.contains_key(&i64::from(p.label.instance))
+            || f64::from(x.hypot(y).hypot(z)) > max_range_m
+        {
+            return;
         }
-        let scan = kitti::read_scan(&seq.scan_path(i))?;
-        let labels = kitti::read_labels(&lp, scan.points.len())?;
-        let m = seq.world_from_velo(i);
-        let camera = seq.camera(i, image_size)?;
-        for (p, l) in scan.points.iter().zip(&labels) {
-            if l.instance == 0
-                || !class_of.contains_key(&i64::from(l.instance))
-                || !p[..3].iter().all(|c| c.is_finite())
-                || f64::from(p[0].hypot(p[1]).hypot(p[2])) > max_range_m
-                || camera.project([p[0], p[1], p[2]]).is_none()
-            {
-                continue;
-            }
-            let w = scene::pose::apply(&m, [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
-                .map(|c| c as f32);
-            owner.entry(voxel_key(w, VOXEL_M)).or_insert(l.instance);
-        }
-        out.scans += 1;
-    }
-    if out.scans == 0 {
-        return Err(Error::File {
-            path: seq.dir.join("labels"),
-            detail: "no labelled scan to evaluate".into(),
-        });
-    }
+        owner
+            .entry(voxel_key(p.world, VOXEL_M))
+            .or_insert(p.label.instance);
+    })?;
     let mut truth_size: BTreeMap<u16, usize> = BTreeMap::new();
     for t in owner.values() {
         *truth_size.entry(*t).or_insert(0) += 1;

@@ -4,6 +4,7 @@ pub mod captions;
 mod error;
 pub mod instance_points;
 pub mod instances;
+mod labelled;
 pub mod locate;
 pub mod relations;
 pub mod retrieval;

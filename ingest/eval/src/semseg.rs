@@ -9,10 +9,10 @@ use std::path::Path;
 
 use graphstore::{GraphRead, Store, Value};
 
+use crate::labelled::for_each_labelled_point;
 use crate::{Error, Result};
 use ingest::build::Sequence;
 use ingest::mapping::geometry::voxel_key;
-use ingest::sources::kitti;
 use scene::classes::{self, CLASSES};
 
 /// Counts: `m[gt][pred]` with gt in 1..=19 and pred in 0..=19 (0 = no map point near).
@@ -180,45 +180,20 @@ pub fn eval_semseg(
     let index = MapIndex::from_store(&r, max_dist_m)?;
     let mut conf = Confusion::default();
     let mut view = Confusion::default();
-    let mut scans = 0;
     let (mut missed, mut view_missed) = (0u64, 0u64);
-    for &i in &seq.scans {
-        if frames.as_ref().is_some_and(|f| !f.contains(&i)) {
-            continue;
+    let scans = for_each_labelled_point(&seq, frames.as_ref(), image_size, |p| {
+        let gt = classes::learning_class(p.label.semantic);
+        if gt == 0 {
+            return;
         }
-        let lp = seq.label_path(i);
-        if !lp.exists() {
-            continue;
+        let pred = index.nearest_class(p.world, max_dist_m);
+        missed += u64::from(pred == 0);
+        conf.add(gt, pred);
+        if p.in_view {
+            view.add(gt, pred);
+            view_missed += u64::from(pred == 0);
         }
-        let scan = kitti::read_scan(&seq.scan_path(i))?;
-        let labels = kitti::read_labels(&lp, scan.points.len())?;
-        let m = seq.world_from_velo(i);
-        let camera = seq.camera(i, image_size)?;
-        for (p, l) in scan.points.iter().zip(&labels) {
-            let gt = classes::learning_class(l.semantic);
-            if gt == 0 || !p[..3].iter().all(|c| c.is_finite()) {
-                continue;
-            }
-            let w = scene::pose::apply(&m, [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
-                .map(|c| c as f32);
-            let pred = index.nearest_class(w, max_dist_m);
-            if pred == 0 {
-                missed += 1;
-            }
-            conf.add(gt, pred);
-            if camera.project([p[0], p[1], p[2]]).is_some() {
-                view.add(gt, pred);
-                view_missed += u64::from(pred == 0);
-            }
-        }
-        scans += 1;
-    }
-    if scans == 0 {
-        return Err(Error::File {
-            path: seq.dir.join("labels"),
-            detail: "no labelled scan to evaluate".into(),
-        });
-    }
+    })?;
     let (miou, f1, per_class) = conf.scores();
     let points = per_class.values().map(|s| s.support).sum();
     let (view_miou, view_f1, view_per) = view.scores();
