@@ -92,14 +92,14 @@ pub fn eval_instance_points(
     out.scans = for_each_labelled_point(&seq, None, image_size, |p| {
         let [x, y, z] = p.velo;
         if p.label.instance == 0
-            || !p.in_view
             || !class_of.contains_key(&i64::from(p.label.instance))
             || f64::from(x.hypot(y).hypot(z)) > max_range_m
+            || !p.in_view()
         {
             return;
         }
         owner
-            .entry(voxel_key(p.world, VOXEL_M))
+            .entry(voxel_key(p.world(), VOXEL_M))
             .or_insert(p.label.instance);
     })?;
     let mut truth_size: BTreeMap<u16, usize> = BTreeMap::new();

@@ -4,21 +4,34 @@
 use std::ops::Range;
 
 use ingest::build::Sequence;
+use ingest::mapping::project::Camera;
 use ingest::sources::kitti::{self, PointLabel};
+use scene::pose::Rigid3;
 
 use crate::{Error, Result};
 
-/// One finite, labelled point of a scan.
+/// One finite, labelled point of a scan. Its world position and whether the camera sees it
+/// are computed on request, so a caller that discards the point on its label pays for neither.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct LabelledPoint {
+pub(crate) struct LabelledPoint<'a> {
     /// In the velodyne frame, metres.
     pub velo: [f32; 3],
-    /// In the sequence's world frame (KITTI camera 0 of the first pose), metres.
-    pub world: [f32; 3],
     /// Its SemanticKITTI label (raw semantic id and instance id).
     pub label: PointLabel,
+    world_from_velo: &'a Rigid3,
+    camera: &'a Camera,
+}
+
+impl LabelledPoint<'_> {
+    /// In the sequence's world frame (KITTI camera 0 of the first pose), metres.
+    pub fn world(&self) -> [f32; 3] {
+        scene::pose::apply(self.world_from_velo, self.velo.map(f64::from)).map(|c| c as f32)
+    }
+
     /// Whether it projects into the scan's camera image.
-    pub in_view: bool,
+    pub fn in_view(&self) -> bool {
+        self.camera.project(self.velo).is_some()
+    }
 }
 
 /// Calls `each` for every finite point of every labelled scan of `seq` whose index is in
@@ -32,7 +45,7 @@ pub(crate) fn for_each_labelled_point(
     seq: &Sequence,
     frames: Option<&Range<u32>>,
     image_size: [u32; 2],
-    mut each: impl FnMut(&LabelledPoint),
+    mut each: impl FnMut(&LabelledPoint<'_>),
 ) -> Result<usize> {
     let mut scans = 0;
     for &i in &seq.scans {
@@ -52,13 +65,11 @@ pub(crate) fn for_each_labelled_point(
             if !velo.iter().all(|c| c.is_finite()) {
                 continue;
             }
-            let world = scene::pose::apply(&world_from_velo, velo.map(f64::from)).map(|c| c as f32);
-            let in_view = camera.project(velo).is_some();
             each(&LabelledPoint {
                 velo,
-                world,
                 label,
-                in_view,
+                world_from_velo: &world_from_velo,
+                camera: &camera,
             });
         }
         scans += 1;

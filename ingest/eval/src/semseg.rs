@@ -186,10 +186,10 @@ pub fn eval_semseg(
         if gt == 0 {
             return;
         }
-        let pred = index.nearest_class(p.world, max_dist_m);
+        let pred = index.nearest_class(p.world(), max_dist_m);
         missed += u64::from(pred == 0);
         conf.add(gt, pred);
-        if p.in_view {
+        if p.in_view() {
             view.add(gt, pred);
             view_missed += u64::from(pred == 0);
         }
