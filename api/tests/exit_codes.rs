@@ -184,18 +184,18 @@ fn user_errors_exit_2_on_every_command() {
         ),
         (
             "captions",
-            with_llm(vec!["captions", "--db"])
+            with_llm(vec!["captions"])
                 .into_iter()
                 .map(String::from)
-                .chain([missing_db.clone()])
+                .chain(["--db".into(), missing_db.clone()])
                 .collect(),
         ),
         (
             "relations",
-            with_llm(vec!["relations", "--db"])
+            with_llm(vec!["relations", "--experimental"])
                 .into_iter()
                 .map(String::from)
-                .chain([missing_db.clone()])
+                .chain(["--db".into(), missing_db.clone()])
                 .collect(),
         ),
         (

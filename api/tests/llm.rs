@@ -20,8 +20,20 @@ fn llm_commands_fail_clearly_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("d.og");
     assert!(og(&["demo", "--db", s(&db)]).status.success());
+    // the LLM relation labels are an experiment, run only when asked for
     expect_usage_error(
-        &["relations", "--db", s(&db), "--llm", "none"],
+        &["relations", "--db", s(&db)],
+        &["not a feature", "--experimental"],
+    );
+    expect_usage_error(
+        &[
+            "relations",
+            "--db",
+            s(&db),
+            "--experimental",
+            "--llm",
+            "none",
+        ],
         &["relations needs a language model"],
     );
     let missing = dir.path().join("no-such-model.gguf");
@@ -40,12 +52,26 @@ fn llm_commands_fail_clearly_before_any_work() {
     let notgguf = dir.path().join("x.gguf");
     std::fs::write(&notgguf, "hello").unwrap();
     expect_usage_error(
-        &["relations", "--db", s(&db), "--llm-model", s(&notgguf)],
+        &[
+            "relations",
+            "--db",
+            s(&db),
+            "--experimental",
+            "--llm-model",
+            s(&notgguf),
+        ],
         &["x.gguf", "not a GGUF file"],
     );
     for b in ["nan", "-1", "0", "inf", "1e12", "soon"] {
         expect_usage_error(
-            &["relations", "--db", s(&db), "--budget-secs", b],
+            &[
+                "relations",
+                "--db",
+                s(&db),
+                "--experimental",
+                "--budget-secs",
+                b,
+            ],
             &["budget"],
         );
     }
@@ -128,6 +154,7 @@ fn smallest_model_merges_captions_and_labels_relations() {
         "relations",
         "--db",
         s(&db),
+        "--experimental",
         "--llm-model",
         s(&smol),
         "--max-pairs",
@@ -146,6 +173,7 @@ fn smallest_model_merges_captions_and_labels_relations() {
         "relations",
         "--db",
         s(&db),
+        "--experimental",
         "--llm-model",
         s(&smol),
         "--max-pairs",

@@ -556,6 +556,12 @@ pub fn find_graph_normed(
                             .unwrap_or_default()
                             .to_string()
                     };
+                    // only the map's geometric relations count: the LLM relation labels
+                    // (`opengraph relations --experimental`) agree with the simulator's truth
+                    // less often than the geometry (docs/llm.md)
+                    if get(k_source) == "llm" {
+                        continue;
+                    }
                     edges
                         .entry(adj.other)
                         .or_insert_with(|| format!("{} ({})", get(k_relation), get(k_source)));

@@ -255,14 +255,19 @@ pub(crate) enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Label relations between close objects with a language model (the paper's LLM relation
-    /// inference): RELATED {source: "llm", relation, confidence, model, prompt} beside the
-    /// geometric edges. Resumable: pairs already labelled by the same model and prompt are
-    /// skipped, and every answer is cached in the map.
+    /// Experimental, not a feature: label relations between close objects with a language
+    /// model (the paper's LLM relation inference): RELATED {source: "llm", relation,
+    /// confidence, model, prompt} beside the geometric edges, which `find` and the tools use
+    /// instead. The local models agree with the simulator's relations less often than the
+    /// geometric labels (docs/llm.md), so it runs only with --experimental. Resumable: pairs
+    /// already labelled by the same model and prompt are skipped, and every answer is cached.
     Relations {
         /// The store file.
         #[arg(long)]
         db: PathBuf,
+        /// Run it although it is an experiment whose labels are worse than the map's own.
+        #[arg(long)]
+        experimental: bool,
         #[command(flatten)]
         llm: LlmArgs,
         /// Stop starting new pairs after this many seconds (run again to continue).

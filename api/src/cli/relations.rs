@@ -7,6 +7,7 @@ use super::common::*;
 pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let Command::Relations {
         db,
+        experimental,
         llm,
         budget_secs,
         max_pairs,
@@ -15,6 +16,16 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     else {
         unreachable!("run dispatches only Command::Relations here")
     };
+    if !experimental {
+        return Err(UsageError(
+            "opengraph relations is an experiment, not a feature: on the default city the local \
+             models' relation labels agree with the simulator's truth less often than the map's \
+             geometric labels (strict 0.40 against 0.86, docs/llm.md), and find and the tools \
+             ignore them; pass --experimental to run it anyway"
+                .into(),
+        )
+        .into());
+    }
     let cfg = llm.config(llm_tools::LlmConfig::default(), "local");
     let mut m = open_llm(&cfg, "relations")?;
     let store = open_store(&db, true)?;
