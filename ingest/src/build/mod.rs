@@ -3,7 +3,7 @@
 //! to the store every `commit_every` key frames, post-processes, and finally writes the
 //! hierarchy over the whole trajectory. A killed build continues with `resume`.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -437,8 +437,42 @@ impl Run<'_> {
         })
     }
 
+    /// Each object's kind, for joining its parts: the map-wide label of the noun phrase its
+    /// captions name it by ([`llm_tools::labels::normalise`]: "bus shelter" and "shelter" are
+    /// one kind), where a label that opens another with two or more words names the same
+    /// kind ("bus stop" and "bus stop shelter": what stands at a bus stop is its shelter).
+    /// Objects without a phrase, and background tiles, have none.
+    fn object_kinds(&mut self) -> Result<Vec<(u64, String)>> {
+        let mut phrase_of: Vec<(u64, String)> = Vec::new();
+        for (id, o) in self.mapper.objects() {
+            if o.tile.is_none()
+                && let Some(p) = llm_tools::labels::object_phrase(&o.captions, &self.lexicon)
+            {
+                phrase_of.push((*id, p));
+            }
+        }
+        let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+        for (_, p) in &phrase_of {
+            *counts.entry(p.clone()).or_insert(0) += 1;
+        }
+        let emb = &mut self.emb;
+        let label_of = llm_tools::labels::normalise(&counts, &self.lexicon, &mut |texts| {
+            emb.get_all(texts)
+                .map_err(|e| llm_tools::Error::Invalid(e.to_string()))
+        })
+        .map_err(|e| Error::Invalid(format!("normalising labels: {e}")))?;
+        let labels: BTreeSet<&str> = label_of.values().map(String::as_str).collect();
+        Ok(phrase_of
+            .into_iter()
+            .map(|(id, p)| {
+                let label = label_of.get(&p).cloned().unwrap_or(p);
+                (id, kind_of_label(&label, &labels))
+            })
+            .collect())
+    }
+
     /// Post-processing over the whole map (small and duplicate objects, then touching
-    /// buildings, fences and vegetation joined, then touching objects of one noun phrase)
+    /// buildings, fences and vegetation joined, then touching objects of one kind)
     /// committed as the finished state, with the checkpoint's next frame `next_frame`.
     fn finish_objects(&mut self, cfg: &BuildConfig, next_frame: i64) -> Result<PostReport> {
         let mut post = self.mapper.post_process();
@@ -457,16 +491,12 @@ impl Run<'_> {
             }
         }
         // parts of one object (a shelter's walls, a billboard's legs, seen apart): objects
-        // whose captions name them by the same noun phrase and whose points touch are one
-        let mut by_phrase: BTreeMap<String, Vec<u64>> = BTreeMap::new();
-        for (id, o) in self.mapper.objects() {
-            if o.tile.is_none()
-                && let Some(p) = llm_tools::labels::object_phrase(&o.captions, &self.lexicon)
-            {
-                by_phrase.entry(p).or_default().push(*id);
-            }
+        // of one kind whose points touch are one
+        let mut by_kind: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+        for (id, kind) in self.object_kinds()? {
+            by_kind.entry(kind).or_default().push(id);
         }
-        for ids in by_phrase.values().filter(|ids| ids.len() > 1) {
+        for ids in by_kind.values().filter(|ids| ids.len() > 1) {
             let joined = self.mapper.join_touching(ids, cfg.mapping.join_eps_m);
             post.merged.extend(joined);
         }
@@ -481,6 +511,17 @@ impl Run<'_> {
         self.commit(&[], next_frame, &removed, &merged, true)?;
         Ok(post)
     }
+}
+
+/// The kind a map label names, for joining parts: the shortest of `labels` with two or more
+/// words that opens `label` ("bus stop" for "bus stop shelter"), else `label` itself. A
+/// one-word opening is not enough ("tree" does not make a "tree trunk" a tree).
+fn kind_of_label(label: &str, labels: &BTreeSet<&str>) -> String {
+    let words: Vec<&str> = label.split(' ').collect();
+    (2..words.len())
+        .map(|n| words[..n].join(" "))
+        .find(|prefix| labels.contains(prefix.as_str()))
+        .unwrap_or_else(|| label.to_string())
 }
 
 /// Runs (or, with `resume`, continues) a build into `store`.
@@ -800,6 +841,23 @@ pub fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_label_opened_by_another_of_two_words_is_its_kind() {
+        let labels: BTreeSet<&str> = [
+            "bus stop",
+            "bus stop shelter",
+            "tree",
+            "tree trunk",
+            "bench",
+        ]
+        .into();
+        assert_eq!(kind_of_label("bus stop shelter", &labels), "bus stop");
+        assert_eq!(kind_of_label("bus stop", &labels), "bus stop");
+        // one word is not enough
+        assert_eq!(kind_of_label("tree trunk", &labels), "tree trunk");
+        assert_eq!(kind_of_label("bench", &labels), "bench");
+    }
 
     /// Every numeric key of the hierarchy and oracle tables is checked when the file is read
     /// (before any mapping): NaN, infinities, negative, zero where it must be positive, huge.

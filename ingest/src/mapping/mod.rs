@@ -55,8 +55,9 @@ pub struct MappingConfig {
     /// object of its own when it holds at least this share of the object's points (and
     /// `min_object_points`); smaller ones are dropped as noise.
     pub split_min_share: f64,
-    /// Post-processing: buildings, fences and vegetation whose points come within this
-    /// distance of each other (DBSCAN over the class's pooled points) become one object.
+    /// Post-processing: buildings, fences and vegetation, and objects of one kind (one
+    /// map-wide label), whose points come within this distance of each other (DBSCAN over
+    /// the pooled points) become one object.
     pub join_eps_m: f32,
     /// Post-processing: merge when the shared-voxel ratio exceeds this ...
     pub merge_overlap: f64,
