@@ -296,6 +296,32 @@ mod tests {
     }
 
     #[test]
+    fn degree_words_and_distances_in_steps_belong_to_the_relation() {
+        let r = parse_rules("the trash can right beside a city bike").unwrap();
+        assert_eq!(r.target, "the trash can");
+        assert_eq!(r.anchors[0].phrase, "a city bike");
+        assert_eq!(r.anchors[0].relation, Relation::NextTo);
+        let r = parse_rules("a lamp post a few steps from the covered bus stop").unwrap();
+        assert_eq!(r.target, "a lamp post");
+        assert_eq!(r.anchors[0].phrase, "the covered bus stop");
+        assert_eq!(r.anchors[0].relation, Relation::Near);
+        // "right" alone is not a degree word of a relation
+        let r = parse_rules("the bench to the right of the bin").unwrap();
+        assert_eq!(r.anchors[0].relation, Relation::RightOf);
+        // the crown gives shade; goods go by truck
+        assert_eq!(
+            parse_rules("something that gives shade").unwrap().objects,
+            vec!["a tree canopy"]
+        );
+        assert_eq!(
+            parse_rules("something that carries goods by road")
+                .unwrap()
+                .objects,
+            vec!["a truck"]
+        );
+    }
+
+    #[test]
     fn empty_and_contentless_requests_are_refused() {
         assert!(parse_rules("").is_err());
         assert!(parse_rules("  ?! ").is_err());

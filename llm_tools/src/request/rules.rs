@@ -68,7 +68,20 @@ pub(super) const SEGMENTS: [(&str, SegmentConstraint); 18] = [
 ];
 
 /// Relation phrases, longest first.
-pub(super) const RELATIONS: [(&str, Relation); 33] = [
+pub(super) const RELATIONS: [(&str, Relation); 45] = [
+    // a short distance said in steps or a walk is near
+    ("within walking distance of", Relation::Near),
+    ("a couple of steps from", Relation::Near),
+    ("a few steps away from", Relation::Near),
+    ("a stone's throw from", Relation::Near),
+    ("a few metres from", Relation::Near),
+    ("a few meters from", Relation::Near),
+    ("a short walk from", Relation::Near),
+    ("a few paces from", Relation::Near),
+    ("a few steps from", Relation::Near),
+    ("a few yards from", Relation::Near),
+    ("steps away from", Relation::Near),
+    ("steps from", Relation::Near),
     (
         "on the other side of the road from",
         Relation::AcrossTheRoadFrom,
@@ -110,10 +123,14 @@ pub(super) const RELATIONS: [(&str, Relation); 33] = [
     ("on", Relation::On),
 ];
 
+/// Degree words that sharpen a relation that follows them ("right next to", "just by").
+pub(super) const INTENSIFIERS: [&str; 6] =
+    ["right", "just", "directly", "immediately", "very", "really"];
+
 /// What things in a street are for: trigger phrases (whole words) and the object that
 /// serves them. Common sense written for street scenes, used by the rule parser for requests
 /// given by function; a language model parser covers what it misses.
-pub(super) const AFFORDANCES: [(&[&str], &str); 19] = [
+pub(super) const AFFORDANCES: [(&[&str], &str); 22] = [
     (
         &[
             "sit",
@@ -193,11 +210,42 @@ pub(super) const AFFORDANCES: [(&[&str], &str); 19] = [
         &[
             "when to stop",
             "stop and go",
-            "tells drivers",
             "controls the traffic",
             "traffic signal",
         ],
         "a traffic light",
+    ),
+    (
+        &[
+            "rules of the road",
+            "road rules",
+            "speed limit",
+            "give way",
+            "one way",
+            "road sign",
+        ],
+        "a traffic sign",
+    ),
+    (
+        &[
+            "freight",
+            "haul",
+            "move house",
+            "goods by road",
+            "transport goods",
+            "carries goods",
+        ],
+        "a truck",
+    ),
+    (
+        &[
+            "passengers",
+            "a lift",
+            "a ride",
+            "carries people",
+            "carries a few people",
+        ],
+        "a car",
     ),
     (
         &["without a motor", "pedal", "cycle to", "ride a bike"],
@@ -255,7 +303,8 @@ pub(super) const AFFORDANCES: [(&[&str], &str); 19] = [
         ],
         "a street lamp",
     ),
-    (&["shade", "shady"], "a tree"),
+    // the crown gives the shade, not the trunk
+    (&["shade", "shady"], "a tree canopy"),
     (
         &[
             "children play",
@@ -504,7 +553,14 @@ pub fn parse_rules(text: &str) -> Result<Request> {
                 }
             }
         }
-        let Some((i, e, rel)) = best else { break };
+        let Some((mut i, e, rel)) = best else { break };
+        // a degree word before the relation belongs to it ("right beside", "just behind")
+        if let Some(w) = t[..i].trim_end().rsplit(' ').next()
+            && INTENSIFIERS.contains(&w)
+            && i > w.len()
+        {
+            i -= w.len() + 1;
+        }
         if !cuts.iter().any(|c| i < c.1 && e > c.0) {
             cuts.push((i, e, rel, None));
         }
