@@ -24,9 +24,9 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
     }
     let dir = tempfile::tempdir().unwrap();
     let (sim, db) = sim_map(dir.path(), &["--size", "small", "--seed", "0"], &[]);
-    let queries = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../ingest/eval/data/retrieval_small_city.jsonl");
-    let eval = |extra: &[&str]| {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../ingest/eval/data");
+    let eval_on = |file: &str, extra: &[&str]| {
+        let queries = data.join(file);
         let mut args = vec![
             "eval",
             "retrieval",
@@ -41,8 +41,16 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
         args.extend_from_slice(extra);
         json(&og(&args))
     };
+    let eval = |extra: &[&str]| eval_on("retrieval_small_city.jsonl", extra);
     let plain = eval(&["--plain"]);
     let graph = eval(&[]);
+    // the held-out half of the set generated from the simulator's truth (never tuned on):
+    // measured 1.000 / 0.889 / 0.818; the goal of 0.85 functional is not met yet,
+    // so this guards what there is
+    let held_out = eval_on("retrieval_generated_heldout.jsonl", &[]);
+    assert!(r_at_1(&held_out, "named") >= 0.9, "{held_out}");
+    assert!(r_at_1(&held_out, "relational") >= 0.8, "{held_out}");
+    assert!(r_at_1(&held_out, "functional") >= 0.75, "{held_out}");
     assert!(
         graph["unanswerable"].as_array().unwrap().is_empty(),
         "{graph}"
