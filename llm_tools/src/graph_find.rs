@@ -559,12 +559,13 @@ pub fn find_graph_normed(
                     // only the map's geometric relations count: the LLM relation labels
                     // (`opengraph relations --experimental`) agree with the simulator's truth
                     // less often than the geometry (docs/llm.md)
-                    if get(k_source) == "llm" {
+                    let source = get(k_source);
+                    if source == "llm" {
                         continue;
                     }
                     edges
                         .entry(adj.other)
-                        .or_insert_with(|| format!("{} ({})", get(k_relation), get(k_source)));
+                        .or_insert_with(|| format!("{} ({source})", get(k_relation)));
                 }
             }
         }

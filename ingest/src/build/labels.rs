@@ -31,6 +31,27 @@ pub(super) fn lexicon() -> (Lexicon, Option<String>) {
     }
 }
 
+/// The map-wide label of each noun phrase ([`labels::normalise`]), given one phrase per
+/// object; every phrase is a key of the answer.
+///
+/// # Errors
+/// The embedder fails.
+pub(super) fn labels_of<'p>(
+    phrases: impl IntoIterator<Item = &'p str>,
+    lexicon: &Lexicon,
+    emb: &mut EmbedCache<'_>,
+) -> Result<BTreeMap<String, String>> {
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    for p in phrases {
+        *counts.entry(p.to_string()).or_insert(0) += 1;
+    }
+    labels::normalise(&counts, lexicon, &mut |texts| {
+        emb.get_all(texts)
+            .map_err(|e| llm_tools::Error::Invalid(e.to_string()))
+    })
+    .map_err(|e| Error::Invalid(format!("normalising labels: {e}")))
+}
+
 /// Labels every object `Instance` of `store` (see the module documentation).
 pub(super) fn label_instances(
     store: &Store,
@@ -71,18 +92,11 @@ pub(super) fn label_instances(
         ));
     }
     drop(r);
-    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
-    for row in &rows {
-        *counts.entry(row.1.clone()).or_insert(0) += 1;
-    }
-    let map = labels::normalise(&counts, lexicon, &mut |texts| {
-        emb.get_all(texts)
-            .map_err(|e| llm_tools::Error::Invalid(e.to_string()))
-    })
-    .map_err(|e| Error::Invalid(format!("normalising labels: {e}")))?;
+    let map = labels_of(rows.iter().map(|row| row.1.as_str()), lexicon, emb)?;
     let mut report = LabelReport {
         objects: rows.len(),
-        phrases: counts.len(),
+        // every phrase is a key of the map
+        phrases: map.len(),
         labels: map
             .values()
             .collect::<std::collections::BTreeSet<_>>()

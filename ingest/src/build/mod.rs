@@ -451,16 +451,11 @@ impl Run<'_> {
                 phrase_of.push((*id, p));
             }
         }
-        let mut counts: BTreeMap<String, usize> = BTreeMap::new();
-        for (_, p) in &phrase_of {
-            *counts.entry(p.clone()).or_insert(0) += 1;
-        }
-        let emb = &mut self.emb;
-        let label_of = llm_tools::labels::normalise(&counts, &self.lexicon, &mut |texts| {
-            emb.get_all(texts)
-                .map_err(|e| llm_tools::Error::Invalid(e.to_string()))
-        })
-        .map_err(|e| Error::Invalid(format!("normalising labels: {e}")))?;
+        let label_of = labels::labels_of(
+            phrase_of.iter().map(|(_, p)| p.as_str()),
+            &self.lexicon,
+            &mut self.emb,
+        )?;
         let labels: BTreeSet<&str> = label_of.values().map(String::as_str).collect();
         Ok(phrase_of
             .into_iter()
