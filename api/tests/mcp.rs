@@ -42,11 +42,15 @@ fn a_real_mcp_client_lists_and_calls_the_tools() {
     assert_eq!(
         tools,
         [
+            "count_objects",
             "describe_area",
             "find_objects",
             "get_instance",
             "get_schema",
             "locate",
+            "measure_distance",
+            "nearest_objects",
+            "neighbours",
             "plan_route",
             "read_cypher"
         ]

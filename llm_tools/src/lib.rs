@@ -7,6 +7,7 @@ pub mod embed_cache;
 mod error;
 pub mod graph_find;
 pub mod hash_embed;
+pub mod kinds;
 pub mod labels;
 pub mod locate;
 pub mod prompts;

@@ -80,6 +80,27 @@ def test_find_locate_navigate_describe(m):
     assert one["id"] == seg
 
 
+def test_task_tools_agree_with_cypher(m):
+    # the nearest car to the start of the drive, and its distance, as Cypher computes them
+    start = m.query("MATCH (f:Frame) WITH f ORDER BY f.index LIMIT 1 "
+                    "RETURN f.world_from_velo[3] AS x, f.world_from_velo[11] AS z")[0]
+    near = m.nearest("cars", "the start of the drive", k=1)
+    assert near["near"]["resolved"]["by"] == "drive"
+    best = near["results"][0]
+    c = m.query("MATCH (i:Instance) WHERE id(i) = $id RETURN i.centroid.x AS x, i.centroid.z AS z",
+                {"id": best["id"]})[0]
+    assert abs(best["distance_m"] - ((c["x"] - start["x"]) ** 2 + (c["z"] - start["z"]) ** 2) ** 0.5) < 1e-6
+    everything = m.count("cars", list=0)
+    assert everything["count"] >= 1 and everything["objects"] == []
+    circle = m.count("cars", near="the start of the drive", radius_m=best["distance_m"] + 1e-6)
+    assert circle["count"] >= 1
+    d = m.distance(f"instance:{best['id']}", "the start of the drive")
+    assert abs(d["distance_m"] - best["distance_m"]) < 1e-6
+    around = m.neighbours(best["id"], radius_m=50.0, k=5)
+    gaps = [n["gap_m"] for n in around["neighbours"]]
+    assert gaps == sorted(gaps) and all(g <= 50.0 for g in gaps)
+
+
 def test_instance_points_are_float32_in_the_world_frame(m):
     row = m.query("MATCH (n:Instance) WHERE n.point_count > 10 RETURN id(n) AS id, n.point_count AS k LIMIT 1")[0]
     inst = m.instance(row["id"])

@@ -19,6 +19,7 @@ pub mod query_cache;
 pub mod service;
 pub mod shards;
 pub mod sim;
+pub mod tasks;
 pub mod toolbox;
 pub mod tools;
 pub mod update;

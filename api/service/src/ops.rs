@@ -143,6 +143,157 @@ pub struct UndoMapEditRequest {
     pub edit_id: u64,
 }
 
+/// The longest kind of object a task tool takes ("post box"), characters.
+pub const MAX_KIND_CHARS: u64 = 200;
+
+fn ten() -> u64 {
+    10
+}
+fn twenty() -> u64 {
+    20
+}
+fn yes() -> bool {
+    true
+}
+fn ten_m() -> f64 {
+    10.0
+}
+
+/// How a task tool measures distances on the ground plane.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Measure {
+    /// Between centroids (height ignored).
+    #[default]
+    Centroid,
+    /// Between footprints (0 when they overlap); to a segment's area for a segment.
+    BoxGap,
+}
+
+/// `nearest_objects`: the objects of a kind nearest a place.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NearestObjectsRequest {
+    /// The kind of object, in words or as a label.
+    #[schemars(
+        description = "the kind of object, in words or as a label: 'post box', 'trees', 'a bench'",
+        length(min = 1, max = MAX_KIND_CHARS)
+    )]
+    pub kind: String,
+    /// The place, in words or as a spec.
+    #[schemars(
+        description = "the place: words ('the start of the drive', 'the T-junction', 'the bus shelter by the crossroads') or a spec (instance:ID, segment:ID, lane:ID, node:ID with node ids, or 'x,z' ground coordinates)",
+        length(min = 1, max = MAX_TEXT_CHARS)
+    )]
+    pub near: String,
+    /// How many objects.
+    #[schemars(description = "how many objects", range(min = 1, max = 50))]
+    #[serde(default = "five")]
+    pub k: u64,
+    /// How distances are measured.
+    #[schemars(
+        description = "centroid (default): ground-plane distance between centroids; box_gap: between footprints"
+    )]
+    #[serde(default)]
+    pub measure: Measure,
+    /// Count parts of the kind (a tree's trunk and crown are mapped as objects of their own).
+    #[schemars(
+        description = "include objects that are parts of the kind (a tree's trunk or crown), default true"
+    )]
+    #[serde(default = "yes")]
+    pub parts: bool,
+}
+
+/// `count_objects`: the objects of a kind in an area.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CountObjectsRequest {
+    /// The kind of object, in words or as a label.
+    #[schemars(
+        description = "the kind of object, in words or as a label: 'post box', 'trees', 'a bench'",
+        length(min = 1, max = MAX_KIND_CHARS)
+    )]
+    pub kind: String,
+    /// A road segment, in words or as segment:ID.
+    #[schemars(
+        description = "only in this road segment: words ('the T-junction', 'the crossroads with two bus shelters') or segment:ID (node id)",
+        length(min = 1, max = MAX_TEXT_CHARS)
+    )]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub within: Option<String>,
+    /// The centre of a circle, in words or as a spec.
+    #[schemars(
+        description = "only within radius_m of this place (words or a spec as for nearest_objects)",
+        length(min = 1, max = MAX_TEXT_CHARS)
+    )]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near: Option<String>,
+    /// The circle's radius, metres.
+    #[schemars(
+        description = "the circle's radius around near, metres (default 20)",
+        range(min = 0.0, max = 100000.0)
+    )]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_m: Option<f64>,
+    /// How many of the objects to list.
+    #[schemars(
+        description = "how many of the objects to list (the count is of all)",
+        range(min = 0, max = 500)
+    )]
+    #[serde(default = "twenty")]
+    pub list: u64,
+    /// Count parts of the kind.
+    #[schemars(
+        description = "include objects that are parts of the kind (a tree's trunk or crown), default true"
+    )]
+    #[serde(default = "yes")]
+    pub parts: bool,
+}
+
+/// `measure_distance`: the distance between two places.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DistanceRequest {
+    /// One place.
+    #[schemars(
+        description = "one place: words or a spec (instance:ID, segment:ID, lane:ID, node:ID, 'x,z')",
+        length(min = 1, max = MAX_TEXT_CHARS)
+    )]
+    pub from: String,
+    /// The other place.
+    #[schemars(description = "the other place", length(min = 1, max = MAX_TEXT_CHARS))]
+    pub to: String,
+    /// How the distance is measured.
+    #[schemars(
+        description = "centroid (default): ground-plane distance between centroids; box_gap: between footprints"
+    )]
+    #[serde(default)]
+    pub measure: Measure,
+}
+
+/// `neighbours`: what stands around an object.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NeighboursRequest {
+    /// An Instance node id.
+    #[schemars(description = "an Instance node id")]
+    pub id: u64,
+    /// How far to look, metres (footprint gap).
+    #[schemars(
+        description = "how far to look: the gap between footprints, metres (default 10)",
+        range(min = 0.0, max = 1000.0)
+    )]
+    #[serde(default = "ten_m")]
+    pub radius_m: f64,
+    /// How many neighbours.
+    #[schemars(
+        description = "how many neighbours, nearest first",
+        range(min = 1, max = 100)
+    )]
+    #[serde(default = "ten")]
+    pub k: u64,
+}
+
 /// `ask`: a question for the agent loop.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]

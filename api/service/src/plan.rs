@@ -228,6 +228,41 @@ pub enum Resolved {
         /// The segment.
         result: Box<Located>,
     },
+    /// Where the drive the map was built from starts or ends (its first or last frame's
+    /// position).
+    Drive {
+        /// The words.
+        text: String,
+        /// `start` or `end`.
+        end: String,
+        /// The position, world frame, metres.
+        position: [f64; 3],
+    },
+}
+
+/// Which end of the drive `text` names, when it names only that: "the start of the drive",
+/// "where the drive ended", "the beginning of the trajectory" → `Some("start" | "end")`.
+pub fn drive_end_of(text: &str) -> Option<&'static str> {
+    let t = text.trim().trim_end_matches(['.', '?', '!']).to_lowercase();
+    let words: Vec<&str> = t
+        .split_whitespace()
+        .filter(|w| {
+            !matches!(
+                *w,
+                "the" | "a" | "at" | "from" | "to" | "of" | "where" | "our" | "my"
+            )
+        })
+        .collect();
+    let path = ["drive", "trajectory", "route", "recording", "run", "map"];
+    let (start, end) = (
+        ["start", "starts", "started", "beginning", "begins", "began"],
+        ["end", "ends", "ended", "finish", "finished"],
+    );
+    match words.as_slice() {
+        [a, b] | [b, a] if path.contains(b) && start.contains(a) => Some("start"),
+        [a, b] | [b, a] if path.contains(b) && end.contains(a) => Some("end"),
+        _ => None,
+    }
 }
 
 /// A navigation answer: both ends with how they were resolved, and the plan.
@@ -237,6 +272,9 @@ pub struct NavigateAnswer {
     pub start: Resolved,
     /// The goal.
     pub goal: Resolved,
+    /// The route's length: along the lane graph from the start to the goal, metres
+    /// (`plan.route.length_m`; `plan.path.length_m` is the smoothed path a robot would drive).
+    pub route_length_m: f64,
     /// The route and path.
     pub plan: PlanAnswer,
 }
@@ -293,7 +331,12 @@ pub fn navigate(
         planner::Error::Render(_) => ToolError::Failed(e.to_string()),
         other => bad(&other),
     })?;
-    Ok(NavigateAnswer { start, goal, plan })
+    Ok(NavigateAnswer {
+        start,
+        goal,
+        route_length_m: plan.route.length_m,
+        plan,
+    })
 }
 
 /// Whether `text` is only a place on the road network ("the crossroads", "a T-junction") or
@@ -308,8 +351,9 @@ fn is_place(text: &str) -> bool {
     seg.is_some() && matches!(rest, "" | "the" | "a" | "an")
 }
 
-/// Resolves one end: a spec as given, a place or description by `locate`, anything else by
-/// graph-aware `find` (its best instance).
+/// Resolves one end: a spec as given, an end of the drive ([`drive_end_of`]) as its frame's
+/// position, a place or description by `locate`, anything else by graph-aware `find` (its
+/// best instance).
 ///
 /// # Errors
 /// Nothing found, or the operations fail.
@@ -324,6 +368,23 @@ pub fn resolve_end(
             spec,
             Resolved::Spec {
                 spec: text.trim().to_string(),
+            },
+        ));
+    }
+    if let Some(end) = drive_end_of(text) {
+        let (first, last) = scene::records::drive_ends(r)?.ok_or_else(|| {
+            llm_tools::Error::Invalid(format!(
+                "{text:?} names an end of the drive, but the map has no frames with poses"
+            ))
+        })?;
+        let position = if end == "start" { first } else { last };
+        let xy = scene::records::ground_frame(r)?.ground(position);
+        return Ok((
+            Spec::Point(xy),
+            Resolved::Drive {
+                text: text.to_string(),
+                end: end.to_string(),
+                position,
             },
         ));
     }

@@ -14,6 +14,10 @@
 //! | `plan_route` | [`PlanRouteRequest`] | a route between two ends given in words or as specs (`navigate`) |
 //! | `describe_area` | [`DescribeAreaRequest`] | top-down: the environment's segments, or one segment's objects |
 //! | `get_instance` | [`GetInstanceRequest`] | one instance: caption, class, box, segment, relations |
+//! | `nearest_objects` | [`NearestObjectsRequest`] | the objects of a kind nearest a place, with distances |
+//! | `count_objects` | [`CountObjectsRequest`] | the objects of a kind in a segment, a circle or the map |
+//! | `measure_distance` | [`DistanceRequest`] | the ground-plane distance between two places |
+//! | `neighbours` | [`NeighboursRequest`] | what stands around an object, with gaps and relations |
 //! | `update_map` | [`UpdateMapRequest`] | propose (and with `apply`, commit) an edit from a described change |
 //! | `undo_map_edit` | [`UndoMapEditRequest`] | revert an applied edit exactly |
 
@@ -28,12 +32,14 @@ pub use crate::error::{ToolError, ToolResult};
 use crate::find::{FindRequest, LocateAnswer, LocateRequest, ParserKind, Ranking};
 pub use crate::ops::MAX_CYPHER_CHARS;
 use crate::ops::{
-    AreaAnswer, CypherAnswer, CypherRequest, DescribeAreaRequest, FindObjectsAnswer,
-    FindObjectsRequest, GetInstanceRequest, InstanceAnswer, LocateToolRequest, PlanRouteRequest,
-    SchemaAnswer, SchemaRequest, UndoMapEditRequest, UpdateMapRequest, answer_schema_of,
-    check_args, non_blank, parse, request_schema_of,
+    AreaAnswer, CountObjectsRequest, CypherAnswer, CypherRequest, DescribeAreaRequest,
+    DistanceRequest, FindObjectsAnswer, FindObjectsRequest, GetInstanceRequest, InstanceAnswer,
+    LocateToolRequest, NearestObjectsRequest, NeighboursRequest, PlanRouteRequest, SchemaAnswer,
+    SchemaRequest, UndoMapEditRequest, UpdateMapRequest, answer_schema_of, check_args, non_blank,
+    parse, request_schema_of,
 };
 use crate::plan::NavigateAnswer;
+use crate::tasks::{CountAnswer, DistanceAnswer, NearestAnswer, NeighboursAnswer};
 pub use crate::toolbox::Toolbox;
 use crate::update::UpdateAnswer;
 use ingest::map_edit::EditInfo;
@@ -99,7 +105,27 @@ pub fn tools(writes: bool) -> Vec<Tool> {
         ),
         tool::<PlanRouteRequest, NavigateAnswer>(
             "plan_route",
-            "Plan a route between two ends, each in words ('the bus stop by the crossroads', 'the T-junction') or as a spec (lane:ID, segment:ID, instance:ID, node:ID, or 'x,z' ground coordinates). Returns both ends with how they were resolved, the lane-graph route and its length.",
+            "Plan a route between two ends, each in words ('the bus stop by the crossroads', 'the T-junction') or as a spec (lane:ID, segment:ID, instance:ID, node:ID, or 'x,z' ground coordinates). Ends may also be 'the start of the drive' or 'the end of the drive'. Returns both ends with how they were resolved, route_length_m (the route's length along the lane graph, metres) and the plan (the route's nodes and polyline; path is the smoothed path a robot would drive).",
+            false,
+        ),
+        tool::<NearestObjectsRequest, NearestAnswer>(
+            "nearest_objects",
+            "The objects of a kind nearest a place, nearest first, with distances in metres. kind: words or a label ('post box', 'trees', 'a bench'; synonyms, kinds and parts count: a hatchback is a car, a tree trunk part of a tree). near: words ('the start of the drive', 'the T-junction', 'the bus shelter by the crossroads') or a spec (instance:ID, segment:ID, lane:ID, node:ID with node ids, or 'x,z' ground coordinates). Distances are on the ground plane between centroids, or between footprints with measure=box_gap. The answer lists the labels the kind took and how the place was resolved.",
+            false,
+        ),
+        tool::<CountObjectsRequest, CountAnswer>(
+            "count_objects",
+            "Count (and list) the objects of a kind: on the whole map, in one road segment (within: words such as 'the T-junction' or segment:ID; an object belongs to its nearest segment), or within radius_m of a place (near). Answers how many, how each label matched the kind (parts such as tree trunks are counted unless parts=false), and the first objects with distances.",
+            false,
+        ),
+        tool::<DistanceRequest, DistanceAnswer>(
+            "measure_distance",
+            "The ground-plane distance in metres between two places, each in words or as a spec (instance:ID, segment:ID, lane:ID, node:ID, 'x,z', 'the start of the drive'): between centroids by default, between footprints with measure=box_gap. For the length of a drive between them use plan_route.",
+            false,
+        ),
+        tool::<NeighboursRequest, NeighboursAnswer>(
+            "neighbours",
+            "What stands around an object (Instance node id): the objects whose footprints are within radius_m (default 10) of its footprint, nearest first, with the gap, the centroid distance and the map's geometric relation (next_to, on, ...) where it stores one.",
             false,
         ),
         tool::<CypherRequest, CypherAnswer>(
@@ -239,6 +265,24 @@ impl Toolbox {
             "get_instance" => {
                 let req: GetInstanceRequest = parse(args)?;
                 answer(&self.get_instance(req.id)?)
+            }
+            "nearest_objects" => {
+                let req: NearestObjectsRequest = parse(args)?;
+                non_blank("kind", &req.kind)?;
+                answer(&self.nearest_objects(&req)?)
+            }
+            "count_objects" => {
+                let req: CountObjectsRequest = parse(args)?;
+                non_blank("kind", &req.kind)?;
+                answer(&self.count_objects(&req)?)
+            }
+            "measure_distance" => {
+                let req: DistanceRequest = parse(args)?;
+                answer(&self.measure_distance(&req)?)
+            }
+            "neighbours" => {
+                let req: NeighboursRequest = parse(args)?;
+                answer(&self.neighbours(&req)?)
             }
             other => Err(ToolError::Unknown(other.to_string())),
         }
@@ -443,29 +487,7 @@ mod tests {
     /// called here.
     #[test]
     fn every_answer_is_valid_under_its_output_schema() {
-        use graphstore::{GraphRead, Value};
-        use llm_tools::Embedder;
-        let (_dir, store) = demo_store();
-        // the demo's instances get their captions' features, as a build writes them
-        let r = store.read().unwrap();
-        let ids = r.nodes_with_label(scene::label::INSTANCE).unwrap();
-        let mut hash = llm_tools::HashEmbedder::new(scene::FEATURE_DIM);
-        let mut features = Vec::new();
-        for &id in &ids {
-            let c = r.node_prop(id, scene::key::CAPTION).unwrap().unwrap();
-            let c = c.as_str().unwrap().to_string();
-            features.push((id, hash.embed(&[c.as_str()]).unwrap().remove(0)));
-        }
-        drop(r);
-        store
-            .write(|tx| {
-                let k = tx.prop_key_id(scene::key::FEATURE)?;
-                for (id, f) in &features {
-                    tx.set_node_prop(*id, k, Value::Vector(f.clone()))?;
-                }
-                Ok(())
-            })
-            .unwrap();
+        let (_dir, store) = crate::test_support::demo_store_with_features();
         let mut tb = Toolbox::new(store, hash_finder(), true);
         tb.call(
             "write_cypher",
@@ -518,6 +540,28 @@ mod tests {
             ("describe_area", json!({})),
             ("describe_area", json!({ "segment_id": seg })),
             ("get_instance", json!({ "id": bench })),
+            (
+                "nearest_objects",
+                json!({"kind": "benches", "near": format!("lane:{lane}"), "k": 2}),
+            ),
+            (
+                "nearest_objects",
+                json!({"kind": "a car", "near": format!("instance:{bench}"), "measure": "box_gap"}),
+            ),
+            ("count_objects", json!({"kind": "hedges"})),
+            (
+                "count_objects",
+                json!({"kind": "bench", "within": format!("segment:{seg}")}),
+            ),
+            (
+                "count_objects",
+                json!({"kind": "car", "near": format!("instance:{bench}"), "radius_m": 50.0}),
+            ),
+            (
+                "measure_distance",
+                json!({"from": format!("instance:{bench}"), "to": format!("segment:{seg}"), "measure": "box_gap"}),
+            ),
+            ("neighbours", json!({ "id": bench, "radius_m": 100.0 })),
             (
                 "update_map",
                 json!({"text": "the green wooden bench is now red"}),

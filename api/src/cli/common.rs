@@ -91,6 +91,9 @@ pub(crate) fn print_plan(
         Some(api::plan::Resolved::Locate { text, result }) => {
             format!("  <- locate {text:?}: {} segment", result.kind)
         }
+        Some(api::plan::Resolved::Drive { text, end, .. }) => {
+            format!("  <- {text:?}: the drive's {end}")
+        }
         _ => String::new(),
     };
     outln!(

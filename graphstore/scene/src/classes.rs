@@ -118,6 +118,9 @@ pub fn is_surface(id: u8) -> bool {
 /// these classes as ground, not objects.
 pub const SURFACE_CLASSES: [&str; 5] = ["road", "sidewalk", "parking", "terrain", "other-ground"];
 
+/// The SemanticKITTI classes of people (on foot or riding).
+pub const PEOPLE_CLASSES: [&str; 3] = ["person", "bicyclist", "motorcyclist"];
+
 /// SemanticKITTI's colour (RGB, from its `color_map`) for a class name; grey for others.
 pub fn class_colour(class: &str) -> (u8, u8, u8) {
     match class {

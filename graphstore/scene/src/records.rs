@@ -790,6 +790,40 @@ impl EditRecord {
     }
 }
 
+/// Where the drive the map was built from starts and ends: the translation of the
+/// `world_from_velo` pose of the `Frame` with the lowest and the highest `index`, world
+/// frame, metres; `None` when the map has no frame with a pose.
+///
+/// # Errors
+/// The store fails.
+pub fn drive_ends(r: &impl GraphRead) -> Result<Option<([f64; 3], [f64; 3])>> {
+    // (frame index, position) of the first and the last frame
+    let mut first: Option<(i64, [f64; 3])> = None;
+    let mut last: Option<(i64, [f64; 3])> = None;
+    for id in r.nodes_with_label(label::FRAME)? {
+        let Some(p) = Props::of(r, id, label::FRAME)? else {
+            continue;
+        };
+        let (Some(index), Some(Value::List(pose))) =
+            (p.int(key::INDEX), p.get(key::WORLD_FROM_VELO))
+        else {
+            continue;
+        };
+        let f: Vec<f64> = pose.iter().filter_map(Value::as_f64).collect();
+        if f.len() != 12 || f.iter().any(|x| !x.is_finite()) {
+            continue;
+        }
+        let at = (index, [f[3], f[7], f[11]]);
+        if first.is_none_or(|a| at.0 < a.0) {
+            first = Some(at);
+        }
+        if last.is_none_or(|b| at.0 > b.0) {
+            last = Some(at);
+        }
+    }
+    Ok(first.zip(last).map(|(a, b)| (a.1, b.1)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

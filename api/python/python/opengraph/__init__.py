@@ -199,6 +199,36 @@ class Map:
         objects by class and its notable objects."""
         return self._call("describe_area", segment_id=segment_id)
 
+    def nearest(self, kind: str, near: str, k: int = 5, measure: str = "centroid",
+                parts: bool = True) -> dict:
+        """The ``k`` objects of a kind ("post box", "trees") nearest a place (words such as
+        "the start of the drive" or "the T-junction", or a spec as for `navigate`), nearest
+        first. ``measure``: ``"centroid"`` (ground-plane distance between centroids) or
+        ``"box_gap"`` (between footprints). Returns ``{"kind", "near", "measure",
+        "results"}``, each result with ``id``, ``label``, ``how`` (same, kind_of, part_of,
+        similar) and ``distance_m``."""
+        return self._call("nearest_objects", kind=kind, near=near, k=k, measure=measure,
+                          parts=parts)
+
+    def count(self, kind: str, within: Optional[str] = None, near: Optional[str] = None,
+              radius_m: Optional[float] = None, list: int = 20, parts: bool = True) -> dict:
+        """How many objects of a kind there are on the whole map, in one road segment
+        (``within``: words or ``segment:ID``) or within ``radius_m`` of ``near``. Returns
+        ``{"kind", "area", "count", "by_match", "measure", "objects"}``."""
+        return self._call("count_objects", kind=kind, within=within, near=near,
+                          radius_m=radius_m, list=list, parts=parts)
+
+    def distance(self, a: str, b: str, measure: str = "centroid") -> dict:
+        """The ground-plane distance between two places (words or specs), metres:
+        ``{"from", "to", "distance_m", "measure"}``."""
+        return self._call("measure_distance", **{"from": a, "to": b, "measure": measure})
+
+    def neighbours(self, id: int, radius_m: float = 10.0, k: int = 10) -> dict:
+        """What stands around an instance (node id): the objects whose footprints lie within
+        ``radius_m`` of its own, nearest first, with ``gap_m``, ``centroid_distance_m`` and
+        the map's geometric ``relation``."""
+        return self._call("neighbours", id=id, radius_m=radius_m, k=k)
+
     def instance(self, id: int) -> Instance:
         """One instance by node id, with its points (an ``(N, 3)`` ``float32`` array, world
         frame, metres). Raises `NotFoundError` for an id no node has, `InputError` for a node
