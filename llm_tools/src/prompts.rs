@@ -74,6 +74,19 @@ pub const ASK: Prompt = Prompt {
     text: include_str!("../prompts/ask.v1.txt"),
 };
 
+/// Turns a question about the map into one task (`request::question::Task`, in the flat
+/// form of `request::question::task_form_schema`), with worked examples in the grammar's
+/// key order; the task is run with the service's tools and the answer composed from their
+/// result, not generated. v2 (from v1's errors on the tuning half of the generated
+/// questions, Qwen2.5-Coder 0.5B: segment kinds left null, "in segment:ID" read as a segment
+/// count, "driving distance" as a straight-line distance) says what each action covers and
+/// adds three examples of those forms.
+pub const ASK_TASK: Prompt = Prompt {
+    task: "ask_task",
+    version: 2,
+    text: include_str!("../prompts/ask_task.v2.txt"),
+};
+
 /// The JSON Schema of a merged caption.
 pub fn merge_captions_schema() -> serde_json::Value {
     serde_json::json!({"type": "object",

@@ -1,4 +1,15 @@
-//! `opengraph ask`: an agent loop over a chat model and the tool registry. The model gets the
+//! `opengraph ask`: a question read as one task and answered from the tools' results.
+//!
+//! [`ask`] reads the question as one [`Task`] (count, nearest, distance, route length,
+//! segment, colour, neighbours, locate, find): with a language model, the model fills the
+//! task's flat form under a grammar (`ask_task@v1`, eight worked examples), falling back to
+//! the rule parser ([`parse_question`]) when its form is unusable; without one, the rule
+//! parser alone. The task runs through the same [`Toolbox`] as MCP, and the answer is
+//! composed from the tool's result, not generated; the transcript records the model, the
+//! prompt, the tool calls and the times. Only a question no task fits goes to the free
+//! agent loop ([`agent_loop`]), and only with a model.
+//!
+//! The agent loop: the model gets the
 //! question and the tools (OpenAI-style function calling; grammar-constrained calls for local
 //! models); each tool call runs through the same [`Toolbox`] as MCP and its JSON answer goes
 //! back to the model, until it answers or the step limit is reached. The first round requires
@@ -6,8 +17,12 @@
 //! nothing (measured: Qwen2.5-Coder 1.5B answered "The bench near the bus stop" to "Where can I
 //! post a letter near the bus stop?" without a call).
 
+use std::time::Instant;
+
 use llm_tools::chat::{ChatModel, ChatRequest, Message, Role, ToolSpec};
-use serde_json::Value as Json;
+use llm_tools::request::SegmentConstraint;
+use llm_tools::request::question::{Task, TaskForm, parse_question, task_form_schema};
+use serde_json::{Value as Json, json};
 
 use crate::tools::Toolbox;
 
@@ -40,15 +55,24 @@ pub struct AskAnswer {
     pub answer: Option<String>,
     /// Why it stopped without an answer.
     pub stopped: Option<String>,
-    /// The whole conversation.
+    /// The whole conversation (the model's task form, or the agent loop's messages).
     pub transcript: Vec<Message>,
+    /// The task the question was read as (None for the agent loop).
+    pub task: Option<Task>,
+    /// The answer's value, for checking: a count, a node id, metres, a colour, a segment
+    /// (`{"id", "kind"}`), a list of node ids.
+    pub value: Option<Json>,
+    /// Milliseconds: reading the question, running the task.
+    pub timings_ms: Option<[f64; 2]>,
 }
 
-/// Asks `question` with at most `max_steps` rounds of tool calls.
+/// The free agent loop: the model calls any tool until it answers, with at most `max_steps`
+/// rounds of tool calls. [`ask`] runs it only as the last resort, for a question no task
+/// form fits.
 ///
 /// # Errors
 /// The model fails (a tool failure is shown to the model, not returned).
-pub fn ask(
+pub fn agent_loop(
     model: &mut dyn ChatModel,
     toolbox: &mut Toolbox,
     question: &str,
@@ -90,6 +114,9 @@ pub fn ask(
                 answer: Some(resp.text.trim().to_string()),
                 stopped: None,
                 transcript: messages,
+                task: None,
+                value: None,
+                timings_ms: None,
             });
         }
         let mut assistant = Message::new(Role::Assistant, resp.text.clone());
@@ -131,7 +158,455 @@ pub fn ask(
         answer: None,
         stopped: Some(format!("the step limit ({max_steps}) was reached")),
         transcript: messages,
+        task: None,
+        value: None,
+        timings_ms: None,
     })
+}
+
+/// The task a question is read as, with who read it and the messages.
+fn read_question(
+    model: Option<&mut dyn ChatModel>,
+    question: &str,
+) -> (Option<Task>, String, Vec<Message>) {
+    let rules = || parse_question(question);
+    let Some(model) = model else {
+        return (rules(), "rules".into(), Vec::new());
+    };
+    let id = format!(
+        "{} ({})",
+        model.model_id(),
+        llm_tools::prompts::ASK_TASK.id()
+    );
+    let messages = vec![
+        Message::system(llm_tools::prompts::ASK_TASK.text),
+        Message::user(format!("Question: {}", question.trim())),
+    ];
+    let req = ChatRequest::new(messages.clone())
+        .with_schema(task_form_schema())
+        .with_max_tokens(160);
+    let mut transcript = messages;
+    let read = model.chat(&req).map_err(|e| e.to_string()).and_then(|a| {
+        transcript.push(Message::new(Role::Assistant, a.text.clone()));
+        let form: TaskForm = serde_json::from_value(a.json.ok_or("no structured answer")?)
+            .map_err(|e| format!("not a task form: {e}"))?;
+        form.into_task(question)
+    });
+    match read {
+        Ok(t) => (Some(fill_from_rules(t, rules())), id, transcript),
+        Err(why) => {
+            transcript.push(Message::new(
+                Role::Tool,
+                format!("the model's task was unusable ({why}); the rule parser read it"),
+            ));
+            (rules(), format!("rules, after {id}"), transcript)
+        }
+    }
+}
+
+/// What the model left empty in a task the rules read as the same task, the rules fill: a
+/// count's segment, place or radius, a segment count's kind.
+fn fill_from_rules(task: Task, rules: Option<Task>) -> Task {
+    match (task, rules) {
+        (
+            Task::Count {
+                kind,
+                within,
+                near,
+                radius_m,
+            },
+            Some(Task::Count {
+                within: w,
+                near: n,
+                radius_m: r,
+                ..
+            }),
+        ) => {
+            let (within, near, radius_m) = if within.is_none() && near.is_none() {
+                (w, n, r)
+            } else if near.is_none() && radius_m.is_none() && r.is_some() {
+                // "within 20 m of X" read as a count in X
+                (None, n.or(within), r)
+            } else {
+                (within, near, radius_m.or(r))
+            };
+            Task::Count {
+                kind,
+                within,
+                near,
+                radius_m,
+            }
+        }
+        (
+            Task::CountSegments { segment_kind: None },
+            Some(Task::CountSegments { segment_kind }),
+        ) => Task::CountSegments { segment_kind },
+        (t, _) => t,
+    }
+}
+
+/// Answers `question`: read as one task (by the model when given, else or on failure by the
+/// rules), run with the tools, the answer composed from their result. A question no task
+/// fits goes to [`agent_loop`] with the model (`max_steps` rounds), or is answered "not
+/// understood" without one.
+///
+/// # Errors
+/// An empty question; the model fails in the agent loop. A task's tool failure is the
+/// answer's `stopped`, not an error.
+pub fn ask(
+    model: Option<&mut dyn ChatModel>,
+    toolbox: &mut Toolbox,
+    question: &str,
+    max_steps: usize,
+) -> llm_tools::Result<AskAnswer> {
+    if question.trim().is_empty() {
+        return Err(llm_tools::Error::Invalid("the question is empty".into()));
+    }
+    let t0 = Instant::now();
+    let mut model = model;
+    let (task, parsed_by, transcript) = match model.as_mut() {
+        Some(m) => read_question(Some(&mut **m), question),
+        None => read_question(None, question),
+    };
+    let t_read = t0.elapsed().as_secs_f64() * 1e3;
+    let Some(task) = task else {
+        if let Some(m) = model {
+            return agent_loop(m, toolbox, question, max_steps);
+        }
+        return Ok(AskAnswer {
+            question: question.to_string(),
+            model: parsed_by,
+            steps: Vec::new(),
+            answer: None,
+            stopped: Some(
+                "not understood without a language model: ask how many (objects of a kind, or T-junctions), the nearest X to a place, how far A is from B, how long the route from A to B is, which segment X is in, what colour X is, or what is next to X".into(),
+            ),
+            transcript,
+            task: None,
+            value: None,
+            timings_ms: Some([t_read, 0.0]),
+        });
+    };
+    let t1 = Instant::now();
+    let mut steps = Vec::new();
+    let mut task = task;
+    let mut parsed_by = parsed_by;
+    let mut done = run_task(toolbox, &task, &mut steps);
+    // a model's task that cannot run: the rules' reading, when it is another
+    if done.is_err()
+        && parsed_by != "rules"
+        && let Some(r) = parse_question(question).filter(|r| *r != task)
+    {
+        let again = run_task(toolbox, &r, &mut steps);
+        if again.is_ok() {
+            parsed_by = format!("rules, after {parsed_by}'s task failed");
+            task = r;
+            done = again;
+        }
+    }
+    let t_run = t1.elapsed().as_secs_f64() * 1e3;
+    let (answer, value, stopped) = match done {
+        Ok((text, value)) => (Some(text), Some(value), None),
+        Err(why) => (None, None, Some(why)),
+    };
+    Ok(AskAnswer {
+        question: question.to_string(),
+        model: parsed_by,
+        steps,
+        answer,
+        stopped,
+        transcript,
+        task: Some(task),
+        value,
+        timings_ms: Some([t_read, t_run]),
+    })
+}
+
+/// Calls one tool and records the step; an error is the step's and the message returned.
+fn call(
+    toolbox: &mut Toolbox,
+    steps: &mut Vec<AskStep>,
+    tool: &str,
+    arguments: Json,
+) -> Result<Json, String> {
+    let out = toolbox.call(tool, &arguments);
+    let (result, is_error) = match &out {
+        Ok(v) => (v.clone(), false),
+        Err(e) => (Json::String(e.to_string()), true),
+    };
+    steps.push(AskStep {
+        tool: tool.to_string(),
+        arguments,
+        result,
+        is_error,
+    });
+    out.map_err(|e| format!("{tool}: {e}"))
+}
+
+/// The words for a segment kind.
+fn segment_words(kind: &str) -> &str {
+    match kind {
+        "intersection" => "a crossroads",
+        "t_intersection" => "a T-junction",
+        "l_intersection" => "a bend",
+        "straight_roadway" => "a straight road",
+        other => other,
+    }
+}
+
+/// The best object `find_objects` gives for words, as (id, label, caption, segment).
+fn best_object(
+    toolbox: &mut Toolbox,
+    steps: &mut Vec<AskStep>,
+    text: &str,
+) -> Result<Json, String> {
+    let a = call(
+        toolbox,
+        steps,
+        "find_objects",
+        json!({"text": text, "k": 1}),
+    )?;
+    a["results"]
+        .get(0)
+        .cloned()
+        .ok_or_else(|| format!("nothing in the map matches {text:?}"))
+}
+
+/// Runs a task; returns the answer's text and value.
+fn run_task(
+    toolbox: &mut Toolbox,
+    task: &Task,
+    steps: &mut Vec<AskStep>,
+) -> Result<(String, Json), String> {
+    let f1 = |v: &Json| v.as_f64().unwrap_or(f64::NAN);
+    match task {
+        Task::Count {
+            kind,
+            within,
+            near,
+            radius_m,
+        } => {
+            let mut args = json!({"kind": kind, "list": 0});
+            if let Some(w) = within {
+                args["within"] = json!(w);
+            }
+            if let Some(n) = near {
+                args["near"] = json!(n);
+            }
+            if let Some(r) = radius_m {
+                args["radius_m"] = json!(r);
+            }
+            let a = call(toolbox, steps, "count_objects", args)?;
+            let n = a["count"].as_u64().unwrap_or(0);
+            let labels: Vec<String> = a["kind"]["labels"]
+                .as_array()
+                .map(|v| {
+                    v.iter()
+                        .map(|l| {
+                            format!(
+                                "{} {} ({})",
+                                l["objects"],
+                                l["label"].as_str().unwrap_or(""),
+                                l["how"].as_str().unwrap_or("")
+                            )
+                        })
+                        .collect()
+                })
+                .unwrap_or_default();
+            let area = match a["area"]["by"].as_str() {
+                Some("segment") => format!(" in segment {}", a["area"]["segment_id"]),
+                Some("circle") => format!(
+                    " within {} m of {}",
+                    a["area"]["radius_m"],
+                    near.as_deref().unwrap_or("the place")
+                ),
+                _ => " on the map".into(),
+            };
+            let how = if labels.is_empty() {
+                String::from("no label of the map matches it")
+            } else {
+                format!("labels taken over the map: {}", labels.join(", "))
+            };
+            Ok((format!("{n} {kind}{area} ({how})."), json!(n)))
+        }
+        Task::CountSegments { segment_kind } => {
+            let a = call(toolbox, steps, "describe_area", json!({}))?;
+            let segs = a["segments"].as_array().cloned().unwrap_or_default();
+            let ids: Vec<u64> = segs
+                .iter()
+                .filter(|s| {
+                    segment_kind.is_none_or(|k: SegmentConstraint| {
+                        k.admits(s["kind"].as_str().unwrap_or(""))
+                    })
+                })
+                .filter_map(|s| s["id"].as_u64())
+                .collect();
+            let what = segment_kind.map_or("road segments", |k| match k {
+                SegmentConstraint::Crossroads => "crossroads",
+                SegmentConstraint::TJunction => "T-junctions",
+                SegmentConstraint::Bend => "bends",
+                SegmentConstraint::StraightRoad => "straight roads",
+                SegmentConstraint::Junction => "junctions",
+            });
+            Ok((
+                format!(
+                    "The map has {} {what} (segment node ids {:?}).",
+                    ids.len(),
+                    ids
+                ),
+                json!(ids.len()),
+            ))
+        }
+        Task::Nearest { kind, near } => {
+            let a = call(
+                toolbox,
+                steps,
+                "nearest_objects",
+                json!({"kind": kind, "near": near, "k": 1}),
+            )?;
+            let r = a["results"]
+                .get(0)
+                .ok_or_else(|| format!("the map has no {kind}"))?;
+            Ok((
+                format!(
+                    "The nearest {} to {near} is instance {} (\"{}\"), {:.1} m away (ground-plane distance between centroids).",
+                    r["label"].as_str().unwrap_or(kind),
+                    r["id"],
+                    r["caption"].as_str().unwrap_or(""),
+                    f1(&r["distance_m"])
+                ),
+                r["id"].clone(),
+            ))
+        }
+        Task::Distance { from, to } => {
+            let a = call(
+                toolbox,
+                steps,
+                "measure_distance",
+                json!({"from": from, "to": to}),
+            )?;
+            let d = f1(&a["distance_m"]);
+            Ok((
+                format!(
+                    "{from} and {to} are {d:.1} m apart (ground-plane distance between centroids)."
+                ),
+                json!(d),
+            ))
+        }
+        Task::RouteLength { from, to } => {
+            let a = call(
+                toolbox,
+                steps,
+                "plan_route",
+                json!({"from": from, "to": to}),
+            )?;
+            let d = f1(&a["route_length_m"]);
+            Ok((
+                format!("The route from {from} to {to} is {d:.1} m long along the lane graph."),
+                json!(d),
+            ))
+        }
+        Task::Segment { object } => {
+            let o = best_object(toolbox, steps, object)?;
+            let seg = &o["segment"];
+            let (id, kind) = (seg[0].clone(), seg[1].as_str().unwrap_or("").to_string());
+            if id.is_null() {
+                return Err(format!("instance {} is in no segment", o["id"]));
+            }
+            Ok((
+                format!(
+                    "Instance {} (\"{}\") is in segment {id}, {}.",
+                    o["id"],
+                    o["caption"].as_str().unwrap_or(""),
+                    segment_words(&kind)
+                ),
+                json!({"id": id, "kind": kind}),
+            ))
+        }
+        Task::Colour { object } => {
+            let o = best_object(toolbox, steps, object)?;
+            let i = call(toolbox, steps, "get_instance", json!({"id": o["id"]}))?;
+            let colour = i["properties"]["colour"].as_str().map(str::to_string);
+            match colour {
+                Some(c) => Ok((
+                    format!(
+                        "Instance {} (\"{}\") is {c}.",
+                        o["id"],
+                        o["caption"].as_str().unwrap_or("")
+                    ),
+                    json!(c),
+                )),
+                None => Err(format!(
+                    "instance {} (\"{}\") has no colour its captions agree on",
+                    o["id"],
+                    o["caption"].as_str().unwrap_or("")
+                )),
+            }
+        }
+        Task::Neighbours { object } => {
+            let o = best_object(toolbox, steps, object)?;
+            let a = call(toolbox, steps, "neighbours", json!({"id": o["id"], "k": 5}))?;
+            let list: Vec<&Json> = a["neighbours"]
+                .as_array()
+                .map(|v| v.iter().collect())
+                .unwrap_or_default();
+            let words: Vec<String> = list
+                .iter()
+                .map(|n| {
+                    format!(
+                        "{} {} ({:.1} m)",
+                        n["label"].as_str().unwrap_or(""),
+                        n["id"],
+                        f1(&n["gap_m"])
+                    )
+                })
+                .collect();
+            let ids: Vec<Json> = list.iter().map(|n| n["id"].clone()).collect();
+            Ok((
+                format!(
+                    "Around instance {} (\"{}\"): {}.",
+                    o["id"],
+                    o["caption"].as_str().unwrap_or(""),
+                    if words.is_empty() {
+                        "nothing within 10 m".into()
+                    } else {
+                        words.join(", ")
+                    }
+                ),
+                Json::Array(ids),
+            ))
+        }
+        Task::Locate { text } => {
+            let a = call(toolbox, steps, "locate", json!({"text": text, "k": 3}))?;
+            let r = a["results"]
+                .get(0)
+                .ok_or("no road segment fits the description")?;
+            Ok((
+                format!(
+                    "Most likely segment {}, {}.",
+                    r["segment"],
+                    segment_words(r["kind"].as_str().unwrap_or(""))
+                ),
+                r["segment"].clone(),
+            ))
+        }
+        Task::Find { text } => {
+            let o = best_object(toolbox, steps, text)?;
+            let c = &o["centroid"];
+            Ok((
+                format!(
+                    "Instance {} (\"{}\") at ({:.1}, {:.1}, {:.1}), segment {}.",
+                    o["id"],
+                    o["caption"].as_str().unwrap_or(""),
+                    f1(&c[0]),
+                    f1(&c[1]),
+                    f1(&c[2]),
+                    o["segment"][0]
+                ),
+                o["id"].clone(),
+            ))
+        }
+    }
 }
 
 #[cfg(test)]
@@ -164,7 +639,7 @@ mod tests {
                 Reply::Text("There are nodes.".into()),
             ],
         );
-        let a = ask(&mut m, &mut tb, "How many nodes?", 5).unwrap();
+        let a = agent_loop(&mut m, &mut tb, "How many nodes?", 5).unwrap();
         assert_eq!(a.answer.as_deref(), Some("There are nodes."));
         assert_eq!(a.steps.len(), 2);
         assert!(!a.steps[0].is_error && a.steps[0].result["row_count"] == 1);
@@ -194,15 +669,64 @@ mod tests {
         assert!(a.model.ends_with("(ask@v1)"));
     }
 
+    fn demo_toolbox() -> (tempfile::TempDir, Toolbox) {
+        let (dir, store) = crate::test_support::demo_store_with_features();
+        let mut tb = Toolbox::new(store, crate::test_support::hash_finder(), true);
+        tb.call(
+            "write_cypher",
+            &json!({"query": "MATCH (e:Environment) SET e.ground_frame = 'enu'"}),
+        )
+        .unwrap();
+        (dir, tb)
+    }
+
+    /// The model's form is the task, its answer is composed from the tool's result (the
+    /// value is count_objects' count), and what the model left out the rules fill; without a
+    /// model the rules read the same question to the same value.
+    #[test]
+    fn a_question_is_one_task_answered_from_the_tools() {
+        let (_dir, mut tb) = demo_toolbox();
+        let truth = tb.call("count_objects", &json!({"kind": "bench"})).unwrap()["count"].clone();
+        assert_eq!(truth, 1);
+        let form = r#"{"action": "count", "kind": "benches", "place": "", "radius_m": null, "segment_kind": null, "to": ""}"#;
+        let mut m = Scripted::new("script", vec![Reply::Text(form.into())]);
+        let a = ask(Some(&mut m), &mut tb, "How many benches are there?", 3).unwrap();
+        assert_eq!(a.value, Some(truth.clone()), "{a:?}");
+        assert!(
+            a.model
+                .ends_with(&format!("({})", llm_tools::prompts::ASK_TASK.id()))
+        );
+        assert_eq!(a.steps.len(), 1);
+        assert_eq!(a.steps[0].tool, "count_objects");
+        assert!(a.answer.unwrap().starts_with("1 benches on the map"));
+        let r = ask(None, &mut tb, "How many benches are there?", 3).unwrap();
+        assert_eq!((r.value, r.model.as_str()), (Some(truth), "rules"));
+        // a segment count the model left without its kind: the rules fill it
+        let form = r#"{"action": "count_segments", "kind": "", "place": "", "radius_m": null, "segment_kind": null, "to": ""}"#;
+        let mut m = Scripted::new("script", vec![Reply::Text(form.into())]);
+        let a = ask(Some(&mut m), &mut tb, "How many T-junctions are there?", 3).unwrap();
+        assert_eq!(
+            a.task,
+            Some(Task::CountSegments {
+                segment_kind: Some(SegmentConstraint::TJunction)
+            })
+        );
+        // an unusable form: the rules read the question
+        let mut m = Scripted::new("script", vec![Reply::Text("{}".into())]);
+        let a = ask(Some(&mut m), &mut tb, "How many benches are there?", 3).unwrap();
+        assert!(a.model.starts_with("rules, after script"), "{}", a.model);
+        assert_eq!(a.value, Some(json!(1)));
+    }
+
     #[test]
     fn the_step_limit_stops_a_model_that_never_answers() {
         let (_dir, mut tb) = toolbox();
         let mut m = Scripted::from_fn("loop", |_| {
             Reply::Tools(vec![("get_schema".into(), json!({}))])
         });
-        let a = ask(&mut m, &mut tb, "?", 3).unwrap();
+        let a = agent_loop(&mut m, &mut tb, "?", 3).unwrap();
         assert_eq!((a.steps.len(), a.answer.is_none()), (3, true));
         assert!(a.stopped.unwrap().contains("step limit"));
-        assert!(ask(&mut m, &mut tb, "  ", 3).is_err());
+        assert!(agent_loop(&mut m, &mut tb, "  ", 3).is_err());
     }
 }

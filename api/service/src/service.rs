@@ -116,27 +116,28 @@ impl Service {
             .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).model_id())
     }
 
-    /// `ask`: the agent loop ([`crate::ask::ask`]) over the service's model and a worker's
-    /// tools, for at most `max_steps` tool calls. The write tools are offered to the model only
-    /// when the caller may write.
+    /// `ask` ([`crate::ask::ask`]): the question read as one task by the service's model, or
+    /// by the rule parser when it has none, and answered from a worker's tools (the agent
+    /// loop, with at most `max_steps` tool calls, only for a question no task fits). The
+    /// write tools are offered to the model only when the caller may write.
     ///
     /// # Errors
-    /// [`ToolError::BadArguments`] for an empty question or a service without a model; the
-    /// model's failures; [`ToolError::TimedOut`] past [`ASK_TIMEOUT`].
+    /// [`ToolError::BadArguments`] for an empty question; the model's failures;
+    /// [`ToolError::TimedOut`] past [`ASK_TIMEOUT`].
     pub async fn ask(self: &Arc<Self>, args: &Json, may_write: bool) -> ToolResult<Json> {
         let req = crate::ops::check_ask(args)?;
         let (question, max_steps) = (req.question, req.max_steps as usize);
-        let Some(llm) = self.llm.clone() else {
-            return Err(ToolError::BadArguments(
-                "this server has no language model: start it with --llm local (or openai with --llm-url)"
-                    .into(),
-            ));
-        };
+        let llm = self.llm.clone();
         self.run_for(ASK_TIMEOUT.max(self.timeout), move |tb| {
-            let mut model = llm.lock().unwrap_or_else(|e| e.into_inner());
+            let mut guard = llm
+                .as_ref()
+                .map(|l| l.lock().unwrap_or_else(|e| e.into_inner()));
+            let model = guard
+                .as_mut()
+                .map(|m| m.as_mut() as &mut dyn llm_tools::ChatModel);
             let writes = tb.writes();
             tb.set_writes(writes && may_write);
-            let out = crate::ask::ask(model.as_mut(), tb, &question, max_steps);
+            let out = crate::ask::ask(model, tb, &question, max_steps);
             tb.set_writes(writes);
             let a = out?;
             serde_json::to_value(a).map_err(|e| ToolError::Failed(e.to_string()))
@@ -413,6 +414,8 @@ mod tests {
             Box::new(Scripted::new(
                 "script",
                 vec![
+                    // the task form: nothing a task fits, so the agent loop runs
+                    Reply::Text("no task".into()),
                     Reply::Tools(vec![(
                         "write_cypher".into(),
                         serde_json::json!({"query": "CREATE (:Hack)"}),
@@ -460,21 +463,26 @@ mod tests {
             .unwrap();
         assert_eq!(a["steps"][0]["is_error"], false, "{a}");
         assert_eq!(count(&store), 1);
-        // without a model, ask is the caller's error
+        // without a model, the rule parser reads the question; one no task fits is not
+        // understood, and says which forms are
         let finder = hash_finder();
         let svc = Service::new(
             vec![Toolbox::new(store, finder, false)],
             Duration::from_secs(5),
         )
         .unwrap();
-        let e = rt
+        let a = rt
             .block_on(svc.ask(
                 &serde_json::json!({"question": "hi", "max_steps": 2}),
                 false,
             ))
-            .unwrap_err();
-        assert_eq!(e.http_status(), 400);
-        assert!(e.to_string().contains("--llm"), "{e}");
+            .unwrap();
+        assert_eq!(a["model"], "rules", "{a}");
+        assert!(a["answer"].is_null(), "{a}");
+        assert!(
+            a["stopped"].as_str().unwrap().contains("not understood"),
+            "{a}"
+        );
     }
 
     /// With a writer, a write runs while every reader is busy: it does not queue behind them.

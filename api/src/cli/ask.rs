@@ -18,10 +18,16 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     // the service checks the request as it does for HTTP and MCP
     let req =
         api::ops::check_ask(&serde_json::json!({"question": question, "max_steps": max_steps}))?;
-    let mut model = open_llm(&llm.config(llm_tools::LlmConfig::default(), "local"), "ask")?;
+    // --llm none: the rule parser reads the question
+    let mut model = llm_tools::chat::open(&llm.config(llm_tools::LlmConfig::default(), "local"))?;
+    if let Some(m) = &model {
+        errln!("language model: {}", m.model_id());
+    }
     let mut tb = open_toolbox(&db, false)?;
     let a = api::ask::ask(
-        model.as_mut(),
+        model
+            .as_mut()
+            .map(|m| &mut **m as &mut dyn llm_tools::ChatModel),
         &mut tb,
         &req.question,
         req.max_steps as usize,

@@ -7,6 +7,7 @@ use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::error::{Error, Result};
 
 mod llm;
+pub mod question;
 mod route;
 mod rules;
 pub use llm::*;
