@@ -45,6 +45,19 @@ fn fuzz_tool_arguments() {
             r#"{"text": "the bench is gone", "apply": false}"#,
         ),
         ("undo_map_edit", r#"{"edit_id": 99}"#),
+        (
+            "nearest_objects",
+            r#"{"kind": "benches", "near": "lane:1", "k": 3, "measure": "box_gap"}"#,
+        ),
+        (
+            "count_objects",
+            r#"{"kind": "cars", "near": "0,0", "radius_m": 20.0, "list": 5}"#,
+        ),
+        (
+            "measure_distance",
+            r#"{"from": "instance:2", "to": "the start of the drive"}"#,
+        ),
+        ("neighbours", r#"{"id": 2, "radius_m": 5.0, "k": 3}"#),
     ];
     // every tool has an example
     for t in tools(true) {
