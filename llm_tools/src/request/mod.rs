@@ -174,14 +174,20 @@ pub struct Request {
     pub nearest: bool,
 }
 
-/// The JSON Schema of [`Request`] (draft 2020-12), as the language model fills it.
-pub fn request_schema() -> serde_json::Value {
-    let relations: Vec<&str> = Relation::ALL.iter().map(|r| r.as_str()).collect();
-    let segments: Vec<serde_json::Value> = SegmentConstraint::ALL
+/// The values a model may give for a segment constraint: every [`SegmentConstraint`] by
+/// name, and null.
+pub(crate) fn segment_enum() -> Vec<serde_json::Value> {
+    SegmentConstraint::ALL
         .iter()
         .map(|s| serde_json::Value::from(s.as_str()))
         .chain([serde_json::Value::Null])
-        .collect();
+        .collect()
+}
+
+/// The JSON Schema of [`Request`] (draft 2020-12), as the language model fills it.
+pub fn request_schema() -> serde_json::Value {
+    let relations: Vec<&str> = Relation::ALL.iter().map(|r| r.as_str()).collect();
+    let segments = segment_enum();
     serde_json::json!({
         "type": "object",
         "properties": {

@@ -99,11 +99,7 @@ pub struct TaskForm {
 
 /// The JSON Schema of [`TaskForm`], the model's grammar.
 pub fn task_form_schema() -> serde_json::Value {
-    let segments: Vec<serde_json::Value> = SegmentConstraint::ALL
-        .iter()
-        .map(|s| serde_json::Value::from(s.as_str()))
-        .chain([serde_json::Value::Null])
-        .collect();
+    let segments = super::segment_enum();
     serde_json::json!({
         "type": "object",
         "properties": {
