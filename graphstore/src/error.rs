@@ -108,6 +108,16 @@ pub enum Error {
     /// A Cypher query failed to parse, check or run.
     #[error(transparent)]
     Query(#[from] crate::cypher::QueryError),
+    /// A bad line in a file being imported.
+    #[error("{path}:{line}: {detail}")]
+    Import {
+        /// The file.
+        path: PathBuf,
+        /// The 1-based line (the header is line 1; 0 when no line applies).
+        line: u64,
+        /// What was wrong.
+        detail: String,
+    },
     /// An I/O error outside redb (export files and the like).
     #[error("i/o error on {path}: {error}")]
     Io {

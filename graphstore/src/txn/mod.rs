@@ -580,6 +580,13 @@ impl<'a> WriteTxn<'a> {
         self.apply_node(id, None, Some(&rec))
     }
 
+    /// Marks every node id below `next` as handed out, so [`WriteTxn::restore_node`] can
+    /// place nodes under the ids they had elsewhere (an import keeping its files' ids). Never
+    /// lowers the counter.
+    pub fn reserve_node_ids(&mut self, next: u64) {
+        self.next_node = self.next_node.max(next);
+    }
+
     /// Creates a node from names: `create("Note", &[("text", "a bench".into())])`.
     pub fn create_node_named(&mut self, labels: &[&str], props: &[(&str, Value)]) -> Result<u64> {
         let ls = labels

@@ -1,0 +1,704 @@
+//! Import of the CSV files of Neo4j's bulk importer (`neo4j-admin database import full`), in
+//! its documented header format
+//! (<https://neo4j.com/docs/operations-manual/current/tools/neo4j-admin/neo4j-admin-import/>),
+//! as [`crate::export::neo4j_csv`] writes them.
+//!
+//! - Node files: `:ID` (or `name:ID`, which also stores the id as property `name`; an id space
+//!   as `:ID(Space)`), `:LABEL` (`;`-separated) and `key:type` columns. Labels can also be
+//!   given per file (`Label1:Label2=nodes.csv`, as on neo4j-admin's command line).
+//! - Relationship files: `:START_ID`, `:END_ID` (with the id space of their nodes), `:TYPE`
+//!   (or the type given per file, `TYPE=rels.csv`) and `key:type` columns.
+//! - Types: `int`, `long`, `short`, `byte` (integers); `float`, `double`; `boolean`; `string`,
+//!   `char`; `point` (`{x: .., y: ..[, z: ..]}`); `date`, `time`, `datetime`, `localtime`,
+//!   `localdatetime`, `duration` are kept as their text; each with `[]` for an array of items
+//!   separated by `;`. `float[]` becomes a dense vector (embeddings), as the export writes
+//!   them. A column without a type is `string`; `:IGNORE` columns are skipped. An empty field
+//!   is an absent property.
+//!
+//! When every `:ID` is a non-negative integer and the store is empty, nodes keep their ids (so
+//! a map exported and imported answers with the same node ids); otherwise they get new ids and
+//! the relationship files are resolved through the file ids.
+//!
+//! The import reads each node file twice: first the ids only (checking they are unique and
+//! counting them), then everything, committing a transaction every `batch_rows` rows. A bad
+//! field fails with the file, the line and the column; the batches committed before stay,
+//! so callers that must leave nothing behind import into a new store (as `opengraph import`
+//! does: into a temporary file, renamed at the end).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::export::neo4j_csv::ARRAY_DELIMITER;
+use crate::store::Store;
+use crate::tokens::{LabelId, PropKey, RelType};
+use crate::txn::WriteTxn;
+use crate::value::Value;
+
+/// One file to import, with the labels (node files) or the type (relationship files) given
+/// for all of its rows, besides those of its `:LABEL` or `:TYPE` column.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CsvFile {
+    /// The CSV file.
+    pub path: PathBuf,
+    /// Labels of every row (node files) or the type of every row (relationship files: at
+    /// most one).
+    pub given: Vec<String>,
+}
+
+impl CsvFile {
+    /// Parses neo4j-admin's file argument: `path`, or `Label1:Label2=path` / `TYPE=path`.
+    pub fn parse(arg: &str) -> CsvFile {
+        match arg.split_once('=') {
+            Some((given, path)) if !given.is_empty() && !given.contains(['/', '\\']) => CsvFile {
+                path: PathBuf::from(path),
+                given: given
+                    .split(':')
+                    .filter(|s| !s.is_empty())
+                    .map(str::to_string)
+                    .collect(),
+            },
+            _ => CsvFile {
+                path: PathBuf::from(arg),
+                given: Vec::new(),
+            },
+        }
+    }
+}
+
+/// The files of one import.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct CsvFiles {
+    /// Node files, imported in this order.
+    pub nodes: Vec<CsvFile>,
+    /// Relationship files, imported after every node file.
+    pub relationships: Vec<CsvFile>,
+}
+
+impl CsvFiles {
+    /// The files of a folder as the export writes it: `nodes*.csv` and
+    /// `relationships*.csv`, each sorted by name.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the folder cannot be read; [`Error::Import`] when it holds no node
+    /// file.
+    pub fn from_folder(dir: &Path) -> Result<CsvFiles> {
+        let rd = std::fs::read_dir(dir).map_err(|error| Error::Io {
+            path: dir.to_path_buf(),
+            error,
+        })?;
+        let mut names: Vec<String> = rd
+            .filter_map(|e| e.ok())
+            .filter_map(|e| e.file_name().to_str().map(str::to_string))
+            .filter(|n| n.ends_with(".csv"))
+            .collect();
+        names.sort();
+        let pick = |prefix: &str| -> Vec<CsvFile> {
+            names
+                .iter()
+                .filter(|n| n.starts_with(prefix))
+                .map(|n| CsvFile {
+                    path: dir.join(n),
+                    given: Vec::new(),
+                })
+                .collect()
+        };
+        let files = CsvFiles {
+            nodes: pick("nodes"),
+            relationships: pick("relationships"),
+        };
+        if files.nodes.is_empty() {
+            return Err(Error::Import {
+                path: dir.to_path_buf(),
+                line: 0,
+                detail: "no nodes*.csv file in this folder (name the files with --nodes and \
+                         --relationships)"
+                    .into(),
+            });
+        }
+        Ok(files)
+    }
+
+    fn total_bytes(&self) -> u64 {
+        self.nodes
+            .iter()
+            .chain(&self.relationships)
+            .filter_map(|f| std::fs::metadata(&f.path).ok())
+            .map(|m| m.len())
+            .sum()
+    }
+}
+
+/// What one import wrote.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct CsvImport {
+    /// Nodes created.
+    pub nodes: u64,
+    /// Relationships created.
+    pub relationships: u64,
+    /// True when the nodes kept the integer ids of their files.
+    pub ids_kept: bool,
+    /// Transactions committed.
+    pub batches: u64,
+}
+
+/// A column's type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Scalar {
+    Int,
+    Float,
+    Bool,
+    Str,
+    Point,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Col {
+    /// `:ID`, storing the id as property `Some(name)` too.
+    Id(Option<String>, String),
+    Label,
+    StartId(String),
+    EndId(String),
+    Type,
+    Ignore,
+    /// A property: name, item type, array.
+    Prop(String, Scalar, bool),
+}
+
+fn parse_header(path: &Path, fields: &csv::StringRecord) -> Result<Vec<Col>> {
+    let bad = |detail: String| Error::Import {
+        path: path.to_path_buf(),
+        line: 1,
+        detail,
+    };
+    let mut cols = Vec::with_capacity(fields.len());
+    for (i, h) in fields.iter().enumerate() {
+        let h = h.trim();
+        // `point{crs:WGS-84}`: options in braces are accepted and ignored
+        let core = h.split('{').next().unwrap_or(h);
+        let (name, ty) = match core.rfind(':') {
+            Some(p) => (&core[..p], core[p + 1..].trim()),
+            None => (core, "string"),
+        };
+        let (base, group) = match ty.split_once('(') {
+            Some((b, rest)) => (b, rest.trim_end_matches(')').to_string()),
+            None => (ty, String::new()),
+        };
+        let col = match base.to_ascii_uppercase().as_str() {
+            "ID" => Col::Id((!name.is_empty()).then(|| name.to_string()), group),
+            "LABEL" => Col::Label,
+            "START_ID" => Col::StartId(group),
+            "END_ID" => Col::EndId(group),
+            "TYPE" => Col::Type,
+            "IGNORE" => Col::Ignore,
+            _ => {
+                if name.is_empty() {
+                    return Err(bad(format!(
+                        "column {} ({h:?}) has no property name",
+                        i + 1
+                    )));
+                }
+                let lower = base.to_ascii_lowercase();
+                let (item, array) = match lower.strip_suffix("[]") {
+                    Some(t) => (t.to_string(), true),
+                    None => (lower, false),
+                };
+                let scalar = match item.as_str() {
+                    "int" | "long" | "short" | "byte" => Scalar::Int,
+                    "float" | "double" => Scalar::Float,
+                    "boolean" => Scalar::Bool,
+                    "string" | "char" | "date" | "time" | "datetime" | "localtime"
+                    | "localdatetime" | "duration" => Scalar::Str,
+                    "point" => Scalar::Point,
+                    other => {
+                        return Err(bad(format!(
+                            "column {} ({h:?}): unknown type {other:?} (int, long, float, \
+                             double, boolean, string, point, date/time types, each with [] \
+                             for arrays)",
+                            i + 1
+                        )));
+                    }
+                };
+                Col::Prop(name.to_string(), scalar, array)
+            }
+        };
+        cols.push(col);
+    }
+    Ok(cols)
+}
+
+fn parse_f64(s: &str) -> Option<f64> {
+    match s.trim() {
+        "NaN" => Some(f64::NAN),
+        "Infinity" | "+Infinity" => Some(f64::INFINITY),
+        "-Infinity" => Some(f64::NEG_INFINITY),
+        t => t.parse().ok(),
+    }
+}
+
+/// `{x: 1.0, y: 2.0[, z: 3.0][, crs: ..]}`, keys in any order.
+fn parse_point(s: &str) -> Option<Value> {
+    let inner = s.trim().strip_prefix('{')?.strip_suffix('}')?;
+    let (mut x, mut y, mut z) = (None, None, None);
+    for part in inner.split(',') {
+        let (k, v) = part.split_once(':')?;
+        let k = k.trim().trim_matches(['"', '\'']).to_ascii_lowercase();
+        match k.as_str() {
+            "x" | "longitude" => x = Some(parse_f64(v)?),
+            "y" | "latitude" => y = Some(parse_f64(v)?),
+            "z" | "height" => z = Some(parse_f64(v)?),
+            _ => {}
+        }
+    }
+    match (x, y, z) {
+        (Some(x), Some(y), Some(z)) => Some(Value::Point3D([x, y, z])),
+        (Some(x), Some(y), None) => Some(Value::Point2D([x, y])),
+        _ => None,
+    }
+}
+
+fn parse_scalar(s: &str, t: Scalar) -> std::result::Result<Value, String> {
+    let fail = |what: &str| format!("{s:?} is not {what}");
+    Ok(match t {
+        Scalar::Int => Value::Int(s.trim().parse().map_err(|_| fail("an integer"))?),
+        Scalar::Float => Value::Float(parse_f64(s).ok_or_else(|| fail("a number"))?),
+        Scalar::Bool => match s.trim().to_ascii_lowercase().as_str() {
+            "true" => Value::Bool(true),
+            "false" => Value::Bool(false),
+            _ => return Err(fail("true or false")),
+        },
+        Scalar::Str => Value::String(s.to_string()),
+        Scalar::Point => parse_point(s).ok_or_else(|| fail("a point {x: .., y: ..[, z: ..]}"))?,
+    })
+}
+
+fn parse_field(s: &str, t: Scalar, array: bool) -> std::result::Result<Value, String> {
+    if !array {
+        return parse_scalar(s, t);
+    }
+    let items = s.split(ARRAY_DELIMITER);
+    if t == Scalar::Float {
+        // float[]: a dense vector, as the export writes embeddings
+        let mut v = Vec::new();
+        for it in items {
+            let f = parse_f64(it).ok_or_else(|| format!("array item {it:?} is not a number"))?;
+            v.push(f as f32);
+        }
+        return Ok(Value::Vector(v));
+    }
+    items
+        .map(|it| parse_scalar(it, t))
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map(Value::List)
+}
+
+/// Node ids of the import: the files' own integers, or new ids by (id space, file id).
+enum Ids {
+    Kept,
+    Mapped(HashMap<(String, String), u64>),
+}
+
+struct Reader {
+    path: PathBuf,
+    rdr: csv::Reader<std::fs::File>,
+    cols: Vec<Col>,
+    rec: csv::StringRecord,
+}
+
+impl Reader {
+    fn open(path: &Path) -> Result<Reader> {
+        let file = std::fs::File::open(path).map_err(|error| Error::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .flexible(false)
+            .from_reader(file);
+        let header = rdr.headers().map_err(|e| csv_err(path, &e))?.clone();
+        let cols = parse_header(path, &header)?;
+        Ok(Reader {
+            path: path.to_path_buf(),
+            rdr,
+            cols,
+            rec: csv::StringRecord::new(),
+        })
+    }
+
+    /// The next row; false at the end.
+    fn next(&mut self) -> Result<bool> {
+        self.rdr
+            .read_record(&mut self.rec)
+            .map_err(|e| csv_err(&self.path, &e))
+    }
+
+    fn line(&self) -> u64 {
+        self.rec.position().map_or(0, |p| p.line())
+    }
+
+    fn bytes(&self) -> u64 {
+        self.rdr.position().byte()
+    }
+
+    fn err(&self, detail: impl Into<String>) -> Error {
+        Error::Import {
+            path: self.path.clone(),
+            line: self.line(),
+            detail: detail.into(),
+        }
+    }
+}
+
+fn csv_err(path: &Path, e: &csv::Error) -> Error {
+    let line = e.position().map_or(0, |p| p.line());
+    Error::Import {
+        path: path.to_path_buf(),
+        line,
+        detail: match e.kind() {
+            csv::ErrorKind::UnequalLengths {
+                expected_len, len, ..
+            } => format!("{len} fields where the header has {expected_len}"),
+            csv::ErrorKind::Utf8 { .. } => "not valid UTF-8".into(),
+            csv::ErrorKind::Io(io) => io.to_string(),
+            _ => e.to_string(),
+        },
+    }
+}
+
+/// Interned property keys of one file's columns.
+fn prop_keys(tx: &mut WriteTxn<'_>, cols: &[Col]) -> Result<Vec<Option<PropKey>>> {
+    cols.iter()
+        .map(|c| match c {
+            Col::Prop(n, ..) | Col::Id(Some(n), _) => tx.prop_key_id(n).map(Some),
+            _ => Ok(None),
+        })
+        .collect()
+}
+
+/// The property values of the reader's current row.
+fn row_props(r: &Reader, keys: &[Option<PropKey>]) -> Result<Vec<(PropKey, Value)>> {
+    let mut props = Vec::new();
+    for (i, (c, field)) in r.cols.iter().zip(r.rec.iter()).enumerate() {
+        let (Col::Prop(name, t, array), Some(k)) = (c, keys[i]) else {
+            if let (Col::Id(Some(_), _), Some(k)) = (c, keys[i]) {
+                props.push((k, Value::String(field.to_string())));
+            }
+            continue;
+        };
+        if field.is_empty() {
+            continue;
+        }
+        let v = parse_field(field, *t, *array)
+            .map_err(|e| r.err(format!("column {} ({name}): {e}", i + 1)))?;
+        props.push((k, v));
+    }
+    Ok(props)
+}
+
+/// Imports `files` into `store`, committing every `batch_rows` rows (at least 1);
+/// `progress(bytes_read, bytes_total)` is called after each batch.
+///
+/// # Errors
+/// [`Error::Import`] with the file and line for a bad header or field, a duplicate or
+/// unknown id, or a row without a label source or type; [`Error::Io`] for unreadable files;
+/// store errors as for the writes. Batches committed before the error stay.
+pub fn import_neo4j_csv(
+    store: &Store,
+    files: &CsvFiles,
+    batch_rows: usize,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<CsvImport> {
+    let batch_rows = batch_rows.max(1);
+    let total = files.total_bytes();
+    // pass 1: the ids, checked unique, and whether they can be kept
+    let mut numeric: Vec<u64> = Vec::new();
+    let mut all_numeric = store.counts()?.total_nodes == 0;
+    let mut mapped: HashMap<(String, String), u64> = HashMap::new();
+    let mut n_rows = 0u64;
+    for f in &files.nodes {
+        let mut r = Reader::open(&f.path)?;
+        let Some(idx) = r.cols.iter().position(|c| matches!(c, Col::Id(..))) else {
+            // no :ID column: rows get new ids and cannot be referred to
+            all_numeric = false;
+            continue;
+        };
+        let Col::Id(_, group) = r.cols[idx].clone() else {
+            unreachable!("position found an Id column")
+        };
+        while r.next()? {
+            let id = r.rec.get(idx).unwrap_or_default();
+            if id.is_empty() {
+                return Err(r.err(format!("column {}: an empty :ID", idx + 1)));
+            }
+            if all_numeric && group.is_empty() {
+                match id.parse::<u64>() {
+                    Ok(n) => numeric.push(n),
+                    Err(_) => all_numeric = false,
+                }
+            } else {
+                all_numeric = false;
+            }
+            if mapped
+                .insert((group.clone(), id.to_string()), n_rows)
+                .is_some()
+            {
+                return Err(r.err(format!("the :ID {id:?} appears twice")));
+            }
+            n_rows += 1;
+        }
+    }
+    let ids = if all_numeric {
+        Ids::Kept
+    } else {
+        Ids::Mapped(HashMap::with_capacity(mapped.len()))
+    };
+    drop(mapped);
+    let next_after = numeric.iter().max().map_or(0, |m| m + 1);
+    drop(numeric);
+    let mut out = CsvImport {
+        ids_kept: matches!(ids, Ids::Kept),
+        ..CsvImport::default()
+    };
+    let mut ids = ids;
+    let mut done_bytes = 0u64;
+    if out.ids_kept {
+        store.write(|tx| {
+            tx.reserve_node_ids(next_after);
+            Ok(())
+        })?;
+    }
+    // pass 2: nodes
+    for f in &files.nodes {
+        let mut r = Reader::open(&f.path)?;
+        let id_col = r.cols.iter().position(|c| matches!(c, Col::Id(..)));
+        let label_col = r.cols.iter().position(|c| *c == Col::Label);
+        let mut more = true;
+        while more {
+            let batch = store.write(|tx| {
+                let keys = prop_keys(tx, &r.cols)?;
+                let given: Vec<LabelId> = f
+                    .given
+                    .iter()
+                    .map(|l| tx.label_id(l))
+                    .collect::<Result<_>>()?;
+                let mut label_cache: HashMap<String, Vec<LabelId>> = HashMap::new();
+                let mut n = 0usize;
+                while n < batch_rows {
+                    if !r.next()? {
+                        more = false;
+                        break;
+                    }
+                    let mut labels = given.clone();
+                    if let Some(lc) = label_col {
+                        let field = r.rec.get(lc).unwrap_or_default();
+                        if !label_cache.contains_key(field) {
+                            let ls = field
+                                .split(ARRAY_DELIMITER)
+                                .map(str::trim)
+                                .filter(|s| !s.is_empty())
+                                .map(|l| tx.label_id(l))
+                                .collect::<Result<Vec<_>>>()?;
+                            label_cache.insert(field.to_string(), ls);
+                        }
+                        labels.extend_from_slice(&label_cache[field]);
+                    }
+                    let props = row_props(&r, &keys)?;
+                    let at = |e: Error| r.err(e.to_string());
+                    match (&mut ids, id_col) {
+                        (Ids::Kept, Some(ic)) => {
+                            let id: u64 =
+                                r.rec.get(ic).unwrap_or_default().parse().map_err(|_| {
+                                    r.err("the :ID changed between the two reads of the file")
+                                })?;
+                            tx.restore_node(id, &labels, props).map_err(at)?;
+                        }
+                        (Ids::Mapped(m), Some(ic)) => {
+                            let Col::Id(_, group) = &r.cols[ic] else {
+                                unreachable!("id_col points at an Id column")
+                            };
+                            let id = tx.create_node(&labels, props).map_err(at)?;
+                            m.insert(
+                                (group.clone(), r.rec.get(ic).unwrap_or_default().to_string()),
+                                id,
+                            );
+                        }
+                        (_, None) => {
+                            tx.create_node(&labels, props).map_err(at)?;
+                        }
+                    }
+                    n += 1;
+                }
+                Ok(n)
+            })?;
+            out.nodes += batch as u64;
+            out.batches += 1;
+            progress(done_bytes + r.bytes(), total);
+        }
+        done_bytes += std::fs::metadata(&f.path).map_or(0, |m| m.len());
+    }
+    // pass 3: relationships
+    for f in &files.relationships {
+        let mut r = Reader::open(&f.path)?;
+        let find = |want: fn(&Col) -> bool, what: &str| {
+            r.cols.iter().position(want).ok_or_else(|| Error::Import {
+                path: f.path.clone(),
+                line: 1,
+                detail: format!("the header has no {what} column"),
+            })
+        };
+        let sc = find(|c| matches!(c, Col::StartId(_)), ":START_ID")?;
+        let ec = find(|c| matches!(c, Col::EndId(_)), ":END_ID")?;
+        let tc = r.cols.iter().position(|c| *c == Col::Type);
+        if tc.is_none() && f.given.len() != 1 {
+            return Err(Error::Import {
+                path: f.path.clone(),
+                line: 1,
+                detail: "no :TYPE column; give the type with the file (TYPE=file.csv)".into(),
+            });
+        }
+        let (Col::StartId(sg), Col::EndId(eg)) = (r.cols[sc].clone(), r.cols[ec].clone()) else {
+            unreachable!("found by kind")
+        };
+        let mut more = true;
+        while more {
+            let batch = store.write(|tx| {
+                let keys = prop_keys(tx, &r.cols)?;
+                let given: Option<RelType> =
+                    f.given.first().map(|t| tx.rel_type_id(t)).transpose()?;
+                let mut types: HashMap<String, RelType> = HashMap::new();
+                let mut n = 0usize;
+                while n < batch_rows {
+                    if !r.next()? {
+                        more = false;
+                        break;
+                    }
+                    let ty = match tc {
+                        Some(c) => {
+                            let t = r.rec.get(c).unwrap_or_default().trim();
+                            if t.is_empty() {
+                                match given {
+                                    Some(g) => g,
+                                    None => return Err(r.err("an empty :TYPE")),
+                                }
+                            } else if let Some(&id) = types.get(t) {
+                                id
+                            } else {
+                                let id = tx.rel_type_id(t)?;
+                                types.insert(t.to_string(), id);
+                                id
+                            }
+                        }
+                        None => given.expect("checked above: one given type"),
+                    };
+                    let end_id = |col: usize, group: &str| -> Result<u64> {
+                        let raw = r.rec.get(col).unwrap_or_default();
+                        let found = match &ids {
+                            Ids::Kept => raw.parse::<u64>().ok(),
+                            Ids::Mapped(m) => m.get(&(group.to_string(), raw.to_string())).copied(),
+                        };
+                        found.ok_or_else(|| {
+                            r.err(format!(
+                                "column {}: no node has the :ID {raw:?}{}",
+                                col + 1,
+                                if group.is_empty() {
+                                    String::new()
+                                } else {
+                                    format!(" in id space {group}")
+                                }
+                            ))
+                        })
+                    };
+                    let (s, e) = (end_id(sc, &sg)?, end_id(ec, &eg)?);
+                    let props = row_props(&r, &keys)?;
+                    tx.create_rel(s, ty, e, props).map_err(|err| match err {
+                        Error::NodeNotFound(id) => r.err(format!(
+                            "column {}: no node has the :ID \"{id}\"",
+                            if id == s { sc + 1 } else { ec + 1 }
+                        )),
+                        other => r.err(other.to_string()),
+                    })?;
+                    n += 1;
+                }
+                Ok(n)
+            })?;
+            out.relationships += batch as u64;
+            out.batches += 1;
+            progress(done_bytes + r.bytes(), total);
+        }
+        done_bytes += std::fs::metadata(&f.path).map_or(0, |m| m.len());
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn headers_read_every_neo4j_column_kind() {
+        let h = csv::StringRecord::from(vec![
+            "uid:ID(People)",
+            "name",
+            "age:int",
+            "score:double",
+            "tags:string[]",
+            "at:point{crs:cartesian}",
+            ":LABEL",
+            "skip:IGNORE",
+        ]);
+        let cols = parse_header(Path::new("x.csv"), &h).unwrap();
+        assert_eq!(cols[0], Col::Id(Some("uid".into()), "People".into()));
+        assert_eq!(cols[1], Col::Prop("name".into(), Scalar::Str, false));
+        assert_eq!(cols[2], Col::Prop("age".into(), Scalar::Int, false));
+        assert_eq!(cols[3], Col::Prop("score".into(), Scalar::Float, false));
+        assert_eq!(cols[4], Col::Prop("tags".into(), Scalar::Str, true));
+        assert_eq!(cols[5], Col::Prop("at".into(), Scalar::Point, false));
+        assert_eq!(cols[6], Col::Label);
+        assert_eq!(cols[7], Col::Ignore);
+        let bad = parse_header(
+            Path::new("x.csv"),
+            &csv::StringRecord::from(vec![":ID", "n:quaternion"]),
+        )
+        .unwrap_err();
+        assert!(bad.to_string().contains("x.csv:1"), "{bad}");
+        assert!(bad.to_string().contains("quaternion"), "{bad}");
+    }
+
+    #[test]
+    fn fields_parse_as_the_export_writes_them() {
+        assert_eq!(
+            parse_field("{x: 1.5, y: -2.0, z: 3.0}", Scalar::Point, false).unwrap(),
+            Value::Point3D([1.5, -2.0, 3.0])
+        );
+        assert_eq!(
+            parse_field("{y: 2, x: 1}", Scalar::Point, false).unwrap(),
+            Value::Point2D([1.0, 2.0])
+        );
+        let Value::Vector(v) = parse_field("0.5;NaN;-Infinity", Scalar::Float, true).unwrap()
+        else {
+            panic!("float[] is a vector")
+        };
+        assert_eq!(v[0], 0.5);
+        assert!(v[1].is_nan());
+        assert_eq!(v[2], f32::NEG_INFINITY);
+        assert_eq!(
+            parse_field("1;2", Scalar::Int, true).unwrap(),
+            Value::List(vec![Value::Int(1), Value::Int(2)])
+        );
+        assert!(parse_field("12x", Scalar::Int, false).is_err());
+        assert!(parse_field("yes", Scalar::Bool, false).is_err());
+        assert!(parse_field("{x: 1}", Scalar::Point, false).is_err());
+    }
+
+    #[test]
+    fn file_arguments_take_neo4j_admin_prefixes() {
+        assert_eq!(
+            CsvFile::parse("Person:Actor=people.csv"),
+            CsvFile {
+                path: "people.csv".into(),
+                given: vec!["Person".into(), "Actor".into()]
+            }
+        );
+        assert_eq!(CsvFile::parse("a/b=c.csv").given, Vec::<String>::new());
+    }
+}

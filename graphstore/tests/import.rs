@@ -1,0 +1,187 @@
+//! Neo4j bulk-import CSV: a graph exported and imported again is the same graph (same node
+//! ids, labels, properties and relationships), and bad files fail with the file and line.
+
+use graphstore::export::export_neo4j_csv;
+use graphstore::import::{CsvFile, CsvFiles, import_neo4j_csv};
+use graphstore::{GraphRead, Store, Value};
+
+/// Every node as (id, sorted labels, sorted named properties); every relationship as
+/// (start, type, end, sorted named properties), sorted.
+type Nodes = Vec<(u64, Vec<String>, Vec<(String, String)>)>;
+type Rels = Vec<(u64, String, u64, Vec<(String, String)>)>;
+
+fn canon(store: &Store) -> (Nodes, Rels) {
+    let r = store.read().unwrap();
+    let named = |props: &[(graphstore::PropKey, Value)]| {
+        let mut v: Vec<(String, String)> = props
+            .iter()
+            .map(|(k, v)| (r.name_of(k.0).unwrap(), format!("{v:?}")))
+            .collect();
+        v.sort();
+        v
+    };
+    let mut nodes = Vec::new();
+    for id in r.all_node_ids().unwrap() {
+        let n = r.node(id).unwrap().unwrap();
+        let mut labels: Vec<String> = n.labels.iter().map(|l| r.name_of(l.0).unwrap()).collect();
+        labels.sort();
+        nodes.push((id, labels, named(&n.props)));
+    }
+    let mut rels = Vec::new();
+    for id in r.all_rel_ids().unwrap() {
+        let x = r.rel(id).unwrap().unwrap();
+        rels.push((x.start, r.name_of(x.ty.0).unwrap(), x.end, named(&x.props)));
+    }
+    rels.sort_by(|a, b| format!("{a:?}").cmp(&format!("{b:?}")));
+    (nodes, rels)
+}
+
+#[test]
+fn an_exported_graph_imports_as_the_same_graph() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = Store::create(dir.path().join("src.og")).unwrap();
+    src.write(|tx| {
+        let a = tx.create_node_named(
+            &["Instance", "Object"],
+            &[
+                ("caption", Value::String("a red, \"quoted\"\nbench".into())),
+                ("center", Value::Point3D([1.5, -2.25, 0.125])),
+                ("feature", Value::Vector(vec![0.25, -0.5, 1.0])),
+                ("count", Value::Int(-7)),
+                ("ok", Value::Bool(true)),
+                ("tags", Value::List(vec!["x".into(), "y".into()])),
+                ("ids", Value::List(vec![Value::Int(1), Value::Int(2)])),
+            ],
+        )?;
+        // a gap in the ids: the import must keep them anyway
+        let gone = tx.create_node_named(&["Tmp"], &[])?;
+        tx.delete_node(gone)?;
+        let b = tx.create_node_named(&["Segment"], &[("kind", Value::String("T".into()))])?;
+        let c = tx.create_node_named(&[], &[("w", Value::Float(2.5))])?;
+        tx.create_rel_named(a, "IN_SEGMENT", b, &[("distance_m", Value::Float(0.5))])?;
+        tx.create_rel_named(b, "CONNECTS", c, &[])?;
+        tx.create_rel_named(a, "IN_SEGMENT", b, &[])?;
+        Ok(())
+    })
+    .unwrap();
+    let out = dir.path().join("csv");
+    export_neo4j_csv(&src.read().unwrap(), &out).unwrap();
+
+    let dst = Store::create(dir.path().join("dst.og")).unwrap();
+    let files = CsvFiles::from_folder(&out).unwrap();
+    let mut calls = 0;
+    let got = import_neo4j_csv(&dst, &files, 1, &mut |done, total| {
+        assert!(done <= total, "{done} > {total}");
+        calls += 1;
+    })
+    .unwrap();
+    assert_eq!((got.nodes, got.relationships), (3, 3));
+    assert!(got.ids_kept);
+    assert!(
+        calls >= 6,
+        "one progress call per batch of one row: {calls}"
+    );
+    assert_eq!(canon(&dst), canon(&src));
+    assert_eq!(
+        dst.counts().unwrap().total_nodes,
+        3,
+        "counts kept in step by the import"
+    );
+}
+
+fn write(dir: &std::path::Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn string_ids_in_id_spaces_and_given_labels_and_types() {
+    let dir = tempfile::tempdir().unwrap();
+    let people = write(
+        dir.path(),
+        "people.csv",
+        "uid:ID(P),name,age:int\nalice,Alice,30\nbob,Bob,\n",
+    );
+    let towns = write(
+        dir.path(),
+        "towns.csv",
+        "tid:ID(T),name\nalice,Aliceville\n",
+    );
+    let lives = write(
+        dir.path(),
+        "lives.csv",
+        ":START_ID(P),:END_ID(T),since:long\nalice,alice,2001\nbob,alice,\n",
+    );
+    let store = Store::create(dir.path().join("g.og")).unwrap();
+    let files = CsvFiles {
+        nodes: vec![
+            CsvFile::parse(&format!("Person={}", people.display())),
+            CsvFile::parse(&format!("Town={}", towns.display())),
+        ],
+        relationships: vec![CsvFile::parse(&format!("LIVES_IN={}", lives.display()))],
+    };
+    let got = import_neo4j_csv(&store, &files, 1000, &mut |_, _| {}).unwrap();
+    assert_eq!((got.nodes, got.relationships, got.ids_kept), (3, 2, false));
+    let q = store
+        .query(
+            "MATCH (p:Person)-[l:LIVES_IN]->(t:Town) RETURN p.uid, p.age, l.since, t.name \
+             ORDER BY p.uid",
+            &graphstore::cypher::QueryOptions::default(),
+        )
+        .unwrap();
+    let rows: Vec<String> = q.rows.iter().map(|row| format!("{row:?}")).collect();
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    assert!(rows[0].contains("alice") && rows[0].contains("30") && rows[0].contains("2001"));
+    assert!(
+        rows[1].contains("bob") && rows[1].contains("Null"),
+        "{rows:?}"
+    );
+}
+
+#[test]
+fn bad_files_fail_with_the_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            ":ID,n:int\n1,2\n2,x\n",
+            None,
+            "nodes.csv:3",
+            "not an integer",
+        ),
+        (
+            ":ID,n:int\n1,2\n1,3\n",
+            None,
+            "nodes.csv:3",
+            "appears twice",
+        ),
+        (":ID,n:int\n1,2\n2,3,4\n", None, "nodes.csv:3", "3 fields"),
+        (":ID,n:vec3\n1,2\n", None, "nodes.csv:1", "unknown type"),
+        (
+            ":ID\n1\n2\n",
+            Some(":START_ID,:END_ID,:TYPE\n1,2,R\n1,9,R\n"),
+            "relationships.csv:3",
+            "no node has the :ID \"9\"",
+        ),
+        (
+            ":ID\n1\n",
+            Some(":START_ID,:END_ID\n1,1\n"),
+            "relationships.csv:1",
+            "no :TYPE column",
+        ),
+    ];
+    for (i, (nodes, rels, at, what)) in cases.iter().enumerate() {
+        let sub = dir.path().join(format!("case{i}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        write(&sub, "nodes.csv", nodes);
+        if let Some(r) = rels {
+            write(&sub, "relationships.csv", r);
+        }
+        let store = Store::create(sub.join("g.og")).unwrap();
+        let files = CsvFiles::from_folder(&sub).unwrap();
+        let e = import_neo4j_csv(&store, &files, 1000, &mut |_, _| {})
+            .expect_err(&format!("case {i} must fail"))
+            .to_string();
+        assert!(e.contains(at) && e.contains(what), "case {i}: {e}");
+    }
+}
