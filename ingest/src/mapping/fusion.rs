@@ -500,7 +500,7 @@ impl Mapper {
         let mut pairs = Vec::new();
         // With no box overlap φ ≤ w_cap + w_fea; when that cannot pass δ_sim (the defaults:
         // 0.6 ≤ 0.6) only objects near the detection's box are candidates.
-        let need_overlap = cfg.w_cap + cfg.w_fea <= cfg.sim_threshold;
+        let need_overlap = cfg.needs_overlap();
         let all_ids: Vec<u64> = if need_overlap {
             Vec::new()
         } else {
@@ -513,12 +513,14 @@ impl Mapper {
             };
             let det_obb = OrientedBox::fit(self.ground, pts);
             let caption = self.tfidf.vector(&f.detections.detections[i].caption);
-            let candidates = if need_overlap {
-                self.grid.candidates(&b)
+            let near;
+            let candidates: &[u64] = if need_overlap {
+                near = self.grid.candidates(&b);
+                &near
             } else {
-                all_ids.clone()
+                &all_ids
             };
-            for id in &candidates {
+            for id in candidates {
                 let Some(o) = self.objects.get(id) else {
                     continue;
                 };

@@ -109,6 +109,16 @@ impl Default for MappingConfig {
 }
 
 impl MappingConfig {
+    /// True when a detection and an object whose boxes do not overlap can never pass the
+    /// similarity threshold: with IoU 0, φ is at most `w_cap + w_fea`, and a pair must score
+    /// above `sim_threshold`. Then association looks only at objects near the detection's
+    /// box (the box grid), so its cost per key frame does not grow with the map. The sum is
+    /// compared with a tolerance: in binary 0.2 + 0.4 is 0.6000000000000001, above 0.6, and
+    /// an exact test once turned the grid off for the defaults.
+    pub fn needs_overlap(&self) -> bool {
+        self.w_cap + self.w_fea <= self.sim_threshold + 1e-9
+    }
+
     /// Checks ranges; the message names the field.
     pub fn validate(&self) -> crate::Result<()> {
         let bad = |m: &str| Err(crate::Error::Invalid(format!("mapping config: {m}")));
@@ -170,5 +180,27 @@ impl MappingConfig {
             return bad("image_size must be positive");
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_weights_need_box_overlap() {
+        // 0.2 + 0.4 > 0.6 in binary: the test must still say true, or association scans
+        // every object in the map for every detection
+        let c = MappingConfig::default();
+        assert!(
+            c.w_cap + c.w_fea > c.sim_threshold,
+            "the case the tolerance is for"
+        );
+        assert!(c.needs_overlap());
+        let loose = MappingConfig {
+            sim_threshold: 0.5,
+            ..MappingConfig::default()
+        };
+        assert!(!loose.needs_overlap());
     }
 }
