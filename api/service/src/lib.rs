@@ -11,6 +11,7 @@ pub mod error;
 pub mod events;
 pub mod export;
 pub mod find;
+pub mod import;
 pub mod info;
 pub mod live;
 pub mod ops;

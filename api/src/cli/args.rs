@@ -49,6 +49,32 @@ pub(crate) enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Make a new store from the CSV files of Neo4j's bulk importer (`export --format
+    /// neo4j-csv` writes them): `opengraph import --db new.og FOLDER`, or name the files as
+    /// neo4j-admin does (`--nodes Person=people.csv --relationships KNOWS=knows.csv`). Node
+    /// ids are kept when every `:ID` is an integer. A failed import leaves no store behind.
+    Import {
+        /// The store file to create (must not exist yet).
+        #[arg(long)]
+        db: PathBuf,
+        /// A folder of nodes*.csv and relationships*.csv files.
+        folder: Option<PathBuf>,
+        /// A node file, `file.csv` or `Label1:Label2=file.csv` (repeatable).
+        #[arg(long)]
+        nodes: Vec<String>,
+        /// A relationship file, `file.csv` or `TYPE=file.csv` (repeatable).
+        #[arg(long)]
+        relationships: Vec<String>,
+        /// `none` (schema-free) or `opengraph` (the map schema, for an exported map).
+        #[arg(long, default_value = "none", value_parser = ["none", "opengraph"])]
+        schema: String,
+        /// Rows per committed transaction.
+        #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u32).range(1..))]
+        batch_rows: u32,
+        /// Print what was imported as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Extract the lane graph and road segments from a KITTI-format trajectory.
     Lanes {
         /// poses.txt (3x4 world-from-cam0 per line).
@@ -592,6 +618,10 @@ pub(crate) enum Command {
         /// Fail when the result has more rows than this (add LIMIT).
         #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..))]
         max_rows: u64,
+        /// Run a read-only statement this many more times after the first, and print the
+        /// engine time's p50 and p99 over those runs to stderr (for benchmarks).
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+        repeat: u32,
         /// The statement; `EXPLAIN <statement>` prints its plan.
         cypher: String,
     },

@@ -12,6 +12,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         read_only,
         timeout_secs,
         max_rows,
+        repeat,
         cypher,
     } = cmd
     else {
@@ -27,7 +28,12 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     // a redb file for writing rewrites its header and allocator state even when nothing
     // changes; a statement that does not parse is refused by the query below as before
     let writes = !read_only && graphstore::cypher::is_write(&cypher).unwrap_or(true);
+    if writes && repeat > 0 {
+        return Err(UsageError("--repeat runs read-only statements only".into()).into());
+    }
+    let t_open = std::time::Instant::now();
     let store = open_store(&db, writes)?;
+    let open_ms = t_open.elapsed().as_secs_f64() * 1e3;
     let opts = graphstore::cypher::QueryOptions {
         params: params.into_iter().collect(),
         timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
@@ -38,6 +44,22 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let r = store.query(&cypher, &opts)?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
+    if repeat > 0 {
+        let mut times = Vec::with_capacity(repeat as usize);
+        for _ in 0..repeat {
+            let t = std::time::Instant::now();
+            let again = store.query(&cypher, &opts)?;
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            std::hint::black_box(again);
+        }
+        times.sort_by(f64::total_cmp);
+        let at = |q: f64| times[((times.len() - 1) as f64 * q).round() as usize];
+        errln!(
+            "timing: open_ms={open_ms:.3} first_ms={ms:.3} runs={repeat} p50_ms={:.3} p99_ms={:.3}",
+            at(0.5),
+            at(0.99)
+        );
+    }
     if let Some(plan) = &r.plan {
         if json {
             let v = serde_json::json!({"plan": r.plan_json()});

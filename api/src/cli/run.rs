@@ -2,7 +2,7 @@
 
 use super::args::*;
 use super::{
-    ask, build, captions, demo, eval, export, find, hierarchy, info, init, lanes, locate, mcp,
+    ask, build, captions, demo, eval, export, find, hierarchy, import, info, init, lanes, locate, mcp,
     navigate, oracle, plan, query, relations, replay, serve, shard, sim, tool, tools, update,
 };
 
@@ -10,6 +10,7 @@ pub(crate) fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         cmd @ Command::Info { .. } => info::run(cmd)?,
         cmd @ Command::Export { .. } => export::run(cmd)?,
+        cmd @ Command::Import { .. } => import::run(cmd)?,
         cmd @ Command::Lanes { .. } => lanes::run(cmd)?,
         cmd @ Command::Hierarchy { .. } => hierarchy::run(cmd)?,
         cmd @ Command::Plan { .. } => plan::run(cmd)?,
