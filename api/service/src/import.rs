@@ -100,7 +100,9 @@ pub fn import(req: &ImportRequest, progress: &mut dyn FnMut(u64, u64)) -> ToolRe
         Some(dir) => CsvFiles::from_folder(dir).map_err(|e| classify(&e))?,
         None => CsvFiles::default(),
     };
-    files.nodes.extend(req.nodes.iter().map(|a| CsvFile::parse(a)));
+    files
+        .nodes
+        .extend(req.nodes.iter().map(|a| CsvFile::parse(a)));
     files
         .relationships
         .extend(req.relationships.iter().map(|a| CsvFile::parse(a)));
@@ -129,13 +131,9 @@ pub fn import(req: &ImportRequest, progress: &mut dyn FnMut(u64, u64)) -> ToolRe
                 .set_schema(scene::opengraph_schema())
                 .map_err(|e| classify(&e))?;
         }
-        let got = graphstore::import::import_neo4j_csv(
-            &store,
-            &files,
-            req.batch_rows as usize,
-            progress,
-        )
-        .map_err(|e| classify(&e))?;
+        let got =
+            graphstore::import::import_neo4j_csv(&store, &files, req.batch_rows as usize, progress)
+                .map_err(|e| classify(&e))?;
         drop(store);
         Ok::<_, ToolError>(got)
     })();

@@ -2,8 +2,8 @@
 
 use super::args::*;
 use super::{
-    ask, build, captions, demo, eval, export, find, hierarchy, import, info, init, lanes, locate, mcp,
-    navigate, oracle, plan, query, relations, replay, serve, shard, sim, tool, tools, update,
+    ask, build, captions, demo, eval, export, find, hierarchy, import, info, init, lanes, locate,
+    mcp, navigate, oracle, plan, query, relations, replay, serve, shard, sim, tool, tools, update,
 };
 
 pub(crate) fn run(cli: Cli) -> anyhow::Result<()> {

@@ -272,6 +272,12 @@ impl<'a, 'b> Ctx<'a, 'b> {
 
     /// Runs one single query; returns the column names and rows of its RETURN (if any).
     pub fn run_single(&mut self, q: &SingleQuery) -> R<(Vec<String>, Vec<Vec<Val>>)> {
+        // a read's whole-label or whole-type count comes from the store's counts (a write
+        // transaction's counts are settled only at commit, so writes take the general path)
+        if let (Tx::Read(_), Some((what, column))) = (&self.tx, super::count::store_count(q)) {
+            let n = super::count::read_count(self.g(), &what)?;
+            return Ok((vec![column], vec![vec![n]]));
+        }
         let mut rows = vec![Row::default()];
         let mut scope: Vec<String> = Vec::new();
         for (ci, clause) in q.clauses.iter().enumerate() {

@@ -17,6 +17,7 @@
 
 mod ast;
 mod check;
+mod count;
 mod eval;
 mod exec;
 mod lexer;
