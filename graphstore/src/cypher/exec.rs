@@ -64,6 +64,195 @@ pub(crate) struct Ctx<'a, 'b> {
     node_cache: std::cell::RefCell<lru::LruCache<u64, std::rc::Rc<crate::Node>>>,
 }
 
+/// Where matched rows go.
+pub(crate) trait RowSink {
+    /// Takes one matched row; true stops the match.
+    fn push(&mut self, ctx: &Ctx<'_, '_>, row: Row) -> R<bool>;
+}
+
+/// Rows kept in a list, at most `limit`.
+struct Collect {
+    rows: Vec<Row>,
+    limit: Option<usize>,
+}
+
+impl RowSink for Collect {
+    fn push(&mut self, ctx: &Ctx<'_, '_>, row: Row) -> R<bool> {
+        self.rows.push(row);
+        ctx.room(self.rows.len())?;
+        Ok(self.limit.is_some_and(|l| self.rows.len() >= l))
+    }
+}
+
+/// One aggregate's running input: a count for `count(*)`, else the values seen.
+enum Acc {
+    Count(i64),
+    Vals(Vec<Val>),
+}
+
+/// A grouping projection (RETURN or WITH with aggregates), fed one row at a time: the
+/// grouping keys are the items without aggregates; each group keeps its first row (for the
+/// items that mix keys and aggregates) and one accumulator per aggregate call.
+struct Aggregator {
+    cols: Vec<String>,
+    items: Vec<Item>,
+    /// (function, DISTINCT, arguments) per aggregate call, in the order of `rewritten`'s slots.
+    specs: Vec<(String, bool, Vec<Expr>)>,
+    /// Per item: the expression over aggregate slots, or None for a grouping key.
+    rewritten: Vec<Option<Expr>>,
+    order_exprs: Vec<Expr>,
+    key_idx: Vec<usize>,
+    groups: BTreeMap<Key, usize>,
+    group_rows: Vec<(Row, Vec<Val>, Vec<Acc>)>,
+}
+
+impl Aggregator {
+    fn new(p: &Projection) -> Aggregator {
+        Aggregator::with_items(p, p.items.clone())
+    }
+
+    fn with_items(p: &Projection, items: Vec<Item>) -> Aggregator {
+        let cols: Vec<String> = items.iter().map(|i| i.name.clone()).collect();
+        let mut specs: Vec<(String, bool, Vec<Expr>)> = Vec::new();
+        let rewritten: Vec<Option<Expr>> = items
+            .iter()
+            .map(|i| {
+                i.expr
+                    .has_aggregate()
+                    .then(|| rewrite_aggs(&i.expr, &mut specs))
+            })
+            .collect();
+        // order keys that are aggregates not among the items get their own slots
+        let order_exprs: Vec<Expr> = p
+            .order
+            .iter()
+            .map(
+                |(e, _, text)| match items.iter().find(|i| &i.text == text || &i.name == text) {
+                    Some(i) => Expr::Var(i.name.clone(), p.pos),
+                    None => {
+                        let e = super::check::subst_keys(e, &items);
+                        if e.has_aggregate() {
+                            rewrite_aggs(&e, &mut specs)
+                        } else {
+                            e
+                        }
+                    }
+                },
+            )
+            .collect();
+        let key_idx: Vec<usize> = (0..items.len())
+            .filter(|i| rewritten[*i].is_none())
+            .collect();
+        Aggregator {
+            cols,
+            items,
+            specs,
+            rewritten,
+            order_exprs,
+            key_idx,
+            groups: BTreeMap::new(),
+            group_rows: Vec::new(),
+        }
+    }
+
+    fn fresh_accs(&self) -> Vec<Acc> {
+        self.specs
+            .iter()
+            .map(|(name, _, _)| {
+                if name == "count*" {
+                    Acc::Count(0)
+                } else {
+                    Acc::Vals(Vec::new())
+                }
+            })
+            .collect()
+    }
+
+    fn add(&mut self, ctx: &Ctx<'_, '_>, row: &Row) -> R<()> {
+        ctx.tick()?;
+        let key: Vec<Val> = self
+            .key_idx
+            .iter()
+            .map(|i| ctx.eval(&self.items[*i].expr, row))
+            .collect::<R<_>>()?;
+        let gi = match self.groups.get(&Key(key.clone())) {
+            Some(gi) => *gi,
+            None => {
+                let accs = self.fresh_accs();
+                self.group_rows.push((row.clone(), key.clone(), accs));
+                let gi = self.group_rows.len() - 1;
+                self.groups.insert(Key(key), gi);
+                ctx.room(self.group_rows.len())?;
+                gi
+            }
+        };
+        for (si, (_, _, args)) in self.specs.iter().enumerate() {
+            match &mut self.group_rows[gi].2[si] {
+                Acc::Count(n) => *n += 1,
+                Acc::Vals(vals) => {
+                    let mut vs = args
+                        .iter()
+                        .map(|a| ctx.eval(a, row))
+                        .collect::<R<Vec<_>>>()?;
+                    vals.push(if vs.len() == 1 {
+                        vs.pop().unwrap_or_default()
+                    } else {
+                        Val::List(vs)
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The groups' rows: (values, order keys, None), in the order the groups were first seen.
+    #[allow(clippy::type_complexity)]
+    fn finish(mut self, ctx: &Ctx<'_, '_>) -> R<Vec<(Vec<Val>, Vec<Val>, Option<usize>)>> {
+        if self.group_rows.is_empty() && self.key_idx.is_empty() {
+            let accs = self.fresh_accs();
+            self.group_rows.push((Row::default(), Vec::new(), accs));
+        }
+        let mut out = Vec::with_capacity(self.group_rows.len());
+        for (row, key, inputs) in self.group_rows {
+            let aggs = self
+                .specs
+                .iter()
+                .zip(inputs)
+                .map(|((name, distinct, _), acc)| match acc {
+                    Acc::Count(n) => Ok(Val::Int(n)),
+                    Acc::Vals(vals) => aggregate(name, *distinct, vals),
+                })
+                .collect::<R<Vec<_>>>()?;
+            let mut vals = Vec::with_capacity(self.items.len());
+            let mut ki = key.into_iter();
+            for r in &self.rewritten {
+                match r {
+                    None => vals.push(ki.next().unwrap_or_default()),
+                    Some(e) => vals.push(ctx.eval_in(e, &row, &aggs)?),
+                }
+            }
+            let mut orow = Row::default();
+            for (c, v) in self.cols.iter().zip(&vals) {
+                orow.set(c, v.clone());
+            }
+            let okeys = self
+                .order_exprs
+                .iter()
+                .map(|e| ctx.eval_in(e, &orow, &aggs))
+                .collect::<R<Vec<_>>>()?;
+            out.push((vals, okeys, None));
+        }
+        Ok(out)
+    }
+}
+
+impl RowSink for Aggregator {
+    fn push(&mut self, ctx: &Ctx<'_, '_>, row: Row) -> R<bool> {
+        self.add(ctx, &row)?;
+        Ok(false)
+    }
+}
+
 /// Decoded nodes one read-only statement keeps (a few MiB for typical records).
 const NODE_CACHE: std::num::NonZeroUsize = std::num::NonZeroUsize::new(4096).unwrap();
 
@@ -296,6 +485,22 @@ impl<'a, 'b> Ctx<'a, 'b> {
                                 new_vars.push(v.to_string());
                             }
                         }
+                    }
+                    // MATCH straight into an aggregating RETURN: rows go into the groups as
+                    // they are matched instead of all being held first
+                    if let (false, Some(Clause::Return(p))) = (*optional, q.clauses.get(ci + 1))
+                        && !p.star
+                        && p.items.iter().any(|i| i.expr.has_aggregate())
+                    {
+                        let mut agg = Aggregator::new(p);
+                        for row in &rows {
+                            self.match_into(row, patterns, where_.as_ref(), &mut agg)?;
+                        }
+                        self.clause_pos = q.positions.get(ci + 1).copied();
+                        let cols = agg.cols.clone();
+                        let out = agg.finish(self)?;
+                        let rows = self.order_and_slice(p, out)?;
+                        return Ok((cols, rows.into_iter().map(|(v, _)| v).collect()));
                     }
                     let mut out = Vec::new();
                     for row in &rows {
@@ -557,92 +762,11 @@ impl<'a, 'b> Ctx<'a, 'b> {
         // rows of (output values, order keys)
         let mut out: Vec<(Vec<Val>, Vec<Val>, Option<usize>)> = Vec::new();
         if aggregating {
-            let mut specs: Vec<(String, bool, Vec<Expr>)> = Vec::new();
-            let rewritten: Vec<Option<Expr>> = items
-                .iter()
-                .map(|i| {
-                    i.expr
-                        .has_aggregate()
-                        .then(|| rewrite_aggs(&i.expr, &mut specs))
-                })
-                .collect();
-            // order keys that are aggregates not among the items get their own slots
-            let order_exprs: Vec<Expr> = p
-                .order
-                .iter()
-                .map(|(e, _, text)| {
-                    match items.iter().find(|i| &i.text == text || &i.name == text) {
-                        Some(i) => Expr::Var(i.name.clone(), p.pos),
-                        None => {
-                            let e = super::check::subst_keys(e, &items);
-                            if e.has_aggregate() {
-                                rewrite_aggs(&e, &mut specs)
-                            } else {
-                                e
-                            }
-                        }
-                    }
-                })
-                .collect();
-            let key_idx: Vec<usize> = (0..items.len())
-                .filter(|i| rewritten[*i].is_none())
-                .collect();
-            let mut groups: BTreeMap<Key, usize> = BTreeMap::new();
-            let mut group_rows: Vec<(Row, Vec<Val>, Vec<Vec<Val>>)> = Vec::new();
+            let mut agg = Aggregator::with_items(p, items);
             for row in rows {
-                self.tick()?;
-                let key: Vec<Val> = key_idx
-                    .iter()
-                    .map(|i| self.eval(&items[*i].expr, row))
-                    .collect::<R<_>>()?;
-                let gi = *groups.entry(Key(key.clone())).or_insert_with(|| {
-                    group_rows.push((row.clone(), key, vec![Vec::new(); specs.len()]));
-                    group_rows.len() - 1
-                });
-                for (si, (name, _, args)) in specs.iter().enumerate() {
-                    let v = if name == "count*" {
-                        Val::Int(1)
-                    } else {
-                        let vals = args
-                            .iter()
-                            .map(|a| self.eval(a, row))
-                            .collect::<R<Vec<_>>>()?;
-                        if vals.len() == 1 {
-                            vals.into_iter().next().unwrap_or_default()
-                        } else {
-                            Val::List(vals)
-                        }
-                    };
-                    group_rows[gi].2[si].push(v);
-                }
+                agg.add(self, row)?;
             }
-            if group_rows.is_empty() && key_idx.is_empty() {
-                group_rows.push((Row::default(), Vec::new(), vec![Vec::new(); specs.len()]));
-            }
-            for (row, key, inputs) in group_rows {
-                let aggs = specs
-                    .iter()
-                    .zip(inputs)
-                    .map(|((name, distinct, _), vals)| aggregate(name, *distinct, vals))
-                    .collect::<R<Vec<_>>>()?;
-                let mut vals = Vec::with_capacity(items.len());
-                let mut ki = key.into_iter();
-                for r in &rewritten {
-                    match r {
-                        None => vals.push(ki.next().unwrap_or_default()),
-                        Some(e) => vals.push(self.eval_in(e, &row, &aggs)?),
-                    }
-                }
-                let mut orow = Row::default();
-                for (c, v) in cols.iter().zip(&vals) {
-                    orow.set(c, v.clone());
-                }
-                let okeys = order_exprs
-                    .iter()
-                    .map(|e| self.eval_in(e, &orow, &aggs))
-                    .collect::<R<Vec<_>>>()?;
-                out.push((vals, okeys, None));
-            }
+            out = agg.finish(self)?;
         } else {
             for (ri, row) in rows.iter().enumerate() {
                 self.tick()?;
@@ -674,6 +798,18 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 out.push((vals, okeys, Some(ri)));
             }
         }
+        let rows = self.order_and_slice(p, out)?;
+        Ok((cols, rows))
+    }
+
+    /// DISTINCT, ORDER BY, SKIP and LIMIT of a projection's rows (values, order keys, source
+    /// row).
+    #[allow(clippy::type_complexity)]
+    fn order_and_slice(
+        &self,
+        p: &Projection,
+        mut out: Vec<(Vec<Val>, Vec<Val>, Option<usize>)>,
+    ) -> R<Vec<(Vec<Val>, Option<usize>)>> {
         if p.distinct {
             let mut seen = std::collections::BTreeSet::new();
             out.retain(|(v, _, _)| seen.insert(Key(v.clone())));
@@ -690,7 +826,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             .take(limit.unwrap_or(usize::MAX))
             .map(|(v, _, src)| (v, src))
             .collect();
-        Ok((cols, rows))
+        Ok(rows)
     }
 
     fn count_arg(&self, e: Option<&Expr>, what: &str) -> R<Option<usize>> {
@@ -730,20 +866,27 @@ impl<'a, 'b> Ctx<'a, 'b> {
         where_: Option<&Expr>,
         limit: Option<usize>,
     ) -> R<Vec<Row>> {
-        let mut out = Vec::new();
+        let mut out = Collect {
+            rows: Vec::new(),
+            limit,
+        };
+        self.match_into(row, pats, where_, &mut out)?;
+        Ok(out.rows)
+    }
+
+    /// Like [`Ctx::match_paths`], each match handed to `out` as it is found (so an
+    /// aggregation over a pattern holds its groups, not every row).
+    pub(crate) fn match_into(
+        &self,
+        row: &Row,
+        pats: &[PathPattern],
+        where_: Option<&Expr>,
+        out: &mut dyn RowSink,
+    ) -> R<()> {
         let mut used = Vec::new();
         let conj = where_.map(conjuncts).unwrap_or_default();
-        self.match_from(
-            row.clone(),
-            pats,
-            0,
-            where_,
-            &conj,
-            &mut used,
-            &mut out,
-            limit,
-        )?;
-        Ok(out)
+        self.match_from(row.clone(), pats, 0, where_, &conj, &mut used, out)?;
+        Ok(())
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -755,8 +898,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
         where_: Option<&Expr>,
         conj: &[&Expr],
         used: &mut Vec<u64>,
-        out: &mut Vec<Row>,
-        limit: Option<usize>,
+        out: &mut dyn RowSink,
     ) -> R<bool> {
         self.tick()?;
         if i == pats.len() {
@@ -765,9 +907,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             {
                 return Ok(false);
             }
-            out.push(row);
-            self.room(out.len())?;
-            return Ok(limit.is_some_and(|l| out.len() >= l));
+            return out.push(self, row);
         }
         let p = &pats[i];
         let g = self.g();
@@ -800,7 +940,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 if let Some(pv) = &p.var {
                     row.set(pv, st.path());
                 }
-                ctx.match_from(row, pats, i + 1, where_, conj, used, out, limit)
+                ctx.match_from(row, pats, i + 1, where_, conj, used, out)
             })?;
             if stop {
                 return Ok(true);
