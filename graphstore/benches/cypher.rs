@@ -59,6 +59,7 @@ fn main() -> anyhow::Result<()> {
     let store = Store::create(dir.path().join("bench.og"))?;
     store.set_schema(Schema {
         property_indexes: vec![PropertyIndexSpec {
+            name: None,
             label: "N".into(),
             key: "id".into(),
         }],

@@ -56,6 +56,9 @@ pub struct RelRule {
 /// A property index: equality and range lookups of `label.key`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct PropertyIndexSpec {
+    /// The index's name (`CREATE INDEX name FOR ...`); None: `label_key` in lower case.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Label of indexed nodes.
     pub label: String,
     /// Indexed property.
@@ -159,6 +162,7 @@ impl Schema {
         for (label, rule) in &self.labels {
             for key in &rule.unique {
                 out.push(PropertyIndexSpec {
+                    name: None,
                     label: label.clone(),
                     key: key.clone(),
                 });

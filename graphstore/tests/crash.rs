@@ -39,6 +39,7 @@ fn schema() -> Schema {
         },
     );
     s.property_indexes.push(PropertyIndexSpec {
+        name: None,
         label: "T".into(),
         key: "txn".into(),
     });

@@ -781,3 +781,67 @@ fn counts_from_the_store_equal_a_scan() {
     assert_eq!(v("MATCH ()-[r:R]->() RETURN count(*) AS n"), "Int(3)");
     assert_eq!(v("MATCH (a)-[r:R]->(a) RETURN count(*) AS n"), "Int(1)");
 }
+
+/// CREATE INDEX makes the planner seek instead of scanning, with the same rows; SHOW
+/// INDEXES lists it; DROP INDEX removes it; read-only sessions cannot create one.
+#[test]
+fn create_show_and_drop_a_property_index() {
+    let (_d, s) = store();
+    q(
+        &s,
+        "UNWIND range(0, 199) AS i CREATE (:Seg {name: 'seg' + toString(i), n: i})",
+    );
+    let find = "MATCH (s:Seg {name: 'seg17'}) RETURN s.n AS n";
+    let plan = |st: &str| q(&s, &format!("EXPLAIN {st}")).plan.unwrap_or_default();
+    assert!(!plan(find).contains("NodeIndexSeek"), "{}", plan(find));
+    let before = format!("{:?}", q(&s, find).rows);
+    let ro = QueryOptions {
+        read_only: true,
+        ..QueryOptions::default()
+    };
+    let e = qerr(&s, "CREATE INDEX FOR (s:Seg) ON (s.name)", &ro);
+    assert_eq!(e.kind, ErrorKind::ReadOnly);
+    q(&s, "CREATE INDEX seg_name FOR (s:Seg) ON (s.name)");
+    assert!(plan(find).contains("NodeIndexSeek"), "{}", plan(find));
+    assert_eq!(format!("{:?}", q(&s, find).rows), before);
+    assert_eq!(before, "[[Int(17)]]");
+    // ranges use it too, and new nodes are indexed
+    q(&s, "CREATE (:Seg {name: 'zzz', n: 1000})");
+    assert_eq!(
+        format!(
+            "{:?}",
+            q(
+                &s,
+                "MATCH (s:Seg) WHERE s.name > 'seg98' RETURN s.n AS n ORDER BY n"
+            )
+            .rows
+        ),
+        "[[Int(99)], [Int(1000)]]"
+    );
+    let shown = q(&s, "SHOW INDEXES");
+    assert_eq!(shown.columns[0], "name");
+    assert_eq!(format!("{:?}", shown.rows[0][0]), "Str(\"seg_name\")");
+    let dup = qerr(
+        &s,
+        "CREATE INDEX FOR (x:Seg) ON (x.name)",
+        &QueryOptions::default(),
+    );
+    assert!(dup.message.contains("already exists"), "{dup}");
+    q(&s, "CREATE INDEX IF NOT EXISTS FOR (x:Seg) ON (x.name)");
+    q(&s, "DROP INDEX seg_name");
+    assert!(!plan(find).contains("NodeIndexSeek"));
+    let gone = qerr(&s, "DROP INDEX seg_name", &QueryOptions::default());
+    assert_eq!(gone.kind, ErrorKind::EntityNotFound);
+    q(&s, "DROP INDEX seg_name IF EXISTS");
+    q(&s, "CREATE INDEX ON :Seg(n)");
+    assert_eq!(
+        format!("{:?}", q(&s, "SHOW INDEXES").rows[0][0]),
+        "Str(\"seg_n\")"
+    );
+    let bad = qerr(
+        &s,
+        "CREATE INDEX FOR (x:Seg) ON (y.name)",
+        &QueryOptions::default(),
+    );
+    assert_eq!(bad.kind, ErrorKind::Syntax);
+}

@@ -31,6 +31,7 @@ fn schema() -> Schema {
         },
     );
     s.property_indexes.push(PropertyIndexSpec {
+        name: None,
         label: "A".into(),
         key: "k".into(),
     });

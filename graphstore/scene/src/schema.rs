@@ -230,18 +230,22 @@ pub fn opengraph_schema() -> Schema {
     );
     s.property_indexes = vec![
         PropertyIndexSpec {
+            name: None,
             label: label::INSTANCE.into(),
             key: key::CLASS.into(),
         },
         PropertyIndexSpec {
+            name: None,
             label: label::INSTANCE.into(),
             key: key::LABEL.into(),
         },
         PropertyIndexSpec {
+            name: None,
             label: label::LANE_NODE.into(),
             key: key::KIND.into(),
         },
         PropertyIndexSpec {
+            name: None,
             label: label::SEGMENT.into(),
             key: key::KIND.into(),
         },

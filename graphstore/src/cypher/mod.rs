@@ -20,6 +20,7 @@ mod check;
 mod count;
 mod eval;
 mod exec;
+mod index_cmd;
 mod lexer;
 mod parser;
 mod plan;
@@ -560,9 +561,106 @@ fn after_statement<T>(res: R<T>, peak: u64) -> R<T> {
 }
 
 impl Store {
+    /// Runs `CREATE INDEX`, `DROP INDEX` or `SHOW INDEXES` (see [`index_cmd`]).
+    fn index_command(
+        &self,
+        cmd: index_cmd::IndexCmd,
+        opts: &QueryOptions,
+    ) -> crate::Result<QueryResult> {
+        use index_cmd::IndexCmd;
+        let err = |kind, code, msg: String| -> crate::Result<QueryResult> {
+            Err(QueryError::new(kind, code, msg, None).into())
+        };
+        if cmd != IndexCmd::Show && opts.read_only {
+            return err(
+                ErrorKind::ReadOnly,
+                "ReadOnly",
+                "this session is read-only; creating or dropping an index writes".into(),
+            );
+        }
+        let mut schema = self.schema();
+        match cmd {
+            IndexCmd::Show => {
+                let (columns, rows) = index_cmd::show(&schema);
+                return Ok(QueryResult {
+                    columns,
+                    rows,
+                    ..QueryResult::default()
+                });
+            }
+            IndexCmd::Create {
+                name,
+                label,
+                key,
+                if_not_exists,
+            } => {
+                let spec = crate::schema::PropertyIndexSpec { name, label, key };
+                let new_name = index_cmd::index_name(&spec);
+                let clash = schema.effective_property_indexes().into_iter().find(|p| {
+                    (p.label == spec.label && p.key == spec.key)
+                        || index_cmd::index_name(p) == new_name
+                });
+                if let Some(p) = clash {
+                    if if_not_exists {
+                        return Ok(QueryResult::default());
+                    }
+                    return err(
+                        ErrorKind::Constraint,
+                        "IndexAlreadyExists",
+                        format!(
+                            "an index {} on :{}({}) already exists",
+                            index_cmd::index_name(&p),
+                            p.label,
+                            p.key
+                        ),
+                    );
+                }
+                schema.property_indexes.push(spec);
+            }
+            IndexCmd::Drop {
+                name,
+                on,
+                if_exists,
+            } => {
+                let pos = schema
+                    .property_indexes
+                    .iter()
+                    .position(|p| match (&name, &on) {
+                        (Some(n), _) => index_cmd::index_name(p) == *n,
+                        (None, Some((l, k))) => p.label == *l && p.key == *k,
+                        (None, None) => false,
+                    });
+                match pos {
+                    Some(i) => {
+                        schema.property_indexes.remove(i);
+                    }
+                    None if if_exists => return Ok(QueryResult::default()),
+                    None => {
+                        let what = name.unwrap_or_else(|| {
+                            on.map(|(l, k)| format!(":{l}({k})")).unwrap_or_default()
+                        });
+                        return err(
+                            ErrorKind::EntityNotFound,
+                            "IndexNotFound",
+                            format!(
+                                "no index {what} to drop (SHOW INDEXES lists them; the indexes \
+                                 behind unique keys go with their constraint)"
+                            ),
+                        );
+                    }
+                }
+            }
+        }
+        self.set_schema(schema)?;
+        Ok(QueryResult::default())
+    }
+
     /// Runs a Cypher statement. Reads run in a read transaction; a statement that writes runs
     /// in one write transaction and leaves the store unchanged when it fails.
     pub fn query(&self, text: &str, opts: &QueryOptions) -> crate::Result<QueryResult> {
+        if let Some(cmd) = index_cmd::parse(text)? {
+            return self.index_command(cmd, opts);
+        }
         let stmt = parser::parse(text)?;
         check::check(&stmt)?;
         let deadline = opts.timeout.map(|t| Instant::now() + t);
@@ -649,6 +747,9 @@ pub fn is_deterministic(text: &str) -> Result<bool, QueryError> {
 
 /// Whether the statement writes (CREATE, MERGE, SET, REMOVE, DELETE).
 pub fn is_write(text: &str) -> Result<bool, QueryError> {
+    if let Some(cmd) = index_cmd::parse(text)? {
+        return Ok(cmd != index_cmd::IndexCmd::Show);
+    }
     let stmt = parser::parse(text)?;
     Ok(stmt
         .parts
