@@ -256,6 +256,17 @@ def main():
     og_load = time.perf_counter() - t
     if r.returncode != 0:
         sys.exit(f"opengraph import failed: {r.stderr}")
+    # the anchored queries look a segment up by name: opengraph gets a property index on it;
+    # Kùzu has no secondary index (its primary key is `id`), so it scans the segments
+    t = time.perf_counter()
+    r = subprocess.run(
+        [args.opengraph, "query", "--db", og_db, "CREATE INDEX FOR (s:Segment) ON (s.name)"],
+        capture_output=True,
+        text=True,
+    )
+    og_index = time.perf_counter() - t
+    if r.returncode != 0:
+        sys.exit(f"opengraph CREATE INDEX failed: {r.stderr}")
     kz_db = os.path.join(work, "bench.kuzu")
     t = time.perf_counter()
     db = kuzu.Database(kz_db)
@@ -281,7 +292,8 @@ def main():
     og_size, kz_size = dir_size(og_db), dir_size(kz_db)
     print(
         f"load: opengraph import {og_load:.2f} s (whole process), Kùzu COPY {kz_load:.2f} s "
-        f"(in process, tables declared) -> {og_load / kz_load:.2f}x",
+        f"(in process, tables declared) -> {og_load / kz_load:.2f}x; opengraph CREATE INDEX "
+        f"on Segment.name {og_index:.2f} s (Kùzu has no secondary index)",
         flush=True,
     )
     print(
@@ -290,7 +302,11 @@ def main():
         flush=True,
     )
     report.update(
-        og_load_secs=og_load, kuzu_load_secs=kz_load, og_bytes=og_size, kuzu_bytes=kz_size
+        og_load_secs=og_load,
+        og_index_secs=og_index,
+        kuzu_load_secs=kz_load,
+        og_bytes=og_size,
+        kuzu_bytes=kz_size,
     )
     t = time.perf_counter()
     db = kuzu.Database(kz_db, read_only=True)
