@@ -19,6 +19,11 @@ fn user_errors_exit_2_on_every_command() {
     let bad_json = dir.path().join("bad.json");
     std::fs::write(&bad_json, "{not json").unwrap();
     let bad_json = s(&bad_json).to_string();
+    let bad_csv = dir.path().join("nodes.csv");
+    std::fs::write(&bad_csv, ":ID,n:int\n1,2\n2,two\n").unwrap();
+    let bad_csv = s(&bad_csv).to_string();
+    let new_db = dir.path().join("new.og");
+    let new_db = s(&new_db).to_string();
     let llm = [
         "--llm",
         "openai",
@@ -47,6 +52,26 @@ fn user_errors_exit_2_on_every_command() {
                 "graphml".into(),
                 "--out".into(),
                 format!("{nowhere}/x.graphml"),
+            ],
+        ),
+        (
+            "import",
+            vec![
+                "import".into(),
+                "--db".into(),
+                db.clone(),
+                "--nodes".into(),
+                bad_csv.clone(),
+            ],
+        ),
+        (
+            "import bad field",
+            vec![
+                "import".into(),
+                "--db".into(),
+                new_db.clone(),
+                "--nodes".into(),
+                bad_csv.clone(),
             ],
         ),
         (

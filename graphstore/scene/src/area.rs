@@ -64,6 +64,40 @@ impl SegmentArea {
         self.distance(p) <= 0.0
     }
 
+    /// The axis-aligned bounds `[min, max]` of the area on the ground plane, metres; every
+    /// point of the area lies inside, so the distance to the bounds is a lower bound of
+    /// [`SegmentArea::distance`].
+    pub fn bounds(&self) -> [[f64; 2]; 2] {
+        match self {
+            SegmentArea::Disc { centre, radius_m } => [
+                [centre[0] - radius_m, centre[1] - radius_m],
+                [centre[0] + radius_m, centre[1] + radius_m],
+            ],
+            SegmentArea::Corridor {
+                centreline,
+                half_width_m,
+            } => {
+                let mut lo = [f64::INFINITY; 2];
+                let mut hi = [f64::NEG_INFINITY; 2];
+                for q in centreline {
+                    for k in 0..2 {
+                        lo[k] = lo[k].min(q[k]);
+                        hi[k] = hi[k].max(q[k]);
+                    }
+                }
+                if centreline.is_empty() {
+                    // distance() measures from the origin then
+                    lo = [0.0, 0.0];
+                    hi = [0.0, 0.0];
+                }
+                [
+                    [lo[0] - half_width_m, lo[1] - half_width_m],
+                    [hi[0] + half_width_m, hi[1] + half_width_m],
+                ]
+            }
+        }
+    }
+
     /// A closed ring approximating the outline of a disc (`n` vertices), or the centreline of a
     /// corridor (for display; containment uses [`Self::distance`]).
     pub fn outline(&self, n: usize) -> Vec<[f64; 2]> {

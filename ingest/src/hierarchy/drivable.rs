@@ -117,14 +117,14 @@ pub fn alpha_triangles(points: &[[f64; 2]], alpha_m: f64) -> Vec<[[f64; 2]; 3]> 
 /// within `max_gap_m`.
 pub fn segment_areas(tris: &[[[f64; 2]; 3]], segs: &Segments, max_gap_m: f64) -> Vec<Drivable> {
     let mut per: Vec<Vec<[[f64; 2]; 3]>> = vec![Vec::new(); segs.segments.len()];
+    // cells a few times the usual gap: a triangle looks at the segments near it only
+    let grid = segs.grid((4.0 * max_gap_m).max(25.0));
     for t in tris {
         let c = [
             (t[0][0] + t[1][0] + t[2][0]) / 3.0,
             (t[0][1] + t[1][1] + t[2][1]) / 3.0,
         ];
-        if let Some((s, d)) = segs.nearest(c)
-            && d <= max_gap_m
-        {
+        if let Some((s, _)) = grid.nearest_within(segs, c, max_gap_m) {
             per[s].push(*t);
         }
     }

@@ -84,6 +84,100 @@ impl Segments {
             .map(|s| (s.id, s.area.distance(p)))
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
     }
+
+    /// A grid over the segments' bounds for [`SegmentGrid::nearest_within`], with cells of
+    /// `cell_m` metres.
+    pub fn grid(&self, cell_m: f64) -> SegmentGrid {
+        let cell_m = if cell_m.is_finite() && cell_m > 0.0 {
+            cell_m
+        } else {
+            50.0
+        };
+        let mut cells: std::collections::HashMap<(i64, i64), Vec<usize>> =
+            std::collections::HashMap::new();
+        let bounds: Vec<[[f64; 2]; 2]> = self.segments.iter().map(|s| s.area.bounds()).collect();
+        for (i, b) in bounds.iter().enumerate() {
+            let (lo, hi) = (cell_of(b[0], cell_m), cell_of(b[1], cell_m));
+            // a huge area (a corrupt centreline) would fill millions of cells: keep it aside
+            if (hi.0 - lo.0 + 1).saturating_mul(hi.1 - lo.1 + 1) > 100_000 {
+                cells.entry((i64::MAX, i64::MAX)).or_default().push(i);
+                continue;
+            }
+            for x in lo.0..=hi.0 {
+                for y in lo.1..=hi.1 {
+                    cells.entry((x, y)).or_default().push(i);
+                }
+            }
+        }
+        SegmentGrid {
+            cell_m,
+            cells,
+            bounds,
+        }
+    }
+}
+
+fn cell_of(p: [f64; 2], cell_m: f64) -> (i64, i64) {
+    // saturating casts: NaN goes to 0, far points to the ends
+    (
+        (p[0] / cell_m).floor() as i64,
+        (p[1] / cell_m).floor() as i64,
+    )
+}
+
+/// Segments bucketed by their bounds on a square grid, so that the segment nearest to a
+/// point within a distance is found among the few whose bounds come that close, not by a
+/// scan of every segment (which made measuring a city's drivable areas take minutes: one
+/// scan per triangle).
+#[derive(Debug, Clone)]
+pub struct SegmentGrid {
+    cell_m: f64,
+    cells: std::collections::HashMap<(i64, i64), Vec<usize>>,
+    bounds: Vec<[[f64; 2]; 2]>,
+}
+
+impl SegmentGrid {
+    /// The segment nearest to `p` and its distance, when that distance is at most `max_m`;
+    /// the same answer as [`Segments::nearest`] in that case (ties to the smaller id), None
+    /// otherwise. `segs` must be the segments the grid was built from.
+    pub fn nearest_within(&self, segs: &Segments, p: [f64; 2], max_m: f64) -> Option<(usize, f64)> {
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            return None;
+        }
+        let r = max_m.max(0.0);
+        let lo = cell_of([p[0] - r, p[1] - r], self.cell_m);
+        let hi = cell_of([p[0] + r, p[1] + r], self.cell_m);
+        let mut cand: Vec<usize> = Vec::new();
+        if (hi.0 - lo.0 + 1).saturating_mul(hi.1 - lo.1 + 1) > 10_000 {
+            cand.extend(0..segs.segments.len());
+        } else {
+            for x in lo.0..=hi.0 {
+                for y in lo.1..=hi.1 {
+                    if let Some(v) = self.cells.get(&(x, y)) {
+                        cand.extend_from_slice(v);
+                    }
+                }
+            }
+            if let Some(v) = self.cells.get(&(i64::MAX, i64::MAX)) {
+                cand.extend_from_slice(v);
+            }
+            cand.sort_unstable();
+            cand.dedup();
+        }
+        cand.into_iter()
+            .filter(|&i| {
+                let b = &self.bounds[i];
+                let dx = (b[0][0] - p[0]).max(p[0] - b[1][0]).max(0.0);
+                let dy = (b[0][1] - p[1]).max(p[1] - b[1][1]).max(0.0);
+                dx * dx + dy * dy <= r * r
+            })
+            .map(|i| {
+                let s = &segs.segments[i];
+                (s.id, s.area.distance(p))
+            })
+            .filter(|(_, d)| *d <= max_m)
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+    }
 }
 
 /// Drops the parts of `line` inside the disc (`c`, `r`) at its start, ending the cut exactly
@@ -206,6 +300,66 @@ fn centroid(line: &[[f64; 2]]) -> [f64; 2] {
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
+    fn some_segments(spec: &[(bool, [f64; 2], f64)]) -> Segments {
+        let segments = spec
+            .iter()
+            .enumerate()
+            .map(|(id, (disc, c, r))| Segment {
+                id,
+                kind: SegmentKind::StraightRoadway,
+                centroid: *c,
+                area: if *disc {
+                    SegmentArea::Disc {
+                        centre: *c,
+                        radius_m: *r,
+                    }
+                } else {
+                    SegmentArea::Corridor {
+                        centreline: vec![
+                            *c,
+                            [c[0] + 40.0 * r, c[1] - 7.0 * r],
+                            [c[0] + 3.0, c[1] + 60.0],
+                        ],
+                        half_width_m: *r,
+                    }
+                },
+                lane_nodes: Vec::new(),
+            })
+            .collect();
+        Segments {
+            segments,
+            connects: Vec::new(),
+        }
+    }
+
+    proptest! {
+        /// The grid's nearest segment within a distance is the scan's, or none when the
+        /// scan's nearest is farther.
+        #[test]
+        fn the_grid_finds_what_the_scan_finds(
+            spec in proptest::collection::vec(
+                (any::<bool>(), [-500.0f64..500.0, -500.0f64..500.0], 0.5f64..20.0),
+                1..40,
+            ),
+            pts in proptest::collection::vec([-700.0f64..700.0, -700.0f64..700.0], 1..60),
+            max_m in 0.0f64..80.0,
+            cell_m in 5.0f64..120.0,
+        ) {
+            let segs = some_segments(&spec);
+            let grid = segs.grid(cell_m);
+            for p in pts {
+                let scan = segs.nearest(p).filter(|(_, d)| *d <= max_m);
+                let got = grid.nearest_within(&segs, p, max_m);
+                prop_assert_eq!(got.map(|g| g.0), scan.map(|s| s.0));
+                if let (Some(g), Some(s)) = (got, scan) {
+                    prop_assert!((g.1 - s.1).abs() <= 1e-9);
+                }
+            }
+        }
+    }
+
     use super::*;
     use crate::hierarchy::lanes::{LaneConfig, extract_lanes, tests::drive};
 
