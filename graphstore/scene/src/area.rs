@@ -179,6 +179,32 @@ pub fn membership_distance(area: &SegmentArea, drivable: Option<&Drivable>, p: [
     }
 }
 
+/// The bounds `[min, max]` of what [`membership_distance`] measures from (the drivable area
+/// when it has one, else the trajectory area): the distance from `p` to them is a lower bound
+/// of the membership distance.
+pub fn membership_bounds(area: &SegmentArea, drivable: Option<&Drivable>) -> [[f64; 2]; 2] {
+    match drivable {
+        Some(d) if !d.is_empty() => {
+            let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
+            for q in d.rings.iter().flatten() {
+                for k in 0..2 {
+                    b[0][k] = b[0][k].min(q[k]);
+                    b[1][k] = b[1][k].max(q[k]);
+                }
+            }
+            b
+        }
+        _ => area.bounds(),
+    }
+}
+
+/// Distance from `p` to the box `b` (`[min, max]`), metres; 0 inside.
+pub fn box_gap(b: &[[f64; 2]; 2], p: [f64; 2]) -> f64 {
+    let dx = (b[0][0] - p[0]).max(p[0] - b[1][0]).max(0.0);
+    let dy = (b[0][1] - p[1]).max(p[1] - b[1][1]).max(0.0);
+    (dx * dx + dy * dy).sqrt()
+}
+
 /// A segment's drivable area measured from the map: closed rings on the ground plane whose
 /// even-odd interior is the area (outer boundaries counter-clockwise, holes clockwise), as
 /// [`Drivable::from_triangles`] traces them around a set of triangles.

@@ -379,6 +379,15 @@ fn write_all(
     // instances
     let instances = tx.nodes_with_label(scene::label::INSTANCE)?;
     let mut boxes = Vec::with_capacity(instances.len());
+    // each segment's bounds give a lower bound of an instance's distance to it: segments are
+    // measured nearest-bound first, and once a bound is past the best distance found the rest
+    // cannot win (the same answer as measuring all, ties to the smaller id)
+    let seg_bounds: Vec<[[f64; 2]; 2]> = segs
+        .segments
+        .iter()
+        .map(|s| scene::area::membership_bounds(&s.area, Some(&drivable[s.id])))
+        .collect();
+    let mut order: Vec<(f64, usize)> = Vec::with_capacity(segs.segments.len());
     for &id in &instances {
         let Some(b) = read_instance_box(&*tx, id, frame)? else {
             return Err(Error::Invalid(format!(
@@ -387,14 +396,29 @@ fn write_all(
         };
         boxes.push(b);
         let c = frame.ground(b.centre());
-        let nearest = segs
-            .segments
-            .iter()
-            .map(|s| {
-                let d = scene::area::membership_distance(&s.area, Some(&drivable[s.id]), c);
-                (s.id, d)
-            })
-            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        order.clear();
+        order.extend(
+            seg_bounds
+                .iter()
+                .enumerate()
+                .map(|(i, b)| (scene::area::box_gap(b, c), i)),
+        );
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut nearest: Option<(usize, f64)> = None;
+        for &(lb, i) in &order {
+            if nearest.is_some_and(|(_, best)| lb > best) {
+                break;
+            }
+            let s = &segs.segments[i];
+            let d = scene::area::membership_distance(&s.area, Some(&drivable[s.id]), c);
+            let better = match nearest {
+                None => true,
+                Some((bid, best)) => d.total_cmp(&best).then(s.id.cmp(&bid)).is_lt(),
+            };
+            if better {
+                nearest = Some((s.id, d));
+            }
+        }
         if let Some((sid, d)) = nearest {
             InSegmentRecord { distance_m: d }.create(tx, id, seg_ids[sid])?;
             report.instances_linked += 1;
