@@ -51,6 +51,11 @@ fn an_exported_graph_imports_as_the_same_graph() {
                 ("ok", Value::Bool(true)),
                 ("tags", Value::List(vec!["x".into(), "y".into()])),
                 ("ids", Value::List(vec![Value::Int(1), Value::Int(2)])),
+                // a list of floats (a pose matrix) stays a list, not a vector
+                (
+                    "m",
+                    Value::List(vec![Value::Float(0.5), Value::Float(-1.25)]),
+                ),
             ],
         )?;
         // a gap in the ids: the import must keep them anyway

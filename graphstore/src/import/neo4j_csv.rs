@@ -146,6 +146,9 @@ pub struct CsvImport {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Scalar {
     Int,
+    /// `float`: a number; as an array (`float[]`), a dense f32 vector.
+    Float32,
+    /// `double`: a number; as an array, a list of floats.
     Float,
     Bool,
     Str,
@@ -205,7 +208,8 @@ fn parse_header(path: &Path, fields: &csv::StringRecord) -> Result<Vec<Col>> {
                 };
                 let scalar = match item.as_str() {
                     "int" | "long" | "short" | "byte" => Scalar::Int,
-                    "float" | "double" => Scalar::Float,
+                    "float" => Scalar::Float32,
+                    "double" => Scalar::Float,
                     "boolean" => Scalar::Bool,
                     "string" | "char" | "date" | "time" | "datetime" | "localtime"
                     | "localdatetime" | "duration" => Scalar::Str,
@@ -261,7 +265,9 @@ fn parse_scalar(s: &str, t: Scalar) -> std::result::Result<Value, String> {
     let fail = |what: &str| format!("{s:?} is not {what}");
     Ok(match t {
         Scalar::Int => Value::Int(s.trim().parse().map_err(|_| fail("an integer"))?),
-        Scalar::Float => Value::Float(parse_f64(s).ok_or_else(|| fail("a number"))?),
+        Scalar::Float | Scalar::Float32 => {
+            Value::Float(parse_f64(s).ok_or_else(|| fail("a number"))?)
+        }
         Scalar::Bool => match s.trim().to_ascii_lowercase().as_str() {
             "true" => Value::Bool(true),
             "false" => Value::Bool(false),
@@ -277,7 +283,7 @@ fn parse_field(s: &str, t: Scalar, array: bool) -> std::result::Result<Value, St
         return parse_scalar(s, t);
     }
     let items = s.split(ARRAY_DELIMITER);
-    if t == Scalar::Float {
+    if t == Scalar::Float32 {
         // float[]: a dense vector, as the export writes embeddings
         let mut v = Vec::new();
         for it in items {
@@ -674,13 +680,17 @@ mod tests {
             parse_field("{y: 2, x: 1}", Scalar::Point, false).unwrap(),
             Value::Point2D([1.0, 2.0])
         );
-        let Value::Vector(v) = parse_field("0.5;NaN;-Infinity", Scalar::Float, true).unwrap()
+        let Value::Vector(v) = parse_field("0.5;NaN;-Infinity", Scalar::Float32, true).unwrap()
         else {
             panic!("float[] is a vector")
         };
         assert!((v[0] - 0.5).abs() < 1e-9);
         assert!(v[1].is_nan());
         assert!(v[2].is_infinite() && v[2] < 0.0);
+        assert_eq!(
+            parse_field("0.5;2.0", Scalar::Float, true).unwrap(),
+            Value::List(vec![Value::Float(0.5), Value::Float(2.0)])
+        );
         assert_eq!(
             parse_field("1;2", Scalar::Int, true).unwrap(),
             Value::List(vec![Value::Int(1), Value::Int(2)])
