@@ -119,6 +119,20 @@ fn cached_sim_map(sim_args: &[&str], build_args: &[&str]) -> std::path::PathBuf 
     let lock = std::fs::File::create(root.join(format!("{key}.lock"))).unwrap();
     lock.lock().unwrap();
     if !done.join("city.og").exists() {
+        // maps made by older builds of the binary are never used again (the key holds the
+        // binary's time): remove them, or a developer's disk fills by ~1 GB per rebuild
+        let built = meta.modified().unwrap();
+        for e in std::fs::read_dir(&root).unwrap().flatten() {
+            let stale = e
+                .metadata()
+                .and_then(|m| m.modified())
+                .is_ok_and(|t| t < built);
+            let name = e.file_name().to_string_lossy().to_string();
+            if stale && e.path().is_dir() && !name.ends_with(".partial") {
+                let _ = std::fs::remove_dir_all(e.path());
+                let _ = std::fs::remove_file(root.join(format!("{name}.lock")));
+            }
+        }
         let tmp = root.join(format!("{key}.partial"));
         let _ = std::fs::remove_dir_all(&tmp);
         std::fs::create_dir_all(&tmp).unwrap();

@@ -33,7 +33,7 @@ use crate::export::neo4j_csv::ARRAY_DELIMITER;
 use crate::store::Store;
 use crate::tokens::{LabelId, PropKey, RelType};
 use crate::txn::WriteTxn;
-use crate::value::Value;
+use crate::value::{Value, ValueType};
 
 /// One file to import, with the labels (node files) or the type (relationship files) given
 /// for all of its rows, besides those of its `:LABEL` or `:TYPE` column.
@@ -382,7 +382,86 @@ fn prop_keys(tx: &mut WriteTxn<'_>, cols: &[Col]) -> Result<Vec<Option<PropKey>>
 }
 
 /// The property values of the reader's current row.
-fn row_props(r: &Reader, keys: &[Option<PropKey>]) -> Result<Vec<(PropKey, Value)>> {
+/// JSON as a store value: `{x, y[, z]}` objects of numbers are points, `{"$float": "NaN"}`
+/// and the like are floats (the project's JSON for non-finite numbers), integers stay
+/// integers.
+fn json_value(j: &serde_json::Value) -> Value {
+    use serde_json::Value as J;
+    match j {
+        J::Null => Value::Null,
+        J::Bool(b) => Value::Bool(*b),
+        J::Number(n) => n
+            .as_i64()
+            .map(Value::Int)
+            .unwrap_or_else(|| Value::Float(n.as_f64().unwrap_or(f64::NAN))),
+        J::String(t) => Value::String(t.clone()),
+        J::Array(a) => Value::List(a.iter().map(json_value).collect()),
+        J::Object(o) => {
+            let num = |k: &str| match o.get(k).map(json_value) {
+                Some(Value::Int(i)) => Some(i as f64),
+                Some(Value::Float(f)) => Some(f),
+                _ => None,
+            };
+            if let (1, Some(J::String(t))) = (o.len(), o.get("$float"))
+                && let Some(f) = parse_f64(t)
+            {
+                return Value::Float(f);
+            }
+            match (o.len(), num("x"), num("y"), num("z")) {
+                (2, Some(x), Some(y), None) => Value::Point2D([x, y]),
+                (3, Some(x), Some(y), Some(z)) => Value::Point3D([x, y, z]),
+                _ => Value::Map(o.iter().map(|(k, v)| (k.clone(), json_value(v))).collect()),
+            }
+        }
+    }
+}
+
+/// A `string` field holding the JSON of a value the schema types otherwise (a box, a map, a
+/// list of points: the export writes those as JSON text) becomes that value again.
+fn coerce(v: Value, want: Option<ValueType>) -> Value {
+    match (&v, want) {
+        (Value::String(t), Some(ty))
+            if !matches!(ty, ValueType::String | ValueType::Any) && !ty.accepts(&v) =>
+        {
+            serde_json::from_str::<serde_json::Value>(t)
+                .ok()
+                .map(|j| json_value(&j))
+                .filter(|j| ty.accepts(j))
+                .unwrap_or(v)
+        }
+        _ => v,
+    }
+}
+
+/// The declared property types of the store's schema, by label or type, then key.
+type Typed = HashMap<String, HashMap<String, ValueType>>;
+
+fn typed(store: &Store) -> (Typed, Typed) {
+    let schema = store.schema();
+    let node = schema
+        .labels
+        .iter()
+        .map(|(l, r)| {
+            let m = r.properties.iter().map(|p| (p.key.clone(), p.ty)).collect();
+            (l.clone(), m)
+        })
+        .collect();
+    let rel = schema
+        .relationships
+        .iter()
+        .map(|(t, r)| {
+            let m = r.properties.iter().map(|p| (p.key.clone(), p.ty)).collect();
+            (t.clone(), m)
+        })
+        .collect();
+    (node, rel)
+}
+
+fn row_props(
+    r: &Reader,
+    keys: &[Option<PropKey>],
+    want: &dyn Fn(&str) -> Option<ValueType>,
+) -> Result<Vec<(PropKey, Value)>> {
     let mut props = Vec::new();
     for (i, (c, field)) in r.cols.iter().zip(r.rec.iter()).enumerate() {
         let (Col::Prop(name, t, array), Some(k)) = (c, keys[i]) else {
@@ -396,7 +475,7 @@ fn row_props(r: &Reader, keys: &[Option<PropKey>]) -> Result<Vec<(PropKey, Value
         }
         let v = parse_field(field, *t, *array)
             .map_err(|e| r.err(format!("column {} ({name}): {e}", i + 1)))?;
-        props.push((k, v));
+        props.push((k, coerce(v, want(name))));
     }
     Ok(props)
 }
@@ -416,6 +495,7 @@ pub fn import_neo4j_csv(
 ) -> Result<CsvImport> {
     let batch_rows = batch_rows.max(1);
     let total = files.total_bytes();
+    let (node_types, rel_types) = typed(store);
     // pass 1: the ids, checked unique, and whether they can be kept
     let mut numeric: Vec<u64> = Vec::new();
     let mut all_numeric = store.counts()?.total_nodes == 0;
@@ -508,7 +588,24 @@ pub fn import_neo4j_csv(
                         }
                         labels.extend_from_slice(&label_cache[field]);
                     }
-                    let props = row_props(&r, &keys)?;
+                    let label_field = label_col.map(|lc| r.rec.get(lc).unwrap_or_default());
+                    let names: Vec<&str> = f
+                        .given
+                        .iter()
+                        .map(String::as_str)
+                        .chain(
+                            label_field
+                                .into_iter()
+                                .flat_map(|x| x.split(ARRAY_DELIMITER)),
+                        )
+                        .map(str::trim)
+                        .collect();
+                    let want = |k: &str| {
+                        names
+                            .iter()
+                            .find_map(|l| node_types.get(*l).and_then(|m| m.get(k)).copied())
+                    };
+                    let props = row_props(&r, &keys, &want)?;
                     let at = |e: Error| r.err(e.to_string());
                     match (&mut ids, id_col) {
                         (Ids::Kept, Some(ic)) => {
@@ -615,7 +712,15 @@ pub fn import_neo4j_csv(
                         })
                     };
                     let (s, e) = (end_id(sc, &sg)?, end_id(ec, &eg)?);
-                    let props = row_props(&r, &keys)?;
+                    let tname = tc
+                        .and_then(|c| r.rec.get(c))
+                        .map(str::trim)
+                        .filter(|t| !t.is_empty())
+                        .or(f.given.first().map(String::as_str))
+                        .unwrap_or_default();
+                    let declared = rel_types.get(tname);
+                    let want = |k: &str| declared.and_then(|m| m.get(k)).copied();
+                    let props = row_props(&r, &keys, &want)?;
                     tx.create_rel(s, ty, e, props).map_err(|err| match err {
                         Error::NodeNotFound(id) => r.err(format!(
                             "column {}: no node has the :ID \"{id}\"",
@@ -698,6 +803,28 @@ mod tests {
         assert!(parse_field("12x", Scalar::Int, false).is_err());
         assert!(parse_field("yes", Scalar::Bool, false).is_err());
         assert!(parse_field("{x: 1}", Scalar::Point, false).is_err());
+    }
+
+    #[test]
+    fn json_text_becomes_the_schema_type() {
+        let bx = Value::String(r#"[{"x":0,"y":1.5,"z":2},{"x":1,"y":2,"z":3}]"#.into());
+        let got = coerce(bx.clone(), Some(ValueType::Box3D));
+        assert!(got.as_box3d().is_some(), "{got:?}");
+        // a plain string, or no declared type, stays a string
+        assert_eq!(coerce(bx.clone(), Some(ValueType::String)), bx);
+        assert_eq!(coerce(bx.clone(), None), bx);
+        let m = coerce(
+            Value::String(r#"{"a":{"$float":"NaN"},"b":[1,2]}"#.into()),
+            Some(ValueType::Map),
+        );
+        let Value::Map(m) = m else {
+            panic!("a map: {m:?}")
+        };
+        assert!(matches!(m["a"], Value::Float(f) if f.is_nan()));
+        assert_eq!(m["b"], Value::List(vec![Value::Int(1), Value::Int(2)]));
+        // text that is not that type stays text (and the store's check reports it)
+        let bad = Value::String("not json".into());
+        assert_eq!(coerce(bad.clone(), Some(ValueType::Map)), bad);
     }
 
     #[test]
