@@ -248,6 +248,44 @@ impl Value {
             Value::Bytes(b) => json!(b),
         }
     }
+
+    /// The value of JSON that [`Value::to_json`] wrote: `{x, y[, z]}` objects of numbers are
+    /// points, `{"$float": "NaN"}` and the like are floats, integers stay integers. Vectors and
+    /// bytes come back as lists (JSON does not tell them apart).
+    pub fn from_json(j: &serde_json::Value) -> Value {
+        use serde_json::Value as J;
+        match j {
+            J::Null => Value::Null,
+            J::Bool(b) => Value::Bool(*b),
+            J::Number(n) => n
+                .as_i64()
+                .map(Value::Int)
+                .unwrap_or_else(|| Value::Float(n.as_f64().unwrap_or(f64::NAN))),
+            J::String(t) => Value::String(t.clone()),
+            J::Array(a) => Value::List(a.iter().map(Value::from_json).collect()),
+            J::Object(o) => {
+                let num = |k: &str| match o.get(k).map(Value::from_json) {
+                    Some(Value::Int(i)) => Some(i as f64),
+                    Some(Value::Float(f)) => Some(f),
+                    _ => None,
+                };
+                if let (1, Some(J::String(t))) = (o.len(), o.get("$float"))
+                    && let Ok(f) = t.parse::<f64>()
+                {
+                    return Value::Float(f);
+                }
+                match (o.len(), num("x"), num("y"), num("z")) {
+                    (2, Some(x), Some(y), None) => Value::Point2D([x, y]),
+                    (3, Some(x), Some(y), Some(z)) => Value::Point3D([x, y, z]),
+                    _ => Value::Map(
+                        o.iter()
+                            .map(|(k, v)| (k.clone(), Value::from_json(v)))
+                            .collect(),
+                    ),
+                }
+            }
+        }
+    }
 }
 
 /// A float as JSON: a number when finite, else the one tagged form every JSON the project

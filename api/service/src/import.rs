@@ -152,13 +152,7 @@ pub fn import(req: &ImportRequest, progress: &mut dyn FnMut(u64, u64)) -> ToolRe
             req.db.display()
         ))
     })?;
-    let csv_bytes = files
-        .nodes
-        .iter()
-        .chain(&files.relationships)
-        .filter_map(|f| std::fs::metadata(&f.path).ok())
-        .map(|m| m.len())
-        .sum();
+    let csv_bytes = files.total_bytes();
     Ok(ImportAnswer {
         db: req.db.clone(),
         nodes: got.nodes,

@@ -99,7 +99,7 @@ pub(crate) fn parse(text: &str) -> Result<Option<IndexCmd>, QueryError> {
     let t = tokens(text)?;
     let mut i = 2;
     let at = |i: usize| t.get(i);
-    // `ON :Label(key)` or `ON :Label(key)` after DROP INDEX
+    // `ON :Label(key)`, after CREATE INDEX or DROP INDEX
     let on_label_key = |i: &mut usize| -> Result<(String, String), QueryError> {
         let bad = || syntax("expected ON :Label(key)");
         if !is_kw(at(*i), "ON") || at(*i + 1).map(String::as_str) != Some(":") {

@@ -119,7 +119,8 @@ impl CsvFiles {
         Ok(files)
     }
 
-    fn total_bytes(&self) -> u64 {
+    /// The files' total size in bytes (what the import's progress counts up to).
+    pub fn total_bytes(&self) -> u64 {
         self.nodes
             .iter()
             .chain(&self.relationships)
@@ -382,40 +383,6 @@ fn prop_keys(tx: &mut WriteTxn<'_>, cols: &[Col]) -> Result<Vec<Option<PropKey>>
 }
 
 /// The property values of the reader's current row.
-/// JSON as a store value: `{x, y[, z]}` objects of numbers are points, `{"$float": "NaN"}`
-/// and the like are floats (the project's JSON for non-finite numbers), integers stay
-/// integers.
-fn json_value(j: &serde_json::Value) -> Value {
-    use serde_json::Value as J;
-    match j {
-        J::Null => Value::Null,
-        J::Bool(b) => Value::Bool(*b),
-        J::Number(n) => n
-            .as_i64()
-            .map(Value::Int)
-            .unwrap_or_else(|| Value::Float(n.as_f64().unwrap_or(f64::NAN))),
-        J::String(t) => Value::String(t.clone()),
-        J::Array(a) => Value::List(a.iter().map(json_value).collect()),
-        J::Object(o) => {
-            let num = |k: &str| match o.get(k).map(json_value) {
-                Some(Value::Int(i)) => Some(i as f64),
-                Some(Value::Float(f)) => Some(f),
-                _ => None,
-            };
-            if let (1, Some(J::String(t))) = (o.len(), o.get("$float"))
-                && let Some(f) = parse_f64(t)
-            {
-                return Value::Float(f);
-            }
-            match (o.len(), num("x"), num("y"), num("z")) {
-                (2, Some(x), Some(y), None) => Value::Point2D([x, y]),
-                (3, Some(x), Some(y), Some(z)) => Value::Point3D([x, y, z]),
-                _ => Value::Map(o.iter().map(|(k, v)| (k.clone(), json_value(v))).collect()),
-            }
-        }
-    }
-}
-
 /// A `string` field holding the JSON of a value the schema types otherwise (a box, a map, a
 /// list of points: the export writes those as JSON text) becomes that value again.
 fn coerce(v: Value, want: Option<ValueType>) -> Value {
@@ -425,7 +392,7 @@ fn coerce(v: Value, want: Option<ValueType>) -> Value {
         {
             serde_json::from_str::<serde_json::Value>(t)
                 .ok()
-                .map(|j| json_value(&j))
+                .map(|j| Value::from_json(&j))
                 .filter(|j| ty.accepts(j))
                 .unwrap_or(v)
         }
@@ -478,6 +445,34 @@ fn row_props(
         props.push((k, coerce(v, want(name))));
     }
     Ok(props)
+}
+
+/// Hands the reader's rows to `row`, `batch_rows` of them per write transaction; after each
+/// commit, `committed(rows in it, bytes of the file read so far)`.
+fn in_batches(
+    store: &Store,
+    r: &mut Reader,
+    batch_rows: usize,
+    row: &mut dyn FnMut(&mut WriteTxn<'_>, &Reader) -> Result<()>,
+    committed: &mut dyn FnMut(u64, u64),
+) -> Result<()> {
+    let mut more = true;
+    while more {
+        let n = store.write(|tx| {
+            let mut n = 0u64;
+            while n < batch_rows as u64 {
+                if !r.next()? {
+                    more = false;
+                    break;
+                }
+                row(tx, r)?;
+                n += 1;
+            }
+            Ok(n)
+        })?;
+        committed(n, r.bytes());
+    }
+    Ok(())
 }
 
 /// Imports `files` into `store`, committing every `batch_rows` rows (at least 1);
@@ -558,85 +553,68 @@ pub fn import_neo4j_csv(
         let mut r = Reader::open(&f.path)?;
         let id_col = r.cols.iter().position(|c| matches!(c, Col::Id(..)));
         let label_col = r.cols.iter().position(|c| *c == Col::Label);
-        let mut more = true;
-        while more {
-            let batch = store.write(|tx| {
-                let keys = prop_keys(tx, &r.cols)?;
-                let given: Vec<LabelId> = f
+        let mut keys: Option<Vec<Option<PropKey>>> = None;
+        // per `:LABEL` field: the row's labels (the file's given ones first) as ids and names
+        let mut label_sets: HashMap<String, (Vec<LabelId>, Vec<String>)> = HashMap::new();
+        let mut row = |tx: &mut WriteTxn<'_>, r: &Reader| -> Result<()> {
+            let keys = match &keys {
+                Some(k) => k,
+                None => keys.insert(prop_keys(tx, &r.cols)?),
+            };
+            let field = label_col.map_or("", |lc| r.rec.get(lc).unwrap_or_default());
+            if !label_sets.contains_key(field) {
+                let names: Vec<String> = f
                     .given
                     .iter()
+                    .map(String::as_str)
+                    .chain(field.split(ARRAY_DELIMITER))
+                    .map(str::trim)
+                    .filter(|s| !s.is_empty())
+                    .map(str::to_string)
+                    .collect();
+                let ids = names
+                    .iter()
                     .map(|l| tx.label_id(l))
-                    .collect::<Result<_>>()?;
-                let mut label_cache: HashMap<String, Vec<LabelId>> = HashMap::new();
-                let mut n = 0usize;
-                while n < batch_rows {
-                    if !r.next()? {
-                        more = false;
-                        break;
-                    }
-                    let mut labels = given.clone();
-                    if let Some(lc) = label_col {
-                        let field = r.rec.get(lc).unwrap_or_default();
-                        if !label_cache.contains_key(field) {
-                            let ls = field
-                                .split(ARRAY_DELIMITER)
-                                .map(str::trim)
-                                .filter(|s| !s.is_empty())
-                                .map(|l| tx.label_id(l))
-                                .collect::<Result<Vec<_>>>()?;
-                            label_cache.insert(field.to_string(), ls);
-                        }
-                        labels.extend_from_slice(&label_cache[field]);
-                    }
-                    let label_field = label_col.map(|lc| r.rec.get(lc).unwrap_or_default());
-                    let names: Vec<&str> = f
-                        .given
-                        .iter()
-                        .map(String::as_str)
-                        .chain(
-                            label_field
-                                .into_iter()
-                                .flat_map(|x| x.split(ARRAY_DELIMITER)),
-                        )
-                        .map(str::trim)
-                        .collect();
-                    let want = |k: &str| {
-                        names
-                            .iter()
-                            .find_map(|l| node_types.get(*l).and_then(|m| m.get(k)).copied())
-                    };
-                    let props = row_props(&r, &keys, &want)?;
-                    let at = |e: Error| r.err(e.to_string());
-                    match (&mut ids, id_col) {
-                        (Ids::Kept, Some(ic)) => {
-                            let id: u64 =
-                                r.rec.get(ic).unwrap_or_default().parse().map_err(|_| {
-                                    r.err("the :ID changed between the two reads of the file")
-                                })?;
-                            tx.restore_node(id, &labels, props).map_err(at)?;
-                        }
-                        (Ids::Mapped(m), Some(ic)) => {
-                            let Col::Id(_, group) = &r.cols[ic] else {
-                                unreachable!("id_col points at an Id column")
-                            };
-                            let id = tx.create_node(&labels, props).map_err(at)?;
-                            m.insert(
-                                (group.clone(), r.rec.get(ic).unwrap_or_default().to_string()),
-                                id,
-                            );
-                        }
-                        (_, None) => {
-                            tx.create_node(&labels, props).map_err(at)?;
-                        }
-                    }
-                    n += 1;
+                    .collect::<Result<Vec<_>>>()?;
+                label_sets.insert(field.to_string(), (ids, names));
+            }
+            let (labels, names) = &label_sets[field];
+            let want = |k: &str| {
+                names
+                    .iter()
+                    .find_map(|l| node_types.get(l).and_then(|m| m.get(k)).copied())
+            };
+            let props = row_props(r, keys, &want)?;
+            let at = |e: Error| r.err(e.to_string());
+            match (&mut ids, id_col) {
+                (Ids::Kept, Some(ic)) => {
+                    let id: u64 =
+                        r.rec.get(ic).unwrap_or_default().parse().map_err(|_| {
+                            r.err("the :ID changed between the two reads of the file")
+                        })?;
+                    tx.restore_node(id, labels, props).map_err(at)?;
                 }
-                Ok(n)
-            })?;
-            out.nodes += batch as u64;
+                (Ids::Mapped(m), Some(ic)) => {
+                    let Col::Id(_, group) = &r.cols[ic] else {
+                        unreachable!("id_col points at an Id column")
+                    };
+                    let id = tx.create_node(labels, props).map_err(at)?;
+                    m.insert(
+                        (group.clone(), r.rec.get(ic).unwrap_or_default().to_string()),
+                        id,
+                    );
+                }
+                (_, None) => {
+                    tx.create_node(labels, props).map_err(at)?;
+                }
+            }
+            Ok(())
+        };
+        in_batches(store, &mut r, batch_rows, &mut row, &mut |rows, bytes| {
+            out.nodes += rows;
             out.batches += 1;
-            progress(done_bytes + r.bytes(), total);
-        }
+            progress(done_bytes + bytes, total);
+        })?;
         done_bytes += std::fs::metadata(&f.path).map_or(0, |m| m.len());
     }
     // pass 3: relationships
@@ -652,6 +630,7 @@ pub fn import_neo4j_csv(
         let sc = find(|c| matches!(c, Col::StartId(_)), ":START_ID")?;
         let ec = find(|c| matches!(c, Col::EndId(_)), ":END_ID")?;
         let tc = r.cols.iter().position(|c| *c == Col::Type);
+        let given = f.given.first().map(String::as_str);
         if tc.is_none() && f.given.len() != 1 {
             return Err(Error::Import {
                 path: f.path.clone(),
@@ -662,80 +641,64 @@ pub fn import_neo4j_csv(
         let (Col::StartId(sg), Col::EndId(eg)) = (r.cols[sc].clone(), r.cols[ec].clone()) else {
             unreachable!("found by kind")
         };
-        let mut more = true;
-        while more {
-            let batch = store.write(|tx| {
-                let keys = prop_keys(tx, &r.cols)?;
-                let given: Option<RelType> =
-                    f.given.first().map(|t| tx.rel_type_id(t)).transpose()?;
-                let mut types: HashMap<String, RelType> = HashMap::new();
-                let mut n = 0usize;
-                while n < batch_rows {
-                    if !r.next()? {
-                        more = false;
-                        break;
-                    }
-                    let ty = match tc {
-                        Some(c) => {
-                            let t = r.rec.get(c).unwrap_or_default().trim();
-                            if t.is_empty() {
-                                match given {
-                                    Some(g) => g,
-                                    None => return Err(r.err("an empty :TYPE")),
-                                }
-                            } else if let Some(&id) = types.get(t) {
-                                id
-                            } else {
-                                let id = tx.rel_type_id(t)?;
-                                types.insert(t.to_string(), id);
-                                id
-                            }
-                        }
-                        None => given.expect("checked above: one given type"),
-                    };
-                    let end_id = |col: usize, group: &str| -> Result<u64> {
-                        let raw = r.rec.get(col).unwrap_or_default();
-                        let found = match &ids {
-                            Ids::Kept => raw.parse::<u64>().ok(),
-                            Ids::Mapped(m) => m.get(&(group.to_string(), raw.to_string())).copied(),
-                        };
-                        found.ok_or_else(|| {
-                            r.err(format!(
-                                "column {}: no node has the :ID {raw:?}{}",
-                                col + 1,
-                                if group.is_empty() {
-                                    String::new()
-                                } else {
-                                    format!(" in id space {group}")
-                                }
-                            ))
-                        })
-                    };
-                    let (s, e) = (end_id(sc, &sg)?, end_id(ec, &eg)?);
-                    let tname = tc
-                        .and_then(|c| r.rec.get(c))
-                        .map(str::trim)
-                        .filter(|t| !t.is_empty())
-                        .or(f.given.first().map(String::as_str))
-                        .unwrap_or_default();
-                    let declared = rel_types.get(tname);
-                    let want = |k: &str| declared.and_then(|m| m.get(k)).copied();
-                    let props = row_props(&r, &keys, &want)?;
-                    tx.create_rel(s, ty, e, props).map_err(|err| match err {
-                        Error::NodeNotFound(id) => r.err(format!(
-                            "column {}: no node has the :ID \"{id}\"",
-                            if id == s { sc + 1 } else { ec + 1 }
-                        )),
-                        other => r.err(other.to_string()),
-                    })?;
-                    n += 1;
+        let mut keys: Option<Vec<Option<PropKey>>> = None;
+        let mut types: HashMap<String, RelType> = HashMap::new();
+        let mut row = |tx: &mut WriteTxn<'_>, r: &Reader| -> Result<()> {
+            let keys = match &keys {
+                Some(k) => k,
+                None => keys.insert(prop_keys(tx, &r.cols)?),
+            };
+            // the row's type, else the file's
+            let tname = tc
+                .and_then(|c| r.rec.get(c))
+                .map(str::trim)
+                .filter(|t| !t.is_empty())
+                .or(given)
+                .ok_or_else(|| r.err("an empty :TYPE"))?;
+            let ty = match types.get(tname) {
+                Some(&id) => id,
+                None => {
+                    let id = tx.rel_type_id(tname)?;
+                    types.insert(tname.to_string(), id);
+                    id
                 }
-                Ok(n)
+            };
+            let end_id = |col: usize, group: &str| -> Result<u64> {
+                let raw = r.rec.get(col).unwrap_or_default();
+                let found = match &ids {
+                    Ids::Kept => raw.parse::<u64>().ok(),
+                    Ids::Mapped(m) => m.get(&(group.to_string(), raw.to_string())).copied(),
+                };
+                found.ok_or_else(|| {
+                    r.err(format!(
+                        "column {}: no node has the :ID {raw:?}{}",
+                        col + 1,
+                        if group.is_empty() {
+                            String::new()
+                        } else {
+                            format!(" in id space {group}")
+                        }
+                    ))
+                })
+            };
+            let (s, e) = (end_id(sc, &sg)?, end_id(ec, &eg)?);
+            let declared = rel_types.get(tname);
+            let want = |k: &str| declared.and_then(|m| m.get(k)).copied();
+            let props = row_props(r, keys, &want)?;
+            tx.create_rel(s, ty, e, props).map_err(|err| match err {
+                Error::NodeNotFound(id) => r.err(format!(
+                    "column {}: no node has the :ID \"{id}\"",
+                    if id == s { sc + 1 } else { ec + 1 }
+                )),
+                other => r.err(other.to_string()),
             })?;
-            out.relationships += batch as u64;
+            Ok(())
+        };
+        in_batches(store, &mut r, batch_rows, &mut row, &mut |rows, bytes| {
+            out.relationships += rows;
             out.batches += 1;
-            progress(done_bytes + r.bytes(), total);
-        }
+            progress(done_bytes + bytes, total);
+        })?;
         done_bytes += std::fs::metadata(&f.path).map_or(0, |m| m.len());
     }
     Ok(out)

@@ -165,12 +165,7 @@ impl SegmentGrid {
             cand.dedup();
         }
         cand.into_iter()
-            .filter(|&i| {
-                let b = &self.bounds[i];
-                let dx = (b[0][0] - p[0]).max(p[0] - b[1][0]).max(0.0);
-                let dy = (b[0][1] - p[1]).max(p[1] - b[1][1]).max(0.0);
-                dx * dx + dy * dy <= r * r
-            })
+            .filter(|&i| scene::area::box_gap(&self.bounds[i], p) <= r)
             .map(|i| {
                 let s = &segs.segments[i];
                 (s.id, s.area.distance(p))
