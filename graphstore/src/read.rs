@@ -398,6 +398,67 @@ pub trait GraphRead {
         .collect())
     }
 
+    /// Nodes of a spatial index whose footprint lies within `radius_m` of the ground point
+    /// `ground` on the plane spanned by world axes `axes` (0 = x, 1 = y, 2 = z; `ground[i]`
+    /// is along `axes[i]`), height ignored; distances on that plane, nearest first.
+    ///
+    /// # Errors
+    /// An unknown index, a radius or point that is not finite, or axes that are not two
+    /// different axes of 0..3 ([`Error::InvalidValue`]).
+    fn spatial_within_ground(
+        &self,
+        index: &str,
+        ground: [f64; 2],
+        axes: [usize; 2],
+        radius_m: f64,
+    ) -> Result<Vec<Hit>> {
+        let raw = self.view().raw;
+        let i = raw.base().schema.spatial_by_name(index)?;
+        check_ground(ground, axes)?;
+        if !(radius_m >= 0.0 && radius_m.is_finite()) {
+            return Err(Error::InvalidValue(format!(
+                "radius {radius_m} m is not finite and non-negative"
+            )));
+        }
+        Ok(spatial::within_ground(
+            &raw.base().mem.spatial[i],
+            raw.pending_mem().map(|p| &p.spatial[i]),
+            ground,
+            axes,
+            radius_m,
+        )
+        .into_iter()
+        .map(|(node, d)| Hit { node, score: d })
+        .collect())
+    }
+
+    /// The `k` nodes of a spatial index whose footprints are nearest the ground point
+    /// `ground` (see [`GraphRead::spatial_within_ground`]), nearest first.
+    ///
+    /// # Errors
+    /// As [`GraphRead::spatial_within_ground`].
+    fn spatial_nearest_ground(
+        &self,
+        index: &str,
+        ground: [f64; 2],
+        axes: [usize; 2],
+        k: usize,
+    ) -> Result<Vec<Hit>> {
+        let raw = self.view().raw;
+        let i = raw.base().schema.spatial_by_name(index)?;
+        check_ground(ground, axes)?;
+        Ok(spatial::nearest_ground(
+            &raw.base().mem.spatial[i],
+            raw.pending_mem().map(|p| &p.spatial[i]),
+            ground,
+            axes,
+            k,
+        )
+        .into_iter()
+        .map(|(node, d)| Hit { node, score: d })
+        .collect())
+    }
+
     /// The `k` nodes of a spatial index nearest to `center`, nearest first.
     fn spatial_nearest(&self, index: &str, center: [f64; 3], k: usize) -> Result<Vec<Hit>> {
         let raw = self.view().raw;
@@ -584,4 +645,19 @@ fn in_range(v: &Value, lo: &ValueBound, hi: &ValueBound) -> bool {
         ValueBound::Exclusive(b) => matches!(compare(v, b), Some(Less)),
     };
     lo_ok && hi_ok
+}
+
+/// A ground point and the axes of its plane, checked.
+fn check_ground(ground: [f64; 2], axes: [usize; 2]) -> Result<()> {
+    if ground.iter().any(|c| !c.is_finite()) {
+        return Err(Error::InvalidValue(format!(
+            "ground point {ground:?} is not finite"
+        )));
+    }
+    if axes[0] > 2 || axes[1] > 2 || axes[0] == axes[1] {
+        return Err(Error::InvalidValue(format!(
+            "ground axes {axes:?} are not two different axes of 0 (x), 1 (y), 2 (z)"
+        )));
+    }
+    Ok(())
 }

@@ -301,6 +301,71 @@ fn the_planner_uses_indexes_and_explain_shows_it() {
 }
 
 #[test]
+fn ground_procedures_measure_on_the_declared_ground_plane() {
+    let (_d, s) = city();
+    let ids = |r: graphstore::cypher::QueryResult| -> Vec<i64> {
+        r.rows
+            .iter()
+            .map(|row| match row[0] {
+                Val::Int(i) => i,
+                ref o => panic!("{o:?}"),
+            })
+            .collect()
+    };
+    let run = |axes: Option<[usize; 2]>, text: &str| {
+        let o = QueryOptions {
+            ground_axes: axes,
+            ..QueryOptions::default()
+        };
+        s.query(text, &o)
+    };
+    // the city's objects stand on x, y (an enu ground): 100 m above the origin is over it
+    let high = "CALL db.index.spatial.withinGroundDistance('instance_space', point({x: 0, y: 0, z: 100}), 14.0) \
+                YIELD node RETURN node.instance_id AS id ORDER BY id";
+    assert_eq!(
+        ids(run(Some([0, 1]), high).expect("enu")),
+        vec![0, 1, 10, 11]
+    );
+    let r = q(
+        &s,
+        "CALL db.index.spatial.withinDistance('instance_space', point({x: 0, y: 0, z: 100}), 14.0) YIELD node RETURN node",
+    );
+    assert!(
+        r.rows.is_empty(),
+        "3-D distance from 100 m up finds nothing"
+    );
+    // a kitti_cam ground (x, z): every box spans z 0..1, so only x separates them
+    let kitti = "CALL db.index.spatial.withinGroundDistance('instance_space', [0, 0.5], 0.6) \
+                 YIELD node, distance RETURN node.instance_id AS id ORDER BY id";
+    assert_eq!(
+        ids(run(Some([0, 2]), kitti).expect("kitti")),
+        vec![0, 10, 20, 30, 40]
+    );
+    let nearest = "CALL db.index.spatial.nearestOnGround('instance_space', [30.2, 19.8], 3) \
+                   YIELD node, distance RETURN node.instance_id AS id, distance";
+    let r = run(Some([0, 1]), nearest).expect("nearest");
+    // (30.2, 19.8) lies over the box around (30, 20), instance 23
+    assert_eq!(r.rows[0][0], Val::Int(23));
+    assert!(matches!(r.rows[0][1], Val::Float(d) if d.abs() < 1e-9));
+    assert_eq!(r.rows.len(), 3);
+    // no ground plane declared: the ground procedures say so
+    let e = match run(None, kitti) {
+        Err(Error::Query(e)) => e,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!((e.kind, e.code), (ErrorKind::Procedure, "NoGroundPlane"));
+    // with a ground plane, a 2-D point given to the 3-D procedures is refused, not read as z = 0
+    let e = match run(
+        Some([0, 2]),
+        "CALL db.index.spatial.withinDistance('instance_space', [0, 0.5], 3.0) YIELD node RETURN node",
+    ) {
+        Err(Error::Query(e)) => e,
+        other => panic!("{other:?}"),
+    };
+    assert!(e.message.contains("withinGroundDistance"), "{e}");
+}
+
+#[test]
 fn procedures_query_the_vector_spatial_and_text_indexes() {
     let (_d, s) = city();
     let mut o = QueryOptions::default();

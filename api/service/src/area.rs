@@ -10,8 +10,9 @@ use serde_json::Value as Json;
 
 use crate::error::{ToolError, ToolResult, failed};
 use crate::ops::{
-    AreaAnswer, ClassCount, EnvironmentOverview, EnvironmentRef, InstanceAnswer, Notable,
-    RelatedRef, SchemaAnswer, SegmentDetail, SegmentRef, SegmentSummary,
+    AreaAnswer, ClassCount, EnvironmentOverview, EnvironmentRef, InstanceAnswer, LabelSchema,
+    Notable, PropertySchema, RelatedRef, RelationshipTypeSchema, SchemaAnswer, SegmentDetail,
+    SegmentRef, SegmentSummary,
 };
 use crate::toolbox::Toolbox;
 
@@ -23,6 +24,13 @@ relationships (length_m); Instance nodes are mapped objects (caption, class, cen
 feature vector) with IN_SEGMENT to their segment and RELATED to nearby instances (relation, \
 distance_m). MapEdit nodes record applied map edits (text, kind, undone). Node ids (id(n)) are \
 the ids every tool takes and returns.";
+
+/// Which id each tool takes (returned by `get_schema`).
+pub const IDS: &str = "Every tool takes and returns node ids: id(n) in Cypher, the id find_objects, nearest_objects and \
+count_objects print. Specs name the node id with its label: instance:ID (an Instance), segment:ID (a Segment), \
+lane:ID (a LaneNode), node:ID (any node); get_instance, neighbours and undo_map_edit take node ids too. \
+instance_id, segment_id and lane_id are the mapping's and the hierarchy's own numbering, kept for \
+provenance: no tool takes them as an id. MATCH (n) WHERE id(n) = 42 finds a node by id.";
 
 /// Notable objects `describe_area` lists for one segment at most.
 pub const MAX_NOTABLE: usize = 25;
@@ -77,8 +85,53 @@ impl Toolbox {
                 .iter()
                 .map(|x| format!("text {} ({}.{})", x.name, x.label, x.key)),
         );
+        let props = |owner: &str, rules: &[graphstore::PropertyRule]| -> Vec<PropertySchema> {
+            rules
+                .iter()
+                .map(|p| PropertySchema {
+                    key: p.key.clone(),
+                    value_type: p.ty.to_string(),
+                    required: p.required,
+                    meaning: scene::property_meaning(owner, &p.key).map(str::to_string),
+                })
+                .collect()
+        };
+        let labels = s
+            .labels
+            .iter()
+            .map(|(name, rule)| {
+                let schema = LabelSchema {
+                    description: rule.description.clone(),
+                    properties: props(name, &rule.properties),
+                    unique: rule.unique.clone(),
+                };
+                (name.clone(), schema)
+            })
+            .collect();
+        let relationship_types = s
+            .relationships
+            .iter()
+            .map(|(name, rule)| {
+                let schema = RelationshipTypeSchema {
+                    description: rule.description.clone(),
+                    from: rule.from_labels.clone(),
+                    to: rule.to_labels.clone(),
+                    properties: props(name, &rule.properties),
+                };
+                (name.clone(), schema)
+            })
+            .collect();
+        let r = self.store().read().map_err(failed)?;
+        let frame = match scene::records::ground_frame(&r) {
+            Ok(g) => g.describe().to_string(),
+            Err(e) => format!("The map's ground frame is not known yet ({e})."),
+        };
         Ok(SchemaAnswer {
             layers: LAYERS.to_string(),
+            frame,
+            ids: IDS.to_string(),
+            labels,
+            relationship_types,
             nodes: c.nodes,
             relationships: c.relationships,
             indexes,

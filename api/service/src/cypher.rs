@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
+use graphstore::cypher::JsonForm;
 use serde_json::Value as Json;
 
 use crate::error::{ToolError, ToolResult, failed};
@@ -37,6 +38,7 @@ impl Toolbox {
         query: &str,
         params: Option<&serde_json::Map<String, Json>>,
         read_only: bool,
+        form: JsonForm,
     ) -> ToolResult<Json> {
         // a read-only answer kept since the last commit is the answer now; the sequence is
         // read before the statement's snapshot is taken, so nothing newer is ever labelled
@@ -48,9 +50,13 @@ impl Toolbox {
             {
                 let key = (
                     query.to_string(),
-                    params
-                        .map(|m| serde_json::to_string(m).unwrap_or_default())
-                        .unwrap_or_default(),
+                    format!(
+                        "{}{}",
+                        if form == JsonForm::Full { "full " } else { "" },
+                        params
+                            .map(|m| serde_json::to_string(m).unwrap_or_default())
+                            .unwrap_or_default()
+                    ),
                 );
                 let seq = self.store.commit_seq();
                 // an error (a timeout too) is shared with those who waited for it, not kept
@@ -58,7 +64,7 @@ impl Toolbox {
                 // that gave up just before would run the whole statement again
                 let wait = CYPHER_TIMEOUT + Duration::from_secs(5);
                 let answer = c.get_or_compute(key, seq, wait, || {
-                    let out = self.cypher_uncached(query, params, read_only);
+                    let out = self.cypher_uncached(query, params, read_only, form);
                     let keep = out.as_ref().is_ok_and(|out| {
                         out.get("plan").is_none()
                             && out["row_count"]
@@ -72,7 +78,7 @@ impl Toolbox {
                     Err(never) => match never {},
                 }
             }
-            _ => self.cypher_uncached(query, params, read_only),
+            _ => self.cypher_uncached(query, params, read_only, form),
         }
     }
 
@@ -81,6 +87,7 @@ impl Toolbox {
         query: &str,
         params: Option<&serde_json::Map<String, Json>>,
         read_only: bool,
+        form: JsonForm,
     ) -> ToolResult<Json> {
         let mut p = BTreeMap::new();
         if let Some(m) = params {
@@ -97,6 +104,12 @@ impl Toolbox {
             read_only,
             max_intermediate_rows: MAX_INTERMEDIATE_ROWS,
             max_memory_bytes: MAX_STATEMENT_BYTES,
+            ground_axes: self
+                .store
+                .read()
+                .ok()
+                .and_then(|r| scene::records::ground_frame(&r).ok())
+                .map(scene::GroundFrame::ground_axes),
             ..graphstore::cypher::QueryOptions::default()
         };
         let r = self.store.query(query, &opts).map_err(|e| match e {
@@ -138,7 +151,7 @@ impl Toolbox {
                 MAX_ANSWER_BYTES >> 20
             )));
         }
-        let rows = match r.rows_json() {
+        let rows = match r.rows_json_as(form) {
             Json::Array(rows) => rows
                 .into_iter()
                 .map(|row| match row {

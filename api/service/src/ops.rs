@@ -52,6 +52,14 @@ pub struct CypherRequest {
     #[schemars(description = "values for $name parameters")]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub params: Option<serde_json::Map<String, Json>>,
+    /// Whole nodes and relationships with every property: their vectors (feature) and long
+    /// coordinate lists (polygons, polylines) too. Without it those are summarised as a short
+    /// string; a property returned on its own (`RETURN n.feature`) is always whole.
+    #[schemars(
+        description = "true: whole nodes keep their vectors and long coordinate lists; default false summarises them (RETURN n.feature gives one in full)"
+    )]
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub full_properties: bool,
 }
 
 /// `find_objects`: graph-aware retrieval from words.
@@ -312,12 +320,59 @@ pub struct AskRequest {
 pub struct SchemaAnswer {
     /// What the layers of an OpenGraph map mean.
     pub layers: String,
+    /// Which axis is up, what ground coordinates are, and the units of positions.
+    pub frame: String,
+    /// Which id each tool takes and returns.
+    pub ids: String,
+    /// Every declared node label: its properties with types, units and frames.
+    pub labels: BTreeMap<String, LabelSchema>,
+    /// Every declared relationship type: its ends and properties.
+    pub relationship_types: BTreeMap<String, RelationshipTypeSchema>,
     /// Nodes per label.
     pub nodes: BTreeMap<String, u64>,
     /// Relationships per type.
     pub relationships: BTreeMap<String, u64>,
     /// The indexes, one line each (`property Instance.class`, `spatial instance_space (...)`).
     pub indexes: Vec<String>,
+}
+
+/// One declared property.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct PropertySchema {
+    /// The property key.
+    pub key: String,
+    /// Its value type (`int`, `float`, `string`, `point3d`, `box3d`, `vector`, `list`, ...).
+    #[serde(rename = "type")]
+    pub value_type: String,
+    /// Whether every node (or relationship) has it.
+    pub required: bool,
+    /// What it means, with its unit and frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meaning: Option<String>,
+}
+
+/// One declared node label.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct LabelSchema {
+    /// What its nodes are.
+    pub description: String,
+    /// Its properties.
+    pub properties: Vec<PropertySchema>,
+    /// Properties unique among its nodes.
+    pub unique: Vec<String>,
+}
+
+/// One declared relationship type.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RelationshipTypeSchema {
+    /// What it means.
+    pub description: String,
+    /// Labels it may start from (empty: any).
+    pub from: Vec<String>,
+    /// Labels it may end at (empty: any).
+    pub to: Vec<String>,
+    /// Its properties.
+    pub properties: Vec<PropertySchema>,
 }
 
 /// What a Cypher statement changed.

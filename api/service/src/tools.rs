@@ -95,7 +95,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
         ),
         tool::<SchemaRequest, SchemaAnswer>(
             "get_schema",
-            "The map's schema: node labels and relationship types with counts, indexes, and what each layer means. Call this before writing Cypher.",
+            "The map's schema: every node label and relationship type with its properties (type, unit, frame), counts, indexes, what each layer means, which axis is up (frame) and which id each tool takes (ids). Call this before writing Cypher.",
             false,
         ),
         tool::<LocateToolRequest, LocateAnswer>(
@@ -130,7 +130,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
         ),
         tool::<CypherRequest, CypherAnswer>(
             "read_cypher",
-            "Run a read-only Cypher query (openCypher; writes are refused by the parser) with a 10 s time limit and at most 1000 rows. Spatial and vector procedures: db.index.spatial.withinDistance('instance_space', point, metres), db.index.vector.queryNodes.",
+            "Run a read-only Cypher query (openCypher; writes are refused by the parser) with a 10 s time limit and at most 1000 rows. Whole nodes come with their vectors and long coordinate lists summarised (full_properties=true keeps them). Spatial procedures on the ground plane: db.index.spatial.withinGroundDistance('instance_space', [x, z], metres) and db.index.spatial.nearestOnGround('instance_space', [x, z], k) (ground coordinates; see get_schema's frame); db.index.vector.queryNodes for vectors.",
             false,
         ),
     ];
@@ -204,7 +204,17 @@ impl Toolbox {
             }
             "read_cypher" | "write_cypher" => {
                 let req: CypherRequest = parse(args)?;
-                self.cypher(&req.query, req.params.as_ref(), tool.name == "read_cypher")
+                let form = if req.full_properties {
+                    graphstore::cypher::JsonForm::Full
+                } else {
+                    graphstore::cypher::JsonForm::Brief
+                };
+                self.cypher(
+                    &req.query,
+                    req.params.as_ref(),
+                    tool.name == "read_cypher",
+                    form,
+                )
             }
             "find_objects" => {
                 let req = find_request(args)?;
@@ -599,6 +609,68 @@ mod tests {
         let all: std::collections::BTreeSet<String> =
             tools(true).iter().map(|t| t.name.to_string()).collect();
         assert_eq!(called, all);
+    }
+
+    #[test]
+    fn the_schema_says_properties_frames_and_ids_and_whole_nodes_come_brief() {
+        let (_dir, store) = crate::test_support::demo_store_with_features();
+        let mut tb = Toolbox::new(store, hash_finder(), true);
+        let s = tb.call("get_schema", &json!({})).unwrap();
+        assert!(s["frame"].as_str().unwrap().contains("not known yet"));
+        tb.call(
+            "write_cypher",
+            &json!({"query": "MATCH (e:Environment) SET e.ground_frame = 'kitti_cam'"}),
+        )
+        .unwrap();
+        let s = tb.call("get_schema", &json!({})).unwrap();
+        // every property of the map's layers says what it is, with its type
+        for owner in ["Environment", "Segment", "LaneNode", "Instance"] {
+            let props = s["labels"][owner]["properties"].as_array().unwrap();
+            assert!(!props.is_empty(), "{owner}");
+            for p in props {
+                assert!(
+                    p["type"].is_string() && p["meaning"].is_string(),
+                    "{owner}: {p}"
+                );
+            }
+        }
+        for (ty, rule) in s["relationship_types"].as_object().unwrap() {
+            for p in rule["properties"].as_array().unwrap() {
+                assert!(p["meaning"].is_string(), "{ty}: {p}");
+            }
+        }
+        let feature = s["labels"]["Instance"]["properties"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["key"] == "feature")
+            .unwrap();
+        assert_eq!(feature["type"], "vector");
+        let frame = s["frame"].as_str().unwrap();
+        assert!(frame.contains("up is -y"), "{frame}");
+        assert!(s["ids"].as_str().unwrap().contains("instance:ID"));
+        // a whole node leaves its vectors out unless asked; the property itself is whole
+        let q = |tb: &mut Toolbox, args: Json| tb.call("read_cypher", &args).unwrap();
+        let brief = q(
+            &mut tb,
+            json!({"query": "MATCH (n:Instance) WHERE n.feature IS NOT NULL RETURN n LIMIT 1"}),
+        );
+        let f = brief["rows"][0]["n"]["feature"].as_str().unwrap();
+        assert!(f.starts_with("<vector of 384 floats"), "{f}");
+        assert!(brief["rows"][0]["n"]["caption"].is_string());
+        let full = q(
+            &mut tb,
+            json!({"query": "MATCH (n:Instance) WHERE n.feature IS NOT NULL RETURN n LIMIT 1", "full_properties": true}),
+        );
+        assert_eq!(
+            full["rows"][0]["n"]["feature"].as_array().unwrap().len(),
+            384
+        );
+        let own = q(
+            &mut tb,
+            json!({"query": "MATCH (n:Instance) WHERE n.feature IS NOT NULL RETURN n.feature AS f LIMIT 1"}),
+        );
+        assert_eq!(own["rows"][0]["f"].as_array().unwrap().len(), 384);
     }
 
     #[test]

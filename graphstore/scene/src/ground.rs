@@ -52,6 +52,30 @@ impl GroundFrame {
         }
     }
 
+    /// The world axes that span the ground plane, in ground-coordinate order (0 = x, 1 = y,
+    /// 2 = z): `[0, 2]` for `kitti_cam`, `[0, 1]` for `enu`.
+    pub fn ground_axes(self) -> [usize; 2] {
+        match self {
+            GroundFrame::KittiCam => [0, 2],
+            GroundFrame::Enu => [0, 1],
+        }
+    }
+
+    /// Which axis is up and what ground coordinates are, in words for people and agents.
+    pub fn describe(self) -> &'static str {
+        match self {
+            GroundFrame::KittiCam => {
+                "ground_frame kitti_cam: points are metres in the world frame of KITTI's camera 0 at the first key frame. \
+                 The ground plane is world x and z; up is -y (the camera's y axis points down, so a higher point has a smaller y). \
+                 Ground coordinates 'x,z' in the tools are world x and z; distances the tools report are on the ground plane unless they say otherwise."
+            }
+            GroundFrame::Enu => {
+                "ground_frame enu: points are metres in an east-north-up world frame. The ground plane is x and y; up is +z. \
+                 Ground coordinates 'x,z' in the tools are world x and y (the two ground axes, in order); distances the tools report are on the ground plane unless they say otherwise."
+            }
+        }
+    }
+
     /// The ground direction to the left of heading `d` (looking along `d`, up as above).
     pub fn left_of(self, d: [f64; 2]) -> [f64; 2] {
         // up x d, expressed in ground coordinates, is the same rotation in both frames

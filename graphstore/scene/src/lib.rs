@@ -19,4 +19,4 @@ pub use geom::GroundPoint;
 pub use ground::GroundFrame;
 pub use names::{index, key, label, payload, rel};
 pub use obb::{OBB_VALUES, OrientedBox};
-pub use schema::{FEATURE_DIM, opengraph_schema};
+pub use schema::{FEATURE_DIM, opengraph_schema, property_meaning};

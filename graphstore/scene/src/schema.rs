@@ -286,6 +286,111 @@ pub fn opengraph_schema() -> Schema {
     s
 }
 
+/// What one declared property means, with its unit and frame, for agents reading the schema
+/// (`get_schema`); `owner` is a node label or a relationship type. None for a name the
+/// OpenGraph schema does not declare. `docs/schema.md` says the same for people.
+pub fn property_meaning(owner: &str, property: &str) -> Option<&'static str> {
+    const WORLD: &str = "point3d, metres, world frame (see `frame`: which axes are the ground)";
+    Some(match (owner, property) {
+        (label::ENVIRONMENT, key::NAME) => "the environment's name",
+        (label::ENVIRONMENT, key::SOURCE) => "what the hierarchy was built from",
+        (label::ENVIRONMENT, key::GROUND_FRAME) => {
+            "kitti_cam (ground is world x and z, up is -y: KITTI's camera y points down) or enu (ground is x and y, up is +z)"
+        }
+        (label::SEGMENT, key::SEGMENT_ID) => {
+            "the hierarchy's own segment number (provenance); tools take the node id, id(s)"
+        }
+        (label::SEGMENT, key::KIND) => {
+            "intersection (crossroads), t_intersection, l_intersection (bend) or straight_roadway"
+        }
+        (label::SEGMENT, key::CENTROID) => WORLD,
+        (label::SEGMENT, key::AREA) => {
+            "outline polygon of a junction, a list of point3d (world frame, metres)"
+        }
+        (label::SEGMENT, key::RADIUS_M) => {
+            "radius of a junction's disc around the centroid, metres"
+        }
+        (label::SEGMENT, key::CENTERLINE) => {
+            "a road's centre line, a list of point3d (world frame, metres)"
+        }
+        (label::SEGMENT, key::HALF_WIDTH_M) => "half the width of a road's corridor, metres",
+        (label::SEGMENT | label::INSTANCE, key::BBOX) => {
+            "axis-aligned box [min, max], two point3d, metres, world frame"
+        }
+        (label::SEGMENT, key::POLYGON) => {
+            "drivable area measured from the map: rings of point3d (even-odd), metres, world frame"
+        }
+        (label::SEGMENT, key::DRIVABLE_AREA_M2) => "area of the drivable polygon, square metres",
+        (label::LANE_NODE, key::LANE_ID) => {
+            "the lane graph's own vertex number (provenance); tools take the node id, id(l), or lane:ID with the node id"
+        }
+        (label::LANE_NODE, key::KIND) => {
+            "intersection, t_intersection, l_intersection or breakpoint"
+        }
+        (label::LANE_NODE, key::POSITION) => WORLD,
+        (label::INSTANCE, key::INSTANCE_ID) => {
+            "the mapping's own object number (provenance); tools take the node id, id(n)"
+        }
+        (label::INSTANCE, key::CAPTION) => {
+            "a sentence describing the object (the medoid of its captions)"
+        }
+        (label::INSTANCE, key::CLASS) => {
+            "the SemanticKITTI class for segmentation (car, pole, vegetation, ...; other-object when none fits); use label for what the object is"
+        }
+        (label::INSTANCE, key::LABEL) => {
+            "what the object is, in words (fire hydrant, post box, bus stop shelter): one label per kind of object across the map"
+        }
+        (label::INSTANCE, key::COLOUR) => "its colour, where its captions agree",
+        (label::INSTANCE, key::MATERIAL) => "its material, where its captions agree",
+        (label::INSTANCE, key::CAPTIONS) => "every caption it was given, a list of strings",
+        (label::INSTANCE, key::FEATURE) => {
+            "384-d sentence embedding (all-MiniLM-L6-v2) of caption and detections, unit length; summarised in whole-node answers"
+        }
+        (label::INSTANCE, key::CENTROID) => WORLD,
+        (label::INSTANCE, key::POINT_COUNT) => "LiDAR points kept (one per 0.1 m voxel)",
+        (label::INSTANCE, key::DETECTION_COUNT) => "detections fused into it",
+        (label::INSTANCE, key::FIRST_FRAME) | (label::INSTANCE, key::LAST_FRAME) => {
+            "first / last key frame it was seen in (Frame.index)"
+        }
+        (label::INSTANCE, key::SOURCE) => "oracle, detector or simulator: which perception made it",
+        (label::INSTANCE, key::DETECTION_FEATURE) => {
+            "running mean of its detections' features, 384-d"
+        }
+        (label::INSTANCE, key::TILE) => "[class id, tile x, tile z] for ground-surface tiles only",
+        (label::INSTANCE, key::OBB) => {
+            "oriented box on the ground plane: [centre 0, centre 1, half length m, half width m, yaw rad, bottom m, top m] in the ground frame"
+        }
+        (label::FRAME, key::INDEX) => "the key frame's index in the sequence",
+        (label::FRAME, key::WORLD_FROM_VELO) => {
+            "pose: 3x4 row-major, 12 floats, LiDAR frame to world frame, metres"
+        }
+        (label::FRAME, key::TIMESTAMP_SECS) => "sensor time, seconds",
+        (label::MAP_EDIT, key::TEXT) => "the described change",
+        (label::MAP_EDIT, key::KIND) => "remove, move, change or add",
+        (label::MAP_EDIT, key::TIME_UNIX_S) => "when it was applied, Unix seconds",
+        (label::MAP_EDIT, key::UNDONE) => "whether it was undone",
+        (label::MAP_EDIT, key::TOUCHED) => "the node ids it changed",
+        (label::MAP_EDIT, key::TARGET) => "the node id it acted on",
+        (rel::LANE, key::LENGTH_M) => {
+            "length of the lane edge along its polyline, metres; LANE is stored one way and travelled both ways: match it undirected, -[:LANE]-"
+        }
+        (rel::LANE, key::POLYLINE) => "the edge's path, a list of point3d (world frame, metres)",
+        (rel::LANE, key::FRAMES) => "the key frames the drive passed along it",
+        (rel::LANE, key::DIRECTED) => "true when only one way was driven",
+        (rel::IN_SEGMENT, key::DISTANCE_M) => {
+            "ground-plane distance from the node to the segment's area, metres (0: inside; more: its nearest segment lies that far away)"
+        }
+        (rel::RELATED, key::RELATION) => {
+            "on, under, next_to, near, in_front_of, behind, left_of, right_of, inside (geometric), or an LLM's phrase"
+        }
+        (rel::RELATED, key::DISTANCE_M) => "gap between the two boxes, metres",
+        (rel::RELATED, key::SOURCE) => "geometric or llm",
+        (rel::RELATED, key::CONFIDENCE) => "0 to 1",
+        (rel::OBSERVED_IN, key::DETECTIONS) => "detections of the object in that frame",
+        _ => return None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

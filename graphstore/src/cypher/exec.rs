@@ -50,6 +50,9 @@ pub(crate) struct Ctx<'a, 'b> {
     pub max_rows: usize,
     /// Cap on the bytes the statement may hold at once (see [`crate::mem`]); `u64::MAX`: none.
     pub max_memory: u64,
+    /// The world axes of the ground plane, for the ground procedures (see
+    /// [`super::QueryOptions::ground_axes`]).
+    pub ground_axes: Option<[usize; 2]>,
     /// This thread's net allocation when the statement started.
     mem_start: i64,
     /// Bytes announced by [`Ctx::reserve`] (the measure where allocations are not counted).
@@ -279,6 +282,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             clause_pos: None,
             max_rows: usize::MAX,
             max_memory: u64::MAX,
+            ground_axes: None,
             mem_start: crate::mem::thread_net_bytes(),
             mem_reserved: Cell::new(0),
             mem_peak: Cell::new(0),
@@ -1775,6 +1779,57 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 ))),
             }
         };
+        let axis_names = |axes: [usize; 2]| {
+            let n = ["x", "y", "z"];
+            format!("{}, {}", n[axes[0]], n[axes[1]])
+        };
+        // a 2-D point has no height: on a map with a ground plane it would be read as (x, y)
+        // with z = 0, which is no place on the ground of a kitti_cam map
+        let pt3 = |v: &Val, what: &str| -> R<[f64; 3]> {
+            if let (Some(axes), Val::Point2D(_) | Val::List(_)) = (self.ground_axes, v)
+                && !matches!(v, Val::List(l) if l.len() == 3)
+            {
+                return Err(type_err(format!(
+                    "{name}: {what} is a 2-D point, which has no height; for ground coordinates ({}) use \
+                     db.index.spatial.withinGroundDistance or db.index.spatial.nearestOnGround",
+                    axis_names(axes)
+                )));
+            }
+            pt(v, what)
+        };
+        // a ground point: two coordinates along the ground axes, or a 3-D point whose height
+        // is dropped
+        let ground = |v: &Val, what: &str| -> R<([f64; 2], [usize; 2])> {
+            let axes = self.ground_axes.ok_or_else(|| {
+                QueryError::new(
+                    ErrorKind::Procedure,
+                    "NoGroundPlane",
+                    format!("{name}: this session declares no ground plane (QueryOptions::ground_axes); use withinDistance or nearest"),
+                    None,
+                )
+            })?;
+            let g = match v {
+                Val::Point3D(p) => [p[axes[0]], p[axes[1]]],
+                Val::Point2D(p) => *p,
+                Val::List(l) if l.len() == 2 || l.len() == 3 => {
+                    let c: Option<Vec<f64>> = l.iter().map(Val::as_f64).collect();
+                    let c = c.ok_or_else(|| type_err(format!("{name}: {what} must be a point")))?;
+                    if c.len() == 2 {
+                        [c[0], c[1]]
+                    } else {
+                        [c[axes[0]], c[axes[1]]]
+                    }
+                }
+                o => {
+                    return Err(type_err(format!(
+                        "{name}: {what} must be a point (ground coordinates {} as a 2-D point or list, or a 3-D point), got {}",
+                        axis_names(axes),
+                        o.type_name()
+                    )));
+                }
+            };
+            Ok((g, axes))
+        };
         let arity = |n: usize, sig: &str| -> R<()> {
             if a.len() == n {
                 Ok(())
@@ -1809,10 +1864,34 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 let k = if a.len() == 3 { int(&a[2], "k")? } else { 100 };
                 Ok(scored(g.text_search(&idx, &q, k)?, "score", |b| b))
             }
+            "db.index.spatial.withingrounddistance" => {
+                arity(3, "(indexName, point, radiusMetres)")?;
+                let idx = s(&a[0], "indexName")?;
+                let (c, axes) = ground(&a[1], "point")?;
+                let r = a[2]
+                    .as_f64()
+                    .ok_or_else(|| type_err(format!("{name}: radius must be a number")))?;
+                Ok(scored(
+                    g.spatial_within_ground(&idx, c, axes, r)?,
+                    "distance",
+                    |d| d,
+                ))
+            }
+            "db.index.spatial.nearestonground" => {
+                arity(3, "(indexName, point, k)")?;
+                let idx = s(&a[0], "indexName")?;
+                let (c, axes) = ground(&a[1], "point")?;
+                let k = int(&a[2], "k")?;
+                Ok(scored(
+                    g.spatial_nearest_ground(&idx, c, axes, k)?,
+                    "distance",
+                    |d| d,
+                ))
+            }
             "db.index.spatial.withindistance" => {
                 arity(3, "(indexName, point, radiusMetres)")?;
                 let idx = s(&a[0], "indexName")?;
-                let c = pt(&a[1], "point")?;
+                let c = pt3(&a[1], "point")?;
                 let r = a[2]
                     .as_f64()
                     .ok_or_else(|| type_err(format!("{name}: radius must be a number")))?;
@@ -1821,7 +1900,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             "db.index.spatial.nearest" => {
                 arity(3, "(indexName, point, k)")?;
                 let idx = s(&a[0], "indexName")?;
-                let c = pt(&a[1], "point")?;
+                let c = pt3(&a[1], "point")?;
                 let k = int(&a[2], "k")?;
                 Ok(scored(g.spatial_nearest(&idx, c, k)?, "distance", |d| d))
             }
@@ -1855,8 +1934,8 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 "ProcedureNotFound",
                 format!(
                     "unknown procedure {name}; known: db.index.vector.queryNodes, db.index.fulltext.queryNodes, \
-                     db.index.spatial.withinDistance, db.index.spatial.nearest, db.index.spatial.inBox, db.labels, \
-                     db.relationshipTypes"
+                     db.index.spatial.withinDistance, db.index.spatial.nearest, db.index.spatial.withinGroundDistance, \
+                     db.index.spatial.nearestOnGround, db.index.spatial.inBox, db.labels, db.relationshipTypes"
                 ),
                 None,
             )),

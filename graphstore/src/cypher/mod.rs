@@ -195,6 +195,12 @@ pub struct QueryOptions {
     pub max_memory_bytes: u64,
     /// Seed of `rand()`.
     pub seed: u64,
+    /// The two world axes that span the ground plane (0 = x, 1 = y, 2 = z), in the order
+    /// of ground coordinates: what `db.index.spatial.withinGroundDistance` and
+    /// `db.index.spatial.nearestOnGround` measure on, and what makes `withinDistance` and
+    /// `nearest` refuse a 2-D point (it has no height). None: the ground procedures fail.
+    /// OpenGraph sets it from the map's `Environment.ground_frame` (`[0, 2]` for KITTI).
+    pub ground_axes: Option<[usize; 2]>,
 }
 
 impl Default for QueryOptions {
@@ -207,6 +213,7 @@ impl Default for QueryOptions {
             max_intermediate_rows: 10_000_000,
             max_memory_bytes: 1 << 30,
             seed: 0,
+            ground_axes: None,
         }
     }
 }
@@ -374,17 +381,27 @@ impl QueryResult {
     /// A value as JSON: nodes become `{"_id", "_labels", ...props}`, relationships
     /// `{"_id", "_type", "_start", "_end", ...props}`, paths `{"nodes": [...], "relationships": [...]}`.
     pub fn to_json(&self, v: &Val) -> serde_json::Value {
+        self.to_json_as(v, JsonForm::Full)
+    }
+
+    /// A value as JSON in `form`: [`JsonForm::Brief`] summarises the bulky properties of whole
+    /// nodes and relationships (see [`JsonForm`]); values returned on their own are whole.
+    pub fn to_json_as(&self, v: &Val, form: JsonForm) -> serde_json::Value {
         use serde_json::{Value as J, json};
         let props = |m: &BTreeMap<String, Val>, o: &mut serde_json::Map<String, J>| {
             for (k, v) in m {
-                o.insert(k.clone(), self.to_json(v));
+                let value = match form.summary(v) {
+                    Some(s) => J::String(s),
+                    None => self.to_json_as(v, form),
+                };
+                o.insert(k.clone(), value);
             }
         };
         match v {
-            Val::List(l) => J::Array(l.iter().map(|x| self.to_json(x)).collect()),
+            Val::List(l) => J::Array(l.iter().map(|x| self.to_json_as(x, form)).collect()),
             Val::Map(m) => J::Object(
                 m.iter()
-                    .map(|(k, v)| (k.clone(), self.to_json(v)))
+                    .map(|(k, v)| (k.clone(), self.to_json_as(v, form)))
                     .collect(),
             ),
             Val::Node(id) => {
@@ -412,8 +429,8 @@ impl QueryResult {
                 J::Object(o)
             }
             Val::Path { nodes, rels } => json!({
-                "nodes": nodes.iter().map(|n| self.to_json(&Val::Node(*n))).collect::<Vec<_>>(),
-                "relationships": rels.iter().map(|r| self.to_json(&Val::Rel(*r))).collect::<Vec<_>>(),
+                "nodes": nodes.iter().map(|n| self.to_json_as(&Val::Node(*n), form)).collect::<Vec<_>>(),
+                "relationships": rels.iter().map(|r| self.to_json_as(&Val::Rel(*r), form)).collect::<Vec<_>>(),
             }),
             // everything else is a storable value: the store's JSON form
             other => other.to_value().map_or(J::Null, |x| x.to_json()),
@@ -422,6 +439,11 @@ impl QueryResult {
 
     /// The rows as JSON objects keyed by column.
     pub fn rows_json(&self) -> serde_json::Value {
+        self.rows_json_as(JsonForm::Full)
+    }
+
+    /// The rows as JSON objects keyed by column, values in `form`.
+    pub fn rows_json_as(&self, form: JsonForm) -> serde_json::Value {
         serde_json::Value::Array(
             self.rows
                 .iter()
@@ -430,12 +452,59 @@ impl QueryResult {
                         self.columns
                             .iter()
                             .zip(r)
-                            .map(|(c, v)| (c.clone(), self.to_json(v)))
+                            .map(|(c, v)| (c.clone(), self.to_json_as(v, form)))
                             .collect(),
                     )
                 })
                 .collect(),
         )
+    }
+}
+
+/// How [`QueryResult::to_json_as`] writes the properties of whole nodes and relationships.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum JsonForm {
+    /// Every property whole.
+    #[default]
+    Full,
+    /// A node's or relationship's vectors, byte strings and lists of more than
+    /// [`JsonForm::BRIEF_NUMBERS`] numbers (polygons, polylines) become a short string saying
+    /// what was left out (`"<vector of 384 floats: return the property itself to see it>"`);
+    /// strings, lists of strings and small lists stay whole. For answers read by agents.
+    Brief,
+}
+
+impl JsonForm {
+    /// The most numbers a property may hold and stay whole in [`JsonForm::Brief`].
+    pub const BRIEF_NUMBERS: usize = 24;
+
+    /// What a property of a whole node becomes in this form, when it is left out.
+    fn summary(self, v: &Val) -> Option<String> {
+        if self == JsonForm::Full {
+            return None;
+        }
+        fn numbers(v: &Val) -> usize {
+            match v {
+                Val::Int(_) | Val::Float(_) => 1,
+                Val::Point2D(_) => 2,
+                Val::Point3D(_) => 3,
+                Val::Vector(x) => x.len(),
+                Val::List(l) => l.iter().map(numbers).sum(),
+                _ => 0,
+            }
+        }
+        let see = "return the property itself to see it";
+        match v {
+            Val::Vector(x) => Some(format!("<vector of {} floats: {see}>", x.len())),
+            Val::Bytes(b) => Some(format!("<{} bytes: {see}>", b.len())),
+            Val::List(l) if numbers(v) > Self::BRIEF_NUMBERS => Some(format!(
+                "<list of {} values, {} numbers: {see}>",
+                l.len(),
+                numbers(v)
+            )),
+            _ => None,
+        }
     }
 }
 
@@ -697,6 +766,7 @@ impl Store {
                     exec::Ctx::new(exec::Tx::Write(&mut *tx), &opts.params, deadline, opts.seed);
                 ctx.max_rows = opts.max_intermediate_rows;
                 ctx.max_memory = opts.max_memory_bytes;
+                ctx.ground_axes = opts.ground_axes;
                 let res = run_statement(&mut ctx, &stmt, opts);
                 let peak = ctx.mem_peak();
                 drop(ctx);
@@ -709,6 +779,7 @@ impl Store {
             let mut ctx = exec::Ctx::new(exec::Tx::Read(&txn), &opts.params, deadline, opts.seed);
             ctx.max_rows = opts.max_intermediate_rows;
             ctx.max_memory = opts.max_memory_bytes;
+            ctx.ground_axes = opts.ground_axes;
             let res = run_statement(&mut ctx, &stmt, opts);
             let peak = ctx.mem_peak();
             drop(ctx);

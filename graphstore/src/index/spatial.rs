@@ -155,6 +155,97 @@ pub(crate) fn nearest(
     out
 }
 
+/// Ground-plane distance from `g` to the footprint of box `b` (0 inside); `axes` are the two
+/// world axes that span the ground, in the order of `g`'s coordinates.
+pub(crate) fn ground_dist(g: [f64; 2], axes: [usize; 2], b: &Aabb) -> f64 {
+    let gap = |c: f64, lo: f64, hi: f64| (lo - c).max(c - hi).max(0.0);
+    let d0 = gap(g[0], b.0[axes[0]], b.1[axes[0]]);
+    let d1 = gap(g[1], b.0[axes[1]], b.1[axes[1]]);
+    d0.hypot(d1)
+}
+
+/// Nodes whose footprint lies within `radius_m` of ground point `g` on the ground plane
+/// spanned by `axes` (height ignored), with ground distances, nearest first (ties by id).
+pub(crate) fn within_ground(
+    stack: &Stack<SpatialLayer>,
+    pending: Option<&Pending<Aabb>>,
+    g: [f64; 2],
+    axes: [usize; 2],
+    radius_m: f64,
+) -> Vec<(u64, f64)> {
+    // every height: a column over the disc's square, then the exact footprint distance
+    let mut lo = [f64::MIN; 3];
+    let mut hi = [f64::MAX; 3];
+    for (i, &a) in axes.iter().enumerate() {
+        lo[a] = g[i] - radius_m;
+        hi[a] = g[i] + radius_m;
+    }
+    let env = AABB::from_corners(lo, hi);
+    let mut out = Vec::new();
+    let mut keep = |n: u64, b: &Aabb| {
+        let d = ground_dist(g, axes, b);
+        if d <= radius_m {
+            out.push((n, d));
+        }
+    };
+    for (layer, vis) in stack.view(pending) {
+        for item in layer.tree.locate_in_envelope_intersecting(env) {
+            if vis.visible(item.data) {
+                let e = item.geom().envelope();
+                keep(item.data, &(e.lower(), e.upper()));
+            }
+        }
+    }
+    if let Some(p) = pending {
+        for (n, b) in &p.entries {
+            keep(*n, b);
+        }
+    }
+    sort_by_distance(&mut out);
+    out
+}
+
+/// The `k` nodes whose footprints are nearest ground point `g` (see [`within_ground`]),
+/// nearest first: the radius doubles from 16 m until `k` are within it or it covers every
+/// entry.
+pub(crate) fn nearest_ground(
+    stack: &Stack<SpatialLayer>,
+    pending: Option<&Pending<Aabb>>,
+    g: [f64; 2],
+    axes: [usize; 2],
+    k: usize,
+) -> Vec<(u64, f64)> {
+    if k == 0 {
+        return Vec::new();
+    }
+    // the farthest any entry can be: from g to the far corner of all boxes
+    let mut reach: f64 = 0.0;
+    let mut far = |b: &Aabb| {
+        for (i, &a) in axes.iter().enumerate() {
+            reach = reach.max((g[i] - b.0[a]).abs()).max((g[i] - b.1[a]).abs());
+        }
+    };
+    for (layer, _) in stack.view(pending) {
+        if layer.tree.size() > 0 {
+            let e = layer.tree.root().envelope();
+            far(&(e.lower(), e.upper()));
+        }
+    }
+    if let Some(p) = pending {
+        p.entries.iter().for_each(|(_, b)| far(b));
+    }
+    let reach = reach * std::f64::consts::SQRT_2;
+    let mut r: f64 = 16.0;
+    loop {
+        let mut out = within_ground(stack, pending, g, axes, r);
+        if out.len() >= k || r >= reach || !r.is_finite() {
+            out.truncate(k);
+            return out;
+        }
+        r *= 2.0;
+    }
+}
+
 fn sort_by_distance(v: &mut [(u64, f64)]) {
     v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
 }
@@ -207,5 +298,63 @@ mod tests {
             .map(|(n, _)| *n)
             .collect();
         assert_eq!(bx, want_box);
+    }
+
+    proptest::proptest! {
+        /// The ground queries against a brute-force scan, over boxes in several committed
+        /// layers and a pending one, at any height (height must not matter).
+        #[test]
+        fn ground_queries_agree_with_brute_force(
+            boxes in proptest::collection::vec(
+                ((-50.0f64..50.0, -30.0f64..30.0, -50.0f64..50.0), (0.0f64..8.0, 0.0f64..20.0, 0.0f64..8.0)),
+                1..60,
+            ),
+            g in (-60.0f64..60.0, -60.0f64..60.0),
+            radius in 0.0f64..40.0,
+            k in 0usize..12,
+            kitti in proptest::bool::ANY,
+        ) {
+            let axes = if kitti { [0, 2] } else { [0, 1] };
+            let g = [g.0, g.1];
+            let mut stack: Stack<SpatialLayer> = Stack::new((), vec![]);
+            let mut all = Vec::new();
+            let mut pending = Pending::default();
+            for (n, ((x, y, z), (dx, dy, dz))) in boxes.iter().enumerate() {
+                let b = ([*x, *y, *z], [x + dx, y + dy, z + dz]);
+                all.push((n as u64, b));
+                if n % 3 == 2 {
+                    pending.set(n as u64, Some(b));
+                } else {
+                    let mut p = Pending::default();
+                    p.set(n as u64, Some(b));
+                    stack = stack.commit(p);
+                }
+            }
+            let mut want: Vec<(u64, f64)> = all
+                .iter()
+                .map(|(n, b)| (*n, ground_dist(g, axes, b)))
+                .collect();
+            sort_by_distance(&mut want);
+            let got = within_ground(&stack, Some(&pending), g, axes, radius);
+            let inside: Vec<(u64, f64)> = want.iter().copied().filter(|x| x.1 <= radius).collect();
+            proptest::prop_assert_eq!(got.len(), inside.len());
+            for (a, b) in got.iter().zip(&inside) {
+                proptest::prop_assert_eq!(a.0, b.0);
+                proptest::prop_assert!((a.1 - b.1).abs() < 1e-9);
+            }
+            let near = nearest_ground(&stack, Some(&pending), g, axes, k);
+            let top: Vec<u64> = want.iter().take(k).map(|x| x.0).collect();
+            proptest::prop_assert_eq!(near.iter().map(|x| x.0).collect::<Vec<_>>(), top);
+        }
+    }
+
+    #[test]
+    fn ground_distance_ignores_height_and_is_zero_over_the_footprint() {
+        let b = ([0.0, -10.0, 0.0], [2.0, -8.0, 4.0]);
+        // kitti_cam: ground is x, z; a point far above or below the box is over it
+        assert!(ground_dist([1.0, 2.0], [0, 2], &b).abs() < 1e-12);
+        assert!((ground_dist([5.0, 8.0], [0, 2], &b) - 5.0).abs() < 1e-12);
+        // enu: ground is x, y
+        assert!((ground_dist([1.0, -5.0], [0, 1], &b) - 3.0).abs() < 1e-12);
     }
 }

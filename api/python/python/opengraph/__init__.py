@@ -139,28 +139,39 @@ class Map:
         means (the ``get_schema`` tool)."""
         return self._call("get_schema")
 
-    def query(self, cypher: str, params: Optional[dict] = None) -> list[dict]:
+    def query(
+        self, cypher: str, params: Optional[dict] = None, full_properties: bool = False
+    ) -> list[dict]:
         """Runs a Cypher statement and returns its rows, each a dict by column.
+
+        Whole nodes and relationships come with their vectors (``feature``) and long
+        coordinate lists (polygons) summarised as a short string unless ``full_properties``
+        is true; a property returned on its own (``RETURN n.feature``) is always whole.
 
         Read-only maps take reads only (writes are refused by the parser, `InputError`);
         a map opened with ``read_only=False`` runs writes too, as one transaction. At most
         1000 rows and 10 s per statement, as over HTTP (`InputError` past the rows,
         `TimeoutError` past the time). Parameters are ``$name`` in the statement.
         """
-        return self.query_answer(cypher, params)["rows"]
+        return self.query_answer(cypher, params, full_properties)["rows"]
 
-    def query_answer(self, cypher: str, params: Optional[dict] = None) -> dict:
+    def query_answer(
+        self, cypher: str, params: Optional[dict] = None, full_properties: bool = False
+    ) -> dict:
         """Like :meth:`query`, with the whole answer: ``columns``, ``rows``, ``row_count``,
         ``stats`` (what a write changed) and ``plan`` (for EXPLAIN and PROFILE)."""
         tool = "read_cypher" if self.read_only else "write_cypher"
-        return self._call(tool, query=cypher, params=params)
+        extra = {"full_properties": True} if full_properties else {}
+        return self._call(tool, query=cypher, params=params, **extra)
 
-    def query_df(self, cypher: str, params: Optional[dict] = None):
+    def query_df(
+        self, cypher: str, params: Optional[dict] = None, full_properties: bool = False
+    ):
         """:meth:`query` as a pandas DataFrame, its columns in the statement's order (needs
         pandas)."""
         import pandas as pd
 
-        a = self.query_answer(cypher, params)
+        a = self.query_answer(cypher, params, full_properties)
         return pd.DataFrame(a["rows"], columns=a["columns"])
 
     def find(self, text: str, k: int = 5, class_: Optional[str] = None) -> dict:
