@@ -10,14 +10,17 @@
 use std::sync::Arc;
 
 use rmcp::model::{
-    CallToolRequestParams, CallToolResponse, CallToolResult, ContentBlock, Implementation,
-    ListToolsResult, PaginatedRequestParams, ServerCapabilities, ServerConfig, Tool,
+    CallToolRequestParams, CallToolResponse, CallToolResult, ContentBlock, GetPromptRequestParams,
+    GetPromptResponse, GetPromptResult, Implementation, ListPromptsResult, ListResourcesResult,
+    ListToolsResult, PaginatedRequestParams, Prompt, PromptArgument, PromptMessage,
+    ReadResourceRequestParams, ReadResourceResponse, ReadResourceResult, Resource,
+    ResourceContents, Role, ServerCapabilities, ServerConfig, Tool, ToolAnnotations,
 };
 use rmcp::service::RequestContext;
 use rmcp::{ErrorData, RoleServer, ServerHandler, ServiceExt};
 
 use crate::service::{Service, WriteGate};
-use crate::tools::Toolbox;
+use crate::tools::{AGENT_GUIDE, Toolbox};
 
 /// The MCP server over the service.
 #[derive(Clone)]
@@ -47,22 +50,147 @@ impl McpServer {
             .tools()
             .into_iter()
             .map(|t| {
+                // the MCP hints follow from the registry: a tool that writes may delete (a
+                // Cypher DELETE, an object removed from the map) and is not idempotent; the
+                // map is a closed world
+                let annotations = ToolAnnotations::with_title(title(t.name))
+                    .read_only(!t.writes)
+                    .destructive(t.writes)
+                    .idempotent(!t.writes)
+                    .open_world(false);
                 Tool::new(t.name, t.description, object(t.input_schema))
                     .with_raw_output_schema(Arc::new(object(t.output_schema)))
+                    .with_annotations(annotations)
             })
             .collect()
     }
 }
 
+/// A tool's name as a title: `find_objects` is "Find objects".
+fn title(name: &str) -> String {
+    let words = name.replace('_', " ");
+    let mut c = words.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
+}
+
+/// The resource with the map's schema (the `get_schema` tool's answer).
+const SCHEMA_URI: &str = "opengraph://schema";
+/// The resource with [`AGENT_GUIDE`].
+const GUIDE_URI: &str = "opengraph://guide";
+/// The prompt that gives an agent [`AGENT_GUIDE`], with a question when there is one.
+const GUIDE_PROMPT: &str = "use_the_map";
+
 impl ServerHandler for McpServer {
     fn get_info(&self) -> ServerConfig {
-        ServerConfig::new(ServerCapabilities::builder().enable_tools().build())
+        let capabilities = ServerCapabilities::builder()
+            .enable_tools()
+            .enable_resources()
+            .enable_prompts()
+            .build();
+        ServerConfig::new(capabilities)
             .with_server_info(Implementation::new("opengraph", env!("CARGO_PKG_VERSION")))
             .with_instructions(
                 "OpenGraph: a 3D scene graph of a street map (road segments, lane graph, objects). \
-                 Call get_schema first; find_objects and locate answer requests in words; \
-                 read_cypher runs read-only Cypher.",
+                 Call get_schema first; prefer the task tools (nearest_objects, count_objects, \
+                 measure_distance, plan_route, neighbours, find_objects, locate) to read_cypher. \
+                 The prompt use_the_map and the resource opengraph://guide say how to use them; \
+                 opengraph://schema is the schema.",
             )
+    }
+
+    async fn list_resources(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<ListResourcesResult, ErrorData> {
+        Ok(ListResourcesResult::with_all_items(vec![
+            Resource::new(SCHEMA_URI, "schema")
+                .with_title("The map's schema")
+                .with_description(
+                    "Labels and relationship types with their properties (types, units, frames), \
+                     counts, indexes, which axis is up and which ids the tools take: get_schema's answer.",
+                )
+                .with_mime_type("application/json"),
+            Resource::new(GUIDE_URI, "guide")
+                .with_title("How to use the map")
+                .with_description("Which tool answers which question, places, ids and units.")
+                .with_mime_type("text/markdown"),
+        ]))
+    }
+
+    async fn read_resource(
+        &self,
+        request: ReadResourceRequestParams,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<ReadResourceResponse, ErrorData> {
+        let contents = match request.uri.as_str() {
+            SCHEMA_URI => {
+                let schema = self
+                    .service
+                    .call("get_schema", serde_json::json!({}), false)
+                    .await
+                    .map_err(|e| ErrorData::internal_error(e.to_string(), None))?;
+                let text = serde_json::to_string_pretty(&schema).unwrap_or_default();
+                ResourceContents::text(text, SCHEMA_URI).with_mime_type("application/json")
+            }
+            GUIDE_URI => {
+                ResourceContents::text(AGENT_GUIDE, GUIDE_URI).with_mime_type("text/markdown")
+            }
+            other => {
+                return Err(ErrorData::resource_not_found(
+                    format!("no resource {other:?}; there are {SCHEMA_URI} and {GUIDE_URI}"),
+                    None,
+                ));
+            }
+        };
+        Ok(ReadResourceResult::new(vec![contents]).into())
+    }
+
+    async fn list_prompts(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<ListPromptsResult, ErrorData> {
+        let question = PromptArgument::new("question")
+            .with_description("a question about the map to answer with the tools (optional)")
+            .with_required(false);
+        Ok(ListPromptsResult::with_all_items(vec![Prompt::new(
+            GUIDE_PROMPT,
+            Some(
+                "How to answer questions about this map with its tools (ids, places, units), with a question when given.",
+            ),
+            Some(vec![question]),
+        )]))
+    }
+
+    async fn get_prompt(
+        &self,
+        request: GetPromptRequestParams,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<GetPromptResponse, ErrorData> {
+        if request.name != GUIDE_PROMPT {
+            return Err(ErrorData::invalid_params(
+                format!("no prompt {:?}; there is {GUIDE_PROMPT}", request.name),
+                None,
+            ));
+        }
+        let question = request
+            .arguments
+            .as_ref()
+            .and_then(|a| a.get("question"))
+            .and_then(|q| q.as_str())
+            .map(str::trim)
+            .filter(|q| !q.is_empty());
+        let text = match question {
+            Some(q) => format!("{AGENT_GUIDE}\n\nThe question: {q}"),
+            None => AGENT_GUIDE.to_string(),
+        };
+        let message = PromptMessage::new(Role::User, ContentBlock::text(text));
+        Ok(GetPromptResult::new(vec![message])
+            .with_description("How to use the OpenGraph map's tools")
+            .into())
     }
 
     async fn list_tools(
@@ -125,7 +253,16 @@ impl ServerHandler for McpServer {
 
 /// The methods this server answers; a request for one of them that rmcp could not read
 /// has invalid params.
-const SERVED_METHODS: [&str; 4] = ["initialize", "ping", "tools/list", "tools/call"];
+const SERVED_METHODS: [&str; 8] = [
+    "initialize",
+    "ping",
+    "tools/list",
+    "tools/call",
+    "resources/list",
+    "resources/read",
+    "prompts/list",
+    "prompts/get",
+];
 
 /// The JSON-RPC error for a request rmcp read as a custom one (see `on_custom_request`).
 fn custom_request_error(method: &str, params: Option<&serde_json::Value>) -> ErrorData {

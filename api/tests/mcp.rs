@@ -119,4 +119,53 @@ fn a_real_mcp_client_lists_and_calls_the_tools() {
     );
     assert_eq!(w["write"]["is_error"], false, "{}", w["write"]);
     assert_eq!(w["after_write"]["value"]["rows"][0]["n"], 1);
+
+    // annotations: every tool says whether it reads or writes, as the client reads them
+    for (name, a) in w["annotations"].as_object().unwrap() {
+        let writes = matches!(
+            name.as_str(),
+            "write_cypher" | "update_map" | "undo_map_edit"
+        );
+        assert_eq!(a["read_only"], !writes, "{name}: {a}");
+        assert_eq!(a["destructive"], writes, "{name}: {a}");
+        assert_eq!(a["open_world"], false, "{name}: {a}");
+        assert!(a["title"].as_str().is_some_and(|t| !t.is_empty()), "{name}");
+    }
+    assert_eq!(w["annotations"].as_object().unwrap().len(), 14);
+    // resources: the schema (the get_schema tool's answer) and the guide
+    assert_eq!(
+        r["resources"],
+        serde_json::json!(["opengraph://guide", "opengraph://schema"])
+    );
+    let schema: serde_json::Value =
+        serde_json::from_str(r["resource_text"]["opengraph://schema"].as_str().unwrap()).unwrap();
+    let tool_schema = json(&og(&["tool", "--db", s(&db), "get_schema"]));
+    // (the map has the write client's node now: compare what no write changed)
+    for part in ["labels", "relationship_types", "frame", "ids", "indexes"] {
+        assert_eq!(schema[part], tool_schema[part], "{part}");
+    }
+    assert!(
+        schema["labels"]["Instance"]["properties"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|p| p["key"] == "label" && p["type"] == "string")
+    );
+    let guide = r["resource_text"]["opengraph://guide"].as_str().unwrap();
+    assert!(guide.contains("nearest_objects") && guide.contains("get_schema"));
+    assert!(
+        r["missing_resource"]
+            .as_str()
+            .unwrap()
+            .contains("opengraph://schema"),
+        "{}",
+        r["missing_resource"]
+    );
+    // the prompt: the guide with the question
+    assert_eq!(
+        r["prompts"],
+        serde_json::json!({"use_the_map": ["question"]})
+    );
+    let prompt = r["prompt_text"]["use_the_map"].as_str().unwrap();
+    assert!(prompt.starts_with(guide) && prompt.ends_with("How many benches are there?"));
 }

@@ -44,6 +44,38 @@ pub use crate::toolbox::Toolbox;
 use crate::update::UpdateAnswer;
 use ingest::map_edit::EditInfo;
 
+/// How an agent should use the map's tools: served as the MCP prompt `use_the_map` and the
+/// resource `opengraph://guide`, and summarised in the MCP server's instructions.
+pub const AGENT_GUIDE: &str = "\
+You are answering questions about an OpenGraph map: a 3D scene graph of streets built from LiDAR and \
+camera data. It has road segments (kind: intersection = crossroads, t_intersection, l_intersection = \
+bend, straight_roadway), a lane graph along the driven path, and mapped objects (Instance nodes).
+
+1. Call get_schema once: every label's properties with types, units and frames, which axis is up \
+(frame) and which ids the tools take (ids).
+2. Prefer the task tools to Cypher; each answer says how it measured:
+   - nearest_objects: the objects of a kind nearest a place, with distances;
+   - count_objects: how many objects of a kind on the map, in a segment, or within a radius of a place;
+   - measure_distance: the ground-plane distance between two places;
+   - plan_route: a route between two places; route_length_m is the route's length;
+   - neighbours: what stands around an object;
+   - find_objects: objects from a request in words ('somewhere I can post a letter');
+   - locate: where someone is from what they see ('a T-junction with a bus stop on my left');
+   - describe_area and get_instance: the map top-down, one segment, one object.
+3. What an object is: its label ('post box', 'fire hydrant', 'bus stop shelter'), not its class (the \
+SemanticKITTI class used for segmentation; street furniture is often other-object).
+4. Places are words ('the start of the drive', 'the T-junction with two bus shelters', 'the post box \
+by the crossroads') or specs with node ids: instance:ID, segment:ID, lane:ID, node:ID, or 'x,z' \
+ground coordinates.
+5. Distances are in metres on the ground plane, between centroids unless measure=box_gap (between \
+footprints).
+6. In Cypher (read_cypher): a node's id is id(n); LANE relationships are stored one way and travelled \
+both ways, so match them undirected, -[:LANE]-; shortestPath((a)-[:LANE*]-(b)) gives the fewest hops; \
+ground-plane searches are db.index.spatial.withinGroundDistance and db.index.spatial.nearestOnGround; \
+whole nodes come with their 384-number feature summarised.
+7. Answer from the tools' results: say the number, the object's label and id, or the distance with its \
+unit, and how it was measured.";
+
 /// One tool: name, description, JSON Schema of its arguments, and whether it writes.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Tool {
@@ -624,7 +656,15 @@ mod tests {
         .unwrap();
         let s = tb.call("get_schema", &json!({})).unwrap();
         // every property of the map's layers says what it is, with its type
-        for owner in ["Environment", "Segment", "LaneNode", "Instance"] {
+        for owner in [
+            "Environment",
+            "Segment",
+            "LaneNode",
+            "Instance",
+            "Build",
+            "MapEdit",
+            "Frame",
+        ] {
             let props = s["labels"][owner]["properties"].as_array().unwrap();
             assert!(!props.is_empty(), "{owner}");
             for p in props {

@@ -57,6 +57,38 @@ async def session_calls(read, write, out):
             tools = await asyncio.wait_for(session.list_tools(), 30)
             out["tools"] = sorted(t.name for t in tools.tools)
             out["schemas"] = {t.name: attr(t, "input_schema", "inputSchema") for t in tools.tools}
+            out["annotations"] = {}
+            for t in tools.tools:
+                a = t.annotations
+                out["annotations"][t.name] = None if a is None else {
+                    "title": a.title,
+                    "read_only": attr(a, "read_only_hint", "readOnlyHint"),
+                    "destructive": attr(a, "destructive_hint", "destructiveHint"),
+                    "idempotent": attr(a, "idempotent_hint", "idempotentHint"),
+                    "open_world": attr(a, "open_world_hint", "openWorldHint"),
+                }
+            resources = await asyncio.wait_for(session.list_resources(), 30)
+            out["resources"] = sorted(str(r.uri) for r in resources.resources)
+            out["resource_text"] = {}
+            for uri in out["resources"]:
+                r = await asyncio.wait_for(session.read_resource(uri), 30)
+                out["resource_text"][uri] = "".join(getattr(c, "text", "") for c in r.contents)
+            try:
+                await asyncio.wait_for(session.read_resource("opengraph://nothing"), 30)
+                out["missing_resource"] = "no error"
+            except Exception as e:  # a JSON-RPC error names the resources there are
+                out["missing_resource"] = str(e)
+            prompts = await asyncio.wait_for(session.list_prompts(), 30)
+            out["prompts"] = {
+                p.name: [a.name for a in (p.arguments or [])] for p in prompts.prompts
+            }
+            for name in out["prompts"]:
+                p = await asyncio.wait_for(
+                    session.get_prompt(name, {"question": "How many benches are there?"}), 30
+                )
+                out.setdefault("prompt_text", {})[name] = "".join(
+                    getattr(m.content, "text", "") for m in p.messages
+                )
 
             async def call(name, args):
                 r = await asyncio.wait_for(session.call_tool(name, args), 120)

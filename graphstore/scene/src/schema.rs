@@ -365,6 +365,22 @@ pub fn property_meaning(owner: &str, property: &str) -> Option<&'static str> {
             "pose: 3x4 row-major, 12 floats, LiDAR frame to world frame, metres"
         }
         (label::FRAME, key::TIMESTAMP_SECS) => "sensor time, seconds",
+        (label::BUILD, key::BUILD_ID) => "the build's number",
+        (label::BUILD, key::ARGS) => "JSON: sequence, source, frames, stride and mapping config",
+        (label::BUILD, key::NEXT_FRAME) => "the frame `build --resume` continues from",
+        (label::BUILD, key::NEXT_INSTANCE_ID) => "the next instance_id the mapping will give",
+        (label::BUILD, key::FINISHED) => "whether the build ran to its end",
+        (label::BUILD, key::HIERARCHY_DONE) => "whether the hierarchy was built over it",
+        (label::BUILD, key::SOURCE) => "oracle, detector or simulator: which perception it used",
+        (label::BUILD, key::LAST_STAMP_NS) => {
+            "a live build's last committed cloud stamp, nanoseconds"
+        }
+        (label::BUILD, key::TRAJECTORY) => {
+            "a live build's LiDAR positions so far, a flat list of x, y, z (world frame, metres)"
+        }
+        (label::MAP_EDIT, key::PARSED_BY) => "rules, or the language model that read the change",
+        (label::MAP_EDIT, key::SUMMARY) => "what the edit did, in words",
+        (label::MAP_EDIT, key::UNDONE_UNIX_S) => "when it was undone, Unix seconds",
         (label::MAP_EDIT, key::TEXT) => "the described change",
         (label::MAP_EDIT, key::KIND) => "remove, move, change or add",
         (label::MAP_EDIT, key::TIME_UNIX_S) => "when it was applied, Unix seconds",
