@@ -564,9 +564,167 @@ proptest! {
     }
 }
 
+/// Reference breadth-first search over `edges` (typed `A` or `B`; `both`: either way) from
+/// `s`: for every node, the fewest hops from `s` and how many shortest paths reach it
+/// (each relationship counts as its own path).
+fn reference_bfs(
+    n: usize,
+    edges: &[(usize, usize, bool)],
+    s: usize,
+    both: bool,
+) -> (Vec<Option<usize>>, Vec<u64>) {
+    let mut depth = vec![None; n];
+    let mut ways = vec![0u64; n];
+    depth[s] = Some(0);
+    ways[s] = 1;
+    let mut frontier = vec![s];
+    let mut d = 0;
+    while !frontier.is_empty() {
+        let mut next = Vec::new();
+        for &u in &frontier {
+            for &(a, b, is_a) in edges {
+                if !is_a {
+                    continue;
+                }
+                let mut hop = |v: usize| {
+                    if depth[v].is_none() {
+                        depth[v] = Some(d + 1);
+                        next.push(v);
+                    }
+                    if depth[v] == Some(d + 1) {
+                        ways[v] += ways[u];
+                    }
+                };
+                if a == u {
+                    hop(b);
+                }
+                if both && b == u && a != b {
+                    hop(a);
+                }
+            }
+        }
+        frontier = next;
+        d += 1;
+    }
+    (depth, ways)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, .. ProptestConfig::default() })]
+
+    /// shortestPath's length and allShortestPaths' count against a reference breadth-first
+    /// search, directed and undirected, over relationships of one type among two.
+    #[test]
+    fn shortest_paths_match_a_reference(
+        n in 2usize..10,
+        edges in proptest::collection::vec((0usize..10, 0usize..10, proptest::bool::ANY), 0..24),
+        s_i in 0usize..10,
+        t_i in 0usize..10,
+        both in proptest::bool::ANY,
+    ) {
+        let (_d, s) = store();
+        let edges: Vec<(usize, usize, bool)> = edges.into_iter().map(|(a, b, t)| (a % n, b % n, t)).collect();
+        let (s_i, t_i) = (s_i % n, t_i % n);
+        s.write(|tx| {
+            let ids: Vec<u64> = (0..n).map(|i| tx.create_node_named(&["N"], &[("v", Value::Int(i as i64))])).collect::<Result<_, _>>()?;
+            for (a, b, is_a) in &edges {
+                tx.create_rel_named(ids[*a], if *is_a { "A" } else { "B" }, ids[*b], &[])?;
+            }
+            Ok(())
+        }).expect("fill");
+        let arrow = if both { "-" } else { "->" };
+        let mut o = QueryOptions::default();
+        o.params.insert("s".into(), Val::Int(s_i as i64));
+        o.params.insert("t".into(), Val::Int(t_i as i64));
+        let one = s.query(
+            &format!("MATCH (a:N {{v: $s}}), (b:N {{v: $t}}) MATCH p = shortestPath((a)-[:A*]{arrow}(b)) RETURN length(p) AS len, [x IN nodes(p) | x.v] AS vs"),
+            &o,
+        ).expect("shortestPath");
+        let all = s.query(
+            &format!("MATCH (a:N {{v: $s}}), (b:N {{v: $t}}) MATCH p = allShortestPaths((a)-[r:A*]{arrow}(b)) RETURN length(p) AS len, size(r) AS k"),
+            &o,
+        ).expect("allShortestPaths");
+        let (depth, ways) = reference_bfs(n, &edges, s_i, both);
+        match depth[t_i] {
+            Some(d) if d >= 1 => {
+                prop_assert_eq!(one.rows.len(), 1);
+                prop_assert_eq!(&one.rows[0][0], &Val::Int(d as i64));
+                // the path runs from s to t, one A relationship a hop
+                let Val::List(vs) = &one.rows[0][1] else { panic!() };
+                prop_assert_eq!(vs.first(), Some(&Val::Int(s_i as i64)));
+                prop_assert_eq!(vs.last(), Some(&Val::Int(t_i as i64)));
+                prop_assert_eq!(all.rows.len() as u64, ways[t_i]);
+                for row in &all.rows {
+                    prop_assert_eq!(&row[0], &Val::Int(d as i64));
+                    prop_assert_eq!(&row[1], &Val::Int(d as i64));
+                }
+            }
+            // unreachable, or the start itself (a path needs at least one hop)
+            _ => {
+                prop_assert!(one.rows.is_empty());
+                prop_assert!(all.rows.is_empty());
+            }
+        }
+    }
+}
+
+#[test]
+fn shortest_path_forms_and_errors() {
+    let (_d, s) = store();
+    q(
+        &s,
+        "CREATE (a:L {v: 0})-[:LANE {length_m: 5.0}]->(b:L {v: 1})-[:LANE {length_m: 5.0}]->(c:L {v: 2}), \
+         (a)-[:LANE {length_m: 1.0, closed: true}]->(c)",
+    );
+    // the one-hop path wins; a property map on the relationship steers the search
+    let r = q(
+        &s,
+        "MATCH (a:L {v: 0}), (c:L {v: 2}) MATCH p = shortestPath((a)-[:LANE*]-(c)) RETURN length(p)",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Int(1)]]);
+    let r = q(
+        &s,
+        "MATCH (a:L {v: 0}), (c:L {v: 2}) MATCH p = shortestPath((a)-[:LANE* {length_m: 5.0}]-(c)) \
+         RETURN length(p), reduce(m = 0.0, x IN relationships(p) | m + x.length_m) AS metres",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Int(2), Val::Float(10.0)]]);
+    // unbound ends are matched as any other node pattern; *0.. lets a node reach itself
+    let r = q(
+        &s,
+        "MATCH p = shortestPath((x:L {v: 2})-[:LANE*0..]-(y:L {v: 2})) RETURN length(p)",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Int(0)]]);
+    let r = q(
+        &s,
+        "MATCH p = shortestPath((x:L)-[:LANE*..1]->(y:L)) RETURN x.v AS x, y.v AS y ORDER BY x, y",
+    );
+    assert_eq!(r.rows.len(), 3);
+    // a single hop without a star, and OPTIONAL MATCH with no path
+    let r = q(
+        &s,
+        "MATCH (c:L {v: 2}), (a:L {v: 0}) OPTIONAL MATCH p = shortestPath((c)-[:LANE]->(a)) RETURN p",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Null]]);
+    let explain = s
+        .explain(
+            "MATCH (a:L {v: 0}), (c:L {v: 2}) MATCH p = shortestPath((a)-[:LANE*]-(c)) RETURN p",
+        )
+        .expect("explain");
+    assert!(explain.contains("ShortestPath"), "{explain}");
+    for bad in [
+        "MATCH p = shortestPath((a)-[:LANE*]-(b)-[:LANE]-(c)) RETURN p",
+        "MATCH p = shortestPath((a)-[:LANE*2..]-(b)) RETURN p",
+        "CREATE p = shortestPath((a)-[:LANE]->(b))",
+    ] {
+        let e = qerr(&s, bad, &QueryOptions::default());
+        assert_eq!(e.code, "InvalidShortestPath", "{bad}: {e}");
+    }
+}
+
 // ------------------------------------------------------------------- fuzzing
 
 const SEEDS: &[&str] = &[
+    "MATCH (a:Lane {id: 1}), (b:Lane) MATCH p = allShortestPaths((a)-[:NEXT*0..4]-(b)) RETURN b.id, length(p), nodes(p)",
     "MATCH (a:Lane {id: 1})-[:NEXT*1..3]->(b) WHERE b.x > 2 RETURN a, count(*) AS n ORDER BY n DESC LIMIT 5",
     "UNWIND [1, 2, 3] AS x WITH x WHERE x > 1 RETURN collect(x), sum(x), avg(x)",
     "CREATE (a:A {v: [1, 2]})-[:R {w: 0.5}]->(b:B) SET a.k = 'x' REMOVE b.z RETURN a",

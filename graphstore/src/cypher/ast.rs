@@ -133,8 +133,18 @@ pub(crate) struct PathPattern {
     pub var: Option<String>,
     pub start: NodePat,
     pub steps: Vec<(RelPat, NodePat)>,
-    /// `shortestPath(...)`-style wrappers are not supported; this is always false for now.
+    /// `shortestPath(...)` or `allShortestPaths(...)` around the pattern (MATCH only).
+    pub shortest: Option<Shortest>,
     pub pos: Pos,
+}
+
+/// Which shortest paths a `shortestPath` / `allShortestPaths` pattern matches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Shortest {
+    /// `shortestPath`: one shortest path per pair of ends.
+    One,
+    /// `allShortestPaths`: every path of the shortest length.
+    All,
 }
 
 #[derive(Debug, Clone, PartialEq)]

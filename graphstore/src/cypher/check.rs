@@ -197,6 +197,7 @@ fn check_single(q: &SingleQuery, in_union: bool) -> R<Vec<String>> {
             }
             Clause::Create(patterns) => {
                 for p in patterns {
+                    no_shortest(p, "CREATE")?;
                     declare_pattern(p, &mut scope, true)?;
                     pattern_exprs(p, &scope)?;
                 }
@@ -206,6 +207,7 @@ fn check_single(q: &SingleQuery, in_union: bool) -> R<Vec<String>> {
                 on_create,
                 on_match,
             } => {
+                no_shortest(pattern, "MERGE")?;
                 declare_pattern_in(pattern, &mut scope, true, true)?;
                 pattern_exprs(pattern, &scope)?;
                 for it in on_create.iter().chain(on_match) {
@@ -960,4 +962,17 @@ fn ambiguous(e: &Expr, keys: &[String]) -> bool {
             bad
         }
     }
+}
+
+/// `shortestPath` and `allShortestPaths` find paths; they cannot be created.
+fn no_shortest(p: &PathPattern, clause: &str) -> R<()> {
+    if p.shortest.is_some() {
+        return Err(QueryError::new(
+            ErrorKind::Syntax,
+            "InvalidShortestPath",
+            format!("{clause} cannot take shortestPath or allShortestPaths; use them in MATCH"),
+            Some(p.pos),
+        ));
+    }
+    Ok(())
 }

@@ -1,7 +1,7 @@
 //! Clause execution: pattern matching, projection, aggregation, writes and procedures.
 
 use std::cell::Cell;
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::rc::Rc;
 use std::time::Instant;
 
@@ -914,6 +914,9 @@ impl<'a, 'b> Ctx<'a, 'b> {
             return out.push(self, row);
         }
         let p = &pats[i];
+        if let Some(kind) = p.shortest {
+            return self.match_shortest(row, pats, i, kind, where_, conj, used, out);
+        }
         let g = self.g();
         let anchor = choose_anchor(
             p,
@@ -951,6 +954,204 @@ impl<'a, 'b> Ctx<'a, 'b> {
             }
         }
         Ok(false)
+    }
+
+    /// `shortestPath` / `allShortestPaths` over pattern `i` (one relationship pattern): for
+    /// each start and end node the pattern allows, a breadth-first search from the start over
+    /// the relationships it allows (type, direction, properties, not used elsewhere in the
+    /// MATCH) gives the shortest paths to the end, within the pattern's hop range; then the
+    /// rest of the patterns. Predicates in WHERE filter the paths found; they do not steer the
+    /// search (put conditions on the relationships in the pattern's property map).
+    #[allow(clippy::too_many_arguments)]
+    fn match_shortest(
+        &self,
+        row: Row,
+        pats: &[PathPattern],
+        i: usize,
+        kind: Shortest,
+        where_: Option<&Expr>,
+        conj: &[&Expr],
+        used: &mut Vec<u64>,
+        out: &mut dyn RowSink,
+    ) -> R<bool> {
+        let p = &pats[i];
+        let (rp, end) = &p.steps[0];
+        let (lo, hi) = match rp.range {
+            None => (1, 1),
+            Some((lo, hi)) => (
+                lo.unwrap_or(1) as usize,
+                hi.map_or(usize::MAX, |h| h as usize),
+            ),
+        };
+        if let Some(v) = &rp.var
+            && row.get(v).is_some()
+        {
+            return Err(sem(
+                "VariableAlreadyBound",
+                format!("the relationship variable `{v}` of a shortest path must be new"),
+            ));
+        }
+        let ends = |np: &NodePat, row: &Row| -> R<Vec<u64>> {
+            let single = PathPattern {
+                var: None,
+                start: np.clone(),
+                steps: Vec::new(),
+                shortest: None,
+                pos: p.pos,
+            };
+            let anchor = choose_anchor(
+                &single,
+                conj,
+                &|v| row.get(v).is_some(),
+                &|e| expr_bound(e, row),
+                self.g(),
+                &|l| self.label_count(l),
+            );
+            self.candidates(&anchor, row)
+        };
+        let types = self.type_filter(rp);
+        for s in ends(&p.start, &row)? {
+            self.tick()?;
+            let mut r1 = row.clone();
+            if !self.node_ok(s, &p.start, &mut r1)? {
+                continue;
+            }
+            let mut targets: Vec<(u64, Row)> = Vec::new();
+            for t in ends(end, &r1)? {
+                let mut r2 = r1.clone();
+                if self.node_ok(t, end, &mut r2)? {
+                    targets.push((t, r2));
+                }
+            }
+            if targets.is_empty() {
+                continue;
+            }
+            // breadth-first from s: each node's depth and the hops that reach it at that depth
+            // (the first only, for shortestPath)
+            let mut depth: HashMap<u64, usize> = HashMap::new();
+            let mut parents: HashMap<u64, Vec<(u64, u64)>> = HashMap::new();
+            depth.insert(s, 0);
+            let mut frontier = vec![s];
+            let mut d = 0;
+            let wanted: HashSet<u64> = targets
+                .iter()
+                .map(|(t, _)| *t)
+                .filter(|t| lo == 0 || *t != s)
+                .collect();
+            let mut found = usize::from(wanted.contains(&s) && lo == 0);
+            while !frontier.is_empty() && d < hi && found < wanted.len() {
+                let mut next = Vec::new();
+                for &u in &frontier {
+                    for (rid, v) in self.hops(u, rp, true, &types)? {
+                        self.tick()?;
+                        if used.contains(&rid) || !self.rel_ok(rid, rp, &r1)? {
+                            continue;
+                        }
+                        match depth.get(&v) {
+                            None => {
+                                depth.insert(v, d + 1);
+                                parents.insert(v, vec![(rid, u)]);
+                                next.push(v);
+                                if wanted.contains(&v) && d + 1 >= lo {
+                                    found += 1;
+                                }
+                            }
+                            Some(&dv) if dv == d + 1 && kind == Shortest::All => {
+                                parents.entry(v).or_default().push((rid, u));
+                            }
+                            Some(_) => {}
+                        }
+                    }
+                }
+                self.reserve(depth.len() as u64 * 64, "a shortest-path search")?;
+                frontier = next;
+                d += 1;
+            }
+            for (t, r2) in targets {
+                let Some(&dt) = depth.get(&t) else {
+                    continue;
+                };
+                if dt < lo || (dt == 0 && s != t) {
+                    continue;
+                }
+                for hops in self.paths_back(s, t, &parents, kind)? {
+                    let mut r = r2.clone();
+                    let rels: Vec<u64> = hops.iter().map(|(rid, _)| *rid).collect();
+                    let mut nodes = vec![s];
+                    nodes.extend(hops.iter().map(|(_, n)| *n));
+                    if let Some(v) = &rp.var {
+                        let val = match rp.range {
+                            None => Val::Rel(rels[0]),
+                            Some(_) => Val::List(rels.iter().map(|x| Val::Rel(*x)).collect()),
+                        };
+                        r.set(v, val);
+                    }
+                    if let Some(pv) = &p.var {
+                        r.set(
+                            pv,
+                            Val::Path {
+                                nodes,
+                                rels: rels.clone(),
+                            },
+                        );
+                    }
+                    let n_used = rels.len();
+                    used.extend(rels);
+                    let stop = self.match_from(r, pats, i + 1, where_, conj, used, out)?;
+                    used.truncate(used.len() - n_used);
+                    if stop {
+                        return Ok(true);
+                    }
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    /// The shortest paths from `s` to `t` read back from a breadth-first search's `parents`,
+    /// each as hops `(relationship, node reached)` from `s`: one path for
+    /// [`Shortest::One`], every one for [`Shortest::All`] (in a deterministic order).
+    fn paths_back(
+        &self,
+        s: u64,
+        t: u64,
+        parents: &HashMap<u64, Vec<(u64, u64)>>,
+        kind: Shortest,
+    ) -> R<Vec<Vec<(u64, u64)>>> {
+        if s == t {
+            return Ok(vec![Vec::new()]);
+        }
+        let mut out = Vec::new();
+        // depth-first over parent choices, from t back to s: (node, choice index) frames
+        let mut back: Vec<(u64, u64)> = Vec::new(); // (rel, node it reaches), t first
+        let mut stack: Vec<(u64, usize)> = vec![(t, 0)];
+        while let Some((node, choice)) = stack.last_mut() {
+            self.tick()?;
+            let node = *node;
+            if node == s {
+                let mut hops = back.clone();
+                hops.reverse();
+                out.push(hops);
+                if kind == Shortest::One {
+                    break;
+                }
+                stack.pop();
+                back.pop();
+                continue;
+            }
+            let ps = parents.get(&node).map(Vec::as_slice).unwrap_or(&[]);
+            if *choice >= ps.len() {
+                stack.pop();
+                back.pop();
+                continue;
+            }
+            let (rid, prev) = ps[*choice];
+            *choice += 1;
+            back.push((rid, node));
+            stack.push((prev, 0));
+            self.room(out.len())?;
+        }
+        Ok(out)
     }
 
     fn candidates(&self, a: &Anchor<'_>, row: &Row) -> R<Vec<u64>> {

@@ -551,6 +551,18 @@ impl Parser<'_> {
             var = Some(self.var_name()?);
             self.advance();
         }
+        // `shortestPath((a)-[*]-(b))` and `allShortestPaths(...)`
+        let shortest = if matches!(self.tok_at(1), Tok::Sym("(")) && self.is_kw("shortestPath") {
+            Some(Shortest::One)
+        } else if matches!(self.tok_at(1), Tok::Sym("(")) && self.is_kw("allShortestPaths") {
+            Some(Shortest::All)
+        } else {
+            None
+        };
+        if shortest.is_some() {
+            self.advance();
+            self.expect_sym("(")?;
+        }
         // `p = (a)-->(b)` with parentheses around the whole pattern is not supported
         let start = self.node_pattern()?;
         let mut steps = Vec::new();
@@ -559,10 +571,36 @@ impl Parser<'_> {
             let node = self.node_pattern()?;
             steps.push((rel, node));
         }
+        if let Some(kind) = shortest {
+            self.expect_sym(")")?;
+            let name = match kind {
+                Shortest::One => "shortestPath",
+                Shortest::All => "allShortestPaths",
+            };
+            if steps.len() != 1 {
+                return Err(QueryError::syntax(
+                    "InvalidShortestPath",
+                    format!(
+                        "{name} takes a pattern with exactly one relationship, such as (a)-[:LANE*]-(b)"
+                    ),
+                    Some(pos),
+                ));
+            }
+            if let Some((Some(lo), _)) = steps[0].0.range
+                && lo > 1
+            {
+                return Err(QueryError::syntax(
+                    "InvalidShortestPath",
+                    format!("{name}'s relationship may start at 0 or 1 hops, not {lo}"),
+                    Some(steps[0].0.pos),
+                ));
+            }
+        }
         Ok(PathPattern {
             var,
             start,
             steps,
+            shortest,
             pos,
         })
     }

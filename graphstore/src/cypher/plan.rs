@@ -339,6 +339,24 @@ pub(crate) fn explain(stmt: &Statement, g: &dyn GraphRead) -> String {
                             Source::All => format!("AllNodesScan {v}"),
                         };
                         let _ = writeln!(out, "  {op}");
+                        if let Some(kind) = p.shortest {
+                            let (rp, end) = &p.steps[0];
+                            let _ = writeln!(
+                                out,
+                                "  {} {}{}{} (breadth-first from each start)",
+                                match kind {
+                                    Shortest::One => "ShortestPath",
+                                    Shortest::All => "AllShortestPaths",
+                                },
+                                node_text(&p.start),
+                                rel_text(rp, true),
+                                node_text(end)
+                            );
+                            for (v, _, _) in p.vars() {
+                                scope.insert(v.to_string());
+                            }
+                            continue;
+                        }
                         for j in a.index..p.steps.len() {
                             let (rp, np2) = &p.steps[j];
                             let _ = writeln!(
