@@ -668,6 +668,74 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, .. ProptestConfig::default() })]
+
+    /// COUNT { } and EXISTS { } against counts over the same edges: per node, the outgoing
+    /// edges to a node at or past a threshold, and whether a 2-hop walk of distinct edges
+    /// starts there.
+    #[test]
+    fn count_and_exists_subqueries_match_a_reference(
+        n in 1usize..10,
+        edges in proptest::collection::vec((0usize..10, 0usize..10), 0..24),
+        threshold in 0i64..10,
+    ) {
+        let (_d, s) = store();
+        let edges: Vec<(usize, usize)> = edges.into_iter().map(|(a, b)| (a % n, b % n)).collect();
+        s.write(|tx| {
+            let ids: Vec<u64> = (0..n).map(|i| tx.create_node_named(&["N"], &[("v", Value::Int(i as i64))])).collect::<Result<_, _>>()?;
+            for (a, b) in &edges {
+                tx.create_rel_named(ids[*a], "R", ids[*b], &[])?;
+            }
+            Ok(())
+        }).expect("fill");
+        let r = s.query(
+            &format!("MATCH (a:N) RETURN a.v AS v, COUNT {{ (a)-[:R]->(b) WHERE b.v >= {threshold} }} AS k, \
+                      EXISTS {{ MATCH (a)-[:R]->()-[:R]->() }} AS two ORDER BY v"),
+            &QueryOptions::default(),
+        ).expect("subqueries");
+        let want: Vec<Vec<Val>> = (0..n).map(|a| {
+            let k = edges.iter().filter(|(x, y)| *x == a && *y as i64 >= threshold).count();
+            let two = edges.iter().enumerate().any(|(i, e1)| e1.0 == a
+                && edges.iter().enumerate().any(|(j, e2)| i != j && e2.0 == e1.1));
+            vec![Val::Int(a as i64), Val::Int(k as i64), Val::Bool(two)]
+        }).collect();
+        prop_assert_eq!(r.rows, want);
+    }
+}
+
+#[test]
+fn subquery_expressions_scope_and_errors() {
+    let (_d, s) = store();
+    q(
+        &s,
+        "CREATE (a:P {v: 1})-[:K]->(:P {v: 2}), (a)-[:K]->(:P {v: 3}), (:P {v: 4})",
+    );
+    // in WHERE, with a variable of its own that does not leak
+    let r = q(
+        &s,
+        "MATCH (a:P) WHERE EXISTS { (a)-[:K]->(b:P) WHERE b.v > 2 } RETURN a.v",
+    );
+    assert_eq!(r.rows, vec![vec![Val::Int(1)]]);
+    let r = q(&s, "MATCH (a:P) WHERE COUNT { (a)--() } = 0 RETURN a.v");
+    assert_eq!(r.rows, vec![vec![Val::Int(4)]]);
+    let e = qerr(
+        &s,
+        "MATCH (a:P) WHERE EXISTS { (a)-[:K]->(b) } RETURN b",
+        &QueryOptions::default(),
+    );
+    assert_eq!(e.code, "UndefinedVariable", "{e}");
+    let e = qerr(
+        &s,
+        "MATCH (a:P) RETURN COUNT { MATCH (a)-->(b) RETURN b }",
+        &QueryOptions::default(),
+    );
+    assert_eq!(e.kind, ErrorKind::Syntax, "{e}");
+    // count(...) and count(*) are still the aggregate
+    let r = q(&s, "MATCH (a:P) RETURN count(*), count(a.v)");
+    assert_eq!(r.rows, vec![vec![Val::Int(4), Val::Int(4)]]);
+}
+
 #[test]
 fn shortest_path_forms_and_errors() {
     let (_d, s) = store();

@@ -261,6 +261,14 @@ pub(crate) enum Expr {
         filter: Option<Box<Expr>>,
         map: Box<Expr>,
     },
+    /// `EXISTS { [MATCH] patterns [WHERE pred] }` (true when there is a match) or
+    /// `COUNT { ... }` (how many matches); the patterns may introduce variables of their own.
+    Subquery {
+        count: bool,
+        patterns: Vec<PathPattern>,
+        where_: Option<Box<Expr>>,
+        pos: Pos,
+    },
     /// `n {.a, b: expr, .*}`
     MapProj(Box<Expr>, Vec<MapProjItem>),
     /// An aggregate's result slot, after the projection has been rewritten.
@@ -358,7 +366,7 @@ impl Expr {
             Expr::Lit(_) | Expr::Param(..) | Expr::Var(..) | Expr::CountStar | Expr::AggRef(_) => {
                 self.clone()
             }
-            Expr::Pattern(_) | Expr::PatternComp { .. } => self.clone(),
+            Expr::Pattern(_) | Expr::PatternComp { .. } | Expr::Subquery { .. } => self.clone(),
             Expr::Prop(e, k) => Expr::Prop(b(e, f), k.clone()),
             Expr::Not(e) => Expr::Not(b(e, f)),
             Expr::Neg(e) => Expr::Neg(b(e, f)),
@@ -500,6 +508,14 @@ impl Expr {
                 pattern_children(pattern, &mut v);
                 v.extend(filter.as_deref());
                 v.push(map);
+            }
+            Expr::Subquery {
+                patterns, where_, ..
+            } => {
+                for p in patterns {
+                    pattern_children(p, &mut v);
+                }
+                v.extend(where_.as_deref());
             }
             Expr::MapProj(e, items) => {
                 v.push(e);

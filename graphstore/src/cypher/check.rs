@@ -309,7 +309,7 @@ fn count_literal(what: &str, e: &Expr) -> R<()> {
     e.walk(&mut |x| {
         if matches!(
             x,
-            Expr::Var(..) | Expr::Pattern(_) | Expr::PatternComp { .. }
+            Expr::Var(..) | Expr::Pattern(_) | Expr::PatternComp { .. } | Expr::Subquery { .. }
         ) {
             has_var = true;
         }
@@ -803,6 +803,27 @@ fn check_expr(e: &Expr, scope: &Scope, cx: Cx<'_>) -> R<()> {
                     ..cx
                 },
             )
+        }
+        Expr::Subquery {
+            patterns, where_, ..
+        } => {
+            let mut inner = scope.clone();
+            for p in patterns {
+                declare_pattern(p, &mut inner, false)?;
+                pattern_exprs(p, &inner)?;
+            }
+            match where_ {
+                Some(w) => check_expr(
+                    w,
+                    &inner,
+                    Cx {
+                        agg_ok: false,
+                        pattern_ok: true,
+                        ..cx
+                    },
+                ),
+                None => Ok(()),
+            }
         }
         Expr::MapProj(base, items) => {
             rec(base)?;

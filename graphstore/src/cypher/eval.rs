@@ -582,6 +582,22 @@ impl Ctx<'_, '_> {
                 }
                 Val::List(out)
             }
+            Expr::Subquery {
+                count,
+                patterns,
+                where_,
+                ..
+            } => {
+                if *count {
+                    Val::Int(self.count_matches(row, patterns, where_.as_deref())? as i64)
+                } else {
+                    Val::Bool(
+                        !self
+                            .match_paths(row, patterns, where_.as_deref(), Some(1))?
+                            .is_empty(),
+                    )
+                }
+            }
             Expr::MapProj(base, items) => {
                 let b = self.eval_in(base, row, aggs)?;
                 if b.is_null() {

@@ -878,6 +878,26 @@ impl<'a, 'b> Ctx<'a, 'b> {
         Ok(out.rows)
     }
 
+    /// How many ways `pats` match extending `row`, filtered by `where_` (`COUNT { }`),
+    /// without holding the rows.
+    pub(crate) fn count_matches(
+        &self,
+        row: &Row,
+        pats: &[PathPattern],
+        where_: Option<&Expr>,
+    ) -> R<u64> {
+        struct Count(u64);
+        impl RowSink for Count {
+            fn push(&mut self, _: &Ctx<'_, '_>, _: Row) -> R<bool> {
+                self.0 += 1;
+                Ok(false)
+            }
+        }
+        let mut c = Count(0);
+        self.match_into(row, pats, where_, &mut c)?;
+        Ok(c.0)
+    }
+
     /// Like [`Ctx::match_paths`], each match handed to `out` as it is found (so an
     /// aggregation over a pattern holds its groups, not every row).
     pub(crate) fn match_into(
@@ -2172,6 +2192,7 @@ fn expr_bound(e: &Expr, row: &Row) -> bool {
         Expr::Var(v, _) if row.get(v).is_none() => ok = false,
         Expr::Pattern(_)
         | Expr::PatternComp { .. }
+        | Expr::Subquery { .. }
         | Expr::ListComp { .. }
         | Expr::Quantified { .. }
         | Expr::Reduce { .. }

@@ -698,6 +698,44 @@ impl Parser<'_> {
         })
     }
 
+    /// `EXISTS { ... }` / `COUNT { ... }`: `[MATCH] patterns [WHERE pred]` inside braces.
+    fn subquery_expr(&mut self, count: bool) -> R<Expr> {
+        let pos = self.pos();
+        self.advance();
+        self.expect_sym("{")?;
+        self.eat_kw("match");
+        let patterns = self.patterns()?;
+        let where_ = if self.eat_kw("where") {
+            Some(Box::new(self.expr()?))
+        } else {
+            None
+        };
+        if !self.is_sym("}") {
+            let what = if count { "COUNT" } else { "EXISTS" };
+            return Err(QueryError::syntax(
+                "UnexpectedSyntax",
+                format!(
+                    "{what} {{ }} takes patterns (MATCH optional) and an optional WHERE; expected '}}'"
+                ),
+                Some(self.pos()),
+            ));
+        }
+        self.advance();
+        if patterns.iter().any(|p| p.shortest.is_some()) {
+            return Err(QueryError::syntax(
+                "InvalidShortestPath",
+                "shortestPath is not allowed inside EXISTS { } or COUNT { }",
+                Some(pos),
+            ));
+        }
+        Ok(Expr::Subquery {
+            count,
+            patterns,
+            where_,
+            pos,
+        })
+    }
+
     fn opt_uint(&mut self) -> R<Option<u64>> {
         if let Tok::Int(i) = *self.tok() {
             self.advance();
@@ -1042,6 +1080,9 @@ impl Parser<'_> {
                         return Ok(Expr::Lit(Val::Bool(false)));
                     }
                     "case" => return self.case_expr(),
+                    "exists" | "count" if matches!(self.tok_at(1), Tok::Sym("{")) => {
+                        return self.subquery_expr(lower == "count");
+                    }
                     "count"
                         if matches!(self.tok_at(1), Tok::Sym("("))
                             && matches!(self.tok_at(2), Tok::Sym("*")) =>
