@@ -114,6 +114,35 @@ fn task_tools_answer_as_cypher_computes_on_the_small_city() {
         );
         assert!((g - w).abs() < 1e-6, "{g} vs {w}");
     }
+    // find and map updates read "the X nearest P" the same way (issue 30: it was reported
+    // ambiguous among every hydrant)
+    let f = tool(
+        &db,
+        "find_objects",
+        json!({"text": "the fire hydrant nearest the start of the drive", "k": 2}),
+    );
+    assert_eq!(f["nearest_to"]["by"], "drive", "{f}");
+    for (got, want) in f["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(truth.as_array().unwrap())
+    {
+        assert_eq!(got["id"], want["id"], "{f}");
+        let g = got["place_distance_m"].as_f64().unwrap();
+        assert!((g - want["d"].as_f64().unwrap()).abs() < 1e-6, "{f}");
+    }
+    let up = og(&[
+        "update",
+        "--db",
+        s(&db),
+        "--json",
+        "the fire hydrant nearest the start of the drive is gone",
+    ]);
+    let up = json(&up);
+    assert_eq!(up["target"]["candidates"][0]["id"], truth[0]["id"], "{up}");
+    let gap = truth[1]["d"].as_f64().unwrap() - truth[0]["d"].as_f64().unwrap();
+    assert_eq!(up["target"]["ambiguous"], gap < 1.0, "{up}");
     // the distance between two instances
     let two = q(
         "MATCH (a:Instance), (b:Instance) WHERE a.label = 'bench' AND b.label = 'letter box' \

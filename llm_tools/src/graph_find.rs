@@ -191,6 +191,10 @@ pub struct GraphFound {
     pub segment_match: Option<bool>,
     /// One entry per anchor, the best-supporting instance.
     pub evidence: Vec<Evidence>,
+    /// For a request for the nearest to a place ("the fire hydrant nearest the start of the
+    /// drive"): the ground-plane distance from the place to this object's centroid, metres;
+    /// null otherwise.
+    pub place_distance_m: Option<f64>,
 }
 
 /// Cosines of every object with the best of `phrases`, and the best cosine over `allowed`.
@@ -664,6 +668,7 @@ pub fn find_graph_normed(
             segment: t.segment.clone(),
             segment_match,
             evidence,
+            place_distance_m: None,
         });
     }
     out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.id.cmp(&b.id)));

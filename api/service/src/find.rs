@@ -460,6 +460,7 @@ impl Finder {
                         segment: None,
                         segment_match: None,
                         evidence: Vec::new(),
+                        place_distance_m: None,
                     })
                     .collect();
                 return Ok((
@@ -476,11 +477,26 @@ impl Finder {
             Ranking::Graph { parser, rerank } => (parser, rerank),
         };
         let t0 = Instant::now();
-        let (parsed, parsed_by) = match parser {
-            ParserKind::Rules => (request::parse_rules(&req.text)?, None),
+        let (parsed, parsed_by) = self.parse_request(&req.text, parser)?;
+        let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.find_parsed(r, req, rerank, parsed, parsed_by, parse_ms, norms)
+    }
+
+    /// A request in words as one structured [`Request`], by the rules or the language model
+    /// (then with the model and prompt id).
+    ///
+    /// # Errors
+    /// The text names nothing; the model fails.
+    pub fn parse_request(
+        &mut self,
+        text: &str,
+        parser: ParserKind,
+    ) -> Result<(Request, Option<String>)> {
+        Ok(match parser {
+            ParserKind::Rules => (request::parse_rules(text)?, None),
             ParserKind::Llm => {
                 let m = self.llm()?;
-                let p = request::parse_llm(m.as_mut(), &req.text)?;
+                let p = request::parse_llm(m.as_mut(), text)?;
                 (
                     p,
                     Some(format!(
@@ -490,8 +506,24 @@ impl Finder {
                     )),
                 )
             }
-        };
-        let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
+        })
+    }
+
+    /// Graph-aware ranking of an already parsed request (see [`Finder::find_normed`]).
+    ///
+    /// # Errors
+    /// As [`Finder::find`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn find_parsed(
+        &mut self,
+        r: &impl GraphRead,
+        req: &FindRequest,
+        rerank: bool,
+        parsed: Request,
+        parsed_by: Option<String>,
+        parse_ms: f64,
+        norms: Option<&graph_find::FindNorms>,
+    ) -> Result<(FindAnswer, graph_find::FindCuts)> {
         let t1 = Instant::now();
         let scene = self.scene(r)?;
         let scene = &*scene;

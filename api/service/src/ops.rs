@@ -540,6 +540,10 @@ pub struct FindObjectsAnswer {
     pub request: Option<llm_tools::request::Request>,
     /// The instances found, best first, each with its evidence.
     pub results: Vec<llm_tools::graph_find::GraphFound>,
+    /// For a request for the nearest to a place ("the fire hydrant nearest the start of the
+    /// drive"): the place and how it was resolved; the results are then nearest first, each
+    /// with `place_distance_m`.
+    pub nearest_to: Option<crate::plan::Resolved>,
 }
 
 /// Marks every property of an answer's object schema as required: serde writes each field,

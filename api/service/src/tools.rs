@@ -251,10 +251,11 @@ impl Toolbox {
             "find_objects" => {
                 let req = find_request(args)?;
                 let r = self.store.read().map_err(failed)?;
-                let a = self.finder.find(&r, &req)?;
+                let (a, nearest_to) = crate::tasks::find_near_places(&mut self.finder, &r, &req)?;
                 answer(&FindObjectsAnswer {
                     request: a.request,
                     results: a.results,
+                    nearest_to,
                 })
             }
             "locate" => {
@@ -390,9 +391,12 @@ impl Toolbox {
                 let (a, cuts) = self.finder.find_normed(&r, &req, norms)?;
                 match pass {
                     ShardPass::FindCuts => answer(&cuts),
+                    // a sharded map answers by relevance only (a place may lie in another
+                    // region)
                     _ => answer(&FindObjectsAnswer {
                         request: a.request,
                         results: a.results,
+                        nearest_to: None,
                     }),
                 }
             }

@@ -76,29 +76,37 @@ pub struct UpdateAnswer {
 }
 
 fn resolve(finder: &mut Finder, r: &impl GraphRead, phrase: &str) -> ToolResult<Resolved> {
-    let a = finder
-        .find(
-            r,
-            &FindRequest {
-                text: phrase.to_string(),
-                k: 5,
-                class: None,
-                near: None,
-                ranking: Ranking::Graph {
-                    parser: ParserKind::Rules,
-                    rerank: false,
-                },
-                rerank_n: 10,
+    let (a, nearest_to) = crate::tasks::find_near_places(
+        finder,
+        r,
+        &FindRequest {
+            text: phrase.to_string(),
+            k: 5,
+            class: None,
+            near: None,
+            ranking: Ranking::Graph {
+                parser: ParserKind::Rules,
+                rerank: false,
             },
-        )
-        .map_err(|e| ToolError::BadArguments(e.to_string()))?;
+            rerank_n: 10,
+        },
+    )
+    .map_err(|e| ToolError::BadArguments(e.to_string()))?;
     if a.results.is_empty() {
         return Err(ToolError::NotFound(format!(
             "nothing in the map matches {phrase:?}"
         )));
     }
-    let ambiguous =
-        a.results.len() > 1 && a.results[0].score - a.results[1].score < AMBIGUITY_MARGIN;
+    // the nearest to a place is one object unless the next is about as near
+    let ambiguous = a.results.len() > 1
+        && match (
+            nearest_to,
+            a.results[0].place_distance_m,
+            a.results[1].place_distance_m,
+        ) {
+            (Some(_), Some(d0), Some(d1)) => d1 - d0 < crate::tasks::NEAREST_TIE_M,
+            _ => a.results[0].score - a.results[1].score < AMBIGUITY_MARGIN,
+        };
     let weak = a.results[0].cosine < finder.weak_match_cosine();
     Ok(Resolved {
         phrase: phrase.to_string(),

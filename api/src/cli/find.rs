@@ -32,9 +32,15 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         ranking,
         rerank_n: rerank_n as usize,
     };
-    let a = finder.find(&r, &req)?;
+    let (a, nearest_to) = api::tasks::find_near_places(&mut finder, &r, &req)?;
     if let Some(p) = &a.request {
         errln!("request: {}", serde_json::to_string(p)?);
+    }
+    if let Some(place) = &nearest_to {
+        errln!(
+            "nearest to: {} (results by ground distance from it)",
+            serde_json::to_string(place)?
+        );
     }
     for (what, by) in [("parsed", &a.parsed_by), ("re-ranked", &a.reranked_by)] {
         if let Some(m) = by {

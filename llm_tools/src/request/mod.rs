@@ -281,6 +281,30 @@ mod tests {
         assert_eq!(r.attributes, vec!["green", "wooden"]);
         let r = parse_rules("the nearest mailbox").unwrap();
         assert_eq!((r.ordinal, r.nearest), (Some(1), true));
+        assert!(r.anchors.is_empty());
+        // a superlative after the target names the place to measure from
+        for (text, target, place) in [
+            (
+                "the fire hydrant nearest the start of the drive",
+                "the fire hydrant",
+                "the start of the drive",
+            ),
+            (
+                "the bench that is closest to the bus shelter",
+                "the bench",
+                "the bus shelter",
+            ),
+            (
+                "which bin is nearest to the post box",
+                "which bin",
+                "the post box",
+            ),
+        ] {
+            let r = parse_rules(text).unwrap();
+            assert_eq!((r.ordinal, r.nearest), (Some(1), true), "{text}");
+            assert_eq!(r.target, target, "{text}");
+            assert_eq!(anchors(&r), vec![(place, Relation::Near, None)], "{text}");
+        }
         let r = parse_rules("take me to somewhere I can post a letter").unwrap();
         assert_eq!(r.objects, vec!["a mailbox"]);
         assert!(r.anchors.is_empty());

@@ -461,6 +461,34 @@ pub fn parse_rules(text: &str) -> Result<Request> {
         }
     }
     let mut req = Request::default();
+    // "<target> nearest (to) <place>", "<target> that is closest to <place>": a superlative
+    // after the target names the place to measure from (an anchor, before any other)
+    let mut place: Option<Anchor> = None;
+    for w in ["nearest", "closest"] {
+        let Some(i) = find_words(&t, w) else {
+            continue;
+        };
+        let mut before = t[..i].trim();
+        for lead in [" that is", " which is", " that's", " is"] {
+            if let Some(b) = before.strip_suffix(lead) {
+                before = b.trim();
+                break;
+            }
+        }
+        let after = t[i + w.len()..].trim();
+        let after = after.strip_prefix("to ").unwrap_or(after).trim();
+        if !strip_articles(before).is_empty() && !strip_articles(after).is_empty() {
+            place = Some(Anchor {
+                phrase: after.to_string(),
+                relation: Relation::Near,
+                distance_m: None,
+            });
+            t = before.to_string();
+            req.ordinal = Some(1);
+            req.nearest = true;
+        }
+        break;
+    }
     let (segment, rest) = take_segment(&t);
     req.segment = segment;
     t = rest;
@@ -586,6 +614,9 @@ pub fn parse_rules(text: &str) -> Result<Request> {
         }
     }
     req.anchors.extend(trailing);
+    if let Some(p) = place {
+        req.anchors.insert(0, p);
+    }
     if strip_articles(&req.target).is_empty() {
         return Err(Error::Invalid(format!(
             "the request {text:?} names nothing to look for"
