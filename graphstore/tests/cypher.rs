@@ -737,6 +737,41 @@ fn subquery_expressions_scope_and_errors() {
 }
 
 #[test]
+fn profile_returns_the_rows_and_rows_and_time_per_clause() {
+    let (_d, s) = store();
+    q(
+        &s,
+        "UNWIND range(1, 10) AS i CREATE (:P {v: i})-[:K]->(:Q {v: i * 2})",
+    );
+    let text = "MATCH (p:P)-[:K]->(x) WHERE p.v > 3 WITH p, x ORDER BY p.v LIMIT 4 RETURN p.v, x.v";
+    let plain = q(&s, text);
+    let prof = q(&s, &format!("PROFILE {text}"));
+    assert_eq!(prof.columns, plain.columns);
+    assert_eq!(prof.rows, plain.rows);
+    assert!(plain.plan.is_none());
+    let plan = prof.plan.expect("a profile");
+    let steps: Vec<&str> = plan
+        .lines()
+        .skip_while(|l| !l.starts_with("Profile"))
+        .skip(1)
+        .collect();
+    assert_eq!(steps.len(), 3, "{plan}");
+    assert!(steps[0].trim().starts_with("Match: 7 rows"), "{plan}");
+    assert!(steps[1].trim().starts_with("With: 4 rows"), "{plan}");
+    assert!(steps[2].trim().starts_with("Return: 4 rows"), "{plan}");
+    // a streamed aggregation and a count from the store say so
+    let agg = q(&s, "PROFILE MATCH (p:P)-->(x) RETURN count(x)")
+        .plan
+        .unwrap();
+    assert!(
+        agg.contains("Match + aggregating Return (streamed): 1 rows"),
+        "{agg}"
+    );
+    let count = q(&s, "PROFILE MATCH (p:P) RETURN count(*)").plan.unwrap();
+    assert!(count.contains("CountFromStore: 1 rows"), "{count}");
+}
+
+#[test]
 fn shortest_path_forms_and_errors() {
     let (_d, s) = store();
     q(

@@ -65,7 +65,15 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
             at(0.99)
         );
     }
-    if let Some(plan) = &r.plan {
+    // PROFILE: the rows as usual, the plan with rows and times per clause on stderr
+    if let Some(plan) = r.plan.as_ref().filter(|_| !r.columns.is_empty()) {
+        if json {
+            let v = serde_json::json!({"plan": r.plan_json()});
+            errln!("{}", serde_json::to_string(&v)?);
+        } else {
+            errln!("{}", plan.trim_end());
+        }
+    } else if let Some(plan) = &r.plan {
         if json {
             let v = serde_json::json!({"plan": r.plan_json()});
             outln!("{}", serde_json::to_string_pretty(&v)?);

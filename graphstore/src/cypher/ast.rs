@@ -7,6 +7,8 @@ use super::value::Val;
 #[derive(Debug, Clone)]
 pub(crate) struct Statement {
     pub explain: bool,
+    /// `PROFILE`: run, and report rows and time per clause.
+    pub profile: bool,
     pub parts: Vec<SingleQuery>,
     /// For each join between parts: true for `UNION ALL`.
     pub union_all: Vec<bool>,
@@ -55,6 +57,23 @@ pub(crate) enum Clause {
 }
 
 impl Clause {
+    /// The clause's name as a profile prints it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Clause::Match { optional: true, .. } => "OptionalMatch",
+            Clause::Match { .. } => "Match",
+            Clause::Unwind { .. } => "Unwind",
+            Clause::With(_) => "With",
+            Clause::Return(_) => "Return",
+            Clause::Create(_) => "Create",
+            Clause::Merge { .. } => "Merge",
+            Clause::Set(_) => "Set",
+            Clause::Remove(_) => "Remove",
+            Clause::Delete { .. } => "Delete",
+            Clause::Call { .. } => "ProcedureCall",
+        }
+    }
+
     pub fn is_write(&self) -> bool {
         matches!(
             self,

@@ -53,6 +53,8 @@ pub(crate) struct Ctx<'a, 'b> {
     /// The world axes of the ground plane, for the ground procedures (see
     /// [`super::QueryOptions::ground_axes`]).
     pub ground_axes: Option<[usize; 2]>,
+    /// For `PROFILE`: one step per clause run, and the step open now with its start.
+    pub profile: Option<Profile>,
     /// This thread's net allocation when the statement started.
     mem_start: i64,
     /// Bytes announced by [`Ctx::reserve`] (the measure where allocations are not counted).
@@ -65,6 +67,53 @@ pub(crate) struct Ctx<'a, 'b> {
     /// the same node's labels and properties many times (every instance's segment, every
     /// edge's end), and a record decodes whole.
     node_cache: std::cell::RefCell<lru::LruCache<u64, std::rc::Rc<crate::Node>>>,
+}
+
+/// What `PROFILE` measured of one clause.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ProfileStep {
+    /// Which single query of a UNION (0 first).
+    pub part: usize,
+    /// The clause (`Match`, `With`, ...), or what answered in its place.
+    pub clause: String,
+    /// Rows it handed on.
+    pub rows: usize,
+    /// Time it took, milliseconds.
+    pub ms: f64,
+}
+
+/// The steps of a `PROFILE` so far.
+#[derive(Debug, Default)]
+pub(crate) struct Profile {
+    pub steps: Vec<ProfileStep>,
+    open: Option<(usize, String, Instant)>,
+}
+
+impl Profile {
+    /// Closes the open step with `rows` handed on.
+    fn close(&mut self, rows: usize) {
+        if let Some((part, clause, t)) = self.open.take() {
+            self.steps.push(ProfileStep {
+                part,
+                clause,
+                rows,
+                ms: t.elapsed().as_secs_f64() * 1e3,
+            });
+        }
+    }
+
+    /// Closes the open step (the previous clause handed on `rows`) and opens one.
+    fn open(&mut self, part: usize, clause: &str, rows: usize) {
+        self.close(rows);
+        self.open = Some((part, clause.to_string(), Instant::now()));
+    }
+
+    /// Renames the open step (a shortcut answered for it).
+    fn rename(&mut self, clause: &str) {
+        if let Some((_, c, _)) = &mut self.open {
+            *c = clause.to_string();
+        }
+    }
 }
 
 /// Where matched rows go.
@@ -283,6 +332,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             max_rows: usize::MAX,
             max_memory: u64::MAX,
             ground_axes: None,
+            profile: None,
             mem_start: crate::mem::thread_net_bytes(),
             mem_reserved: Cell::new(0),
             mem_peak: Cell::new(0),
@@ -464,10 +514,22 @@ impl<'a, 'b> Ctx<'a, 'b> {
     // ---------------------------------------------------------------- queries
 
     /// Runs one single query; returns the column names and rows of its RETURN (if any).
-    pub fn run_single(&mut self, q: &SingleQuery) -> R<(Vec<String>, Vec<Vec<Val>>)> {
+    /// Runs one single query (a part of a UNION, `part` from 0): its columns and rows.
+    pub fn run_single(&mut self, q: &SingleQuery, part: usize) -> R<(Vec<String>, Vec<Vec<Val>>)> {
+        let out = self.run_clauses(q, part);
+        if let (Some(p), Ok((_, rows))) = (self.profile.as_mut(), &out) {
+            p.close(rows.len());
+        }
+        out
+    }
+
+    fn run_clauses(&mut self, q: &SingleQuery, part: usize) -> R<(Vec<String>, Vec<Vec<Val>>)> {
         // a read's whole-label or whole-type count comes from the store's counts (a write
         // transaction's counts are settled only at commit, so writes take the general path)
         if let (Tx::Read(_), Some((what, column))) = (&self.tx, super::count::store_count(q)) {
+            if let Some(p) = self.profile.as_mut() {
+                p.open(part, "CountFromStore", 0);
+            }
             let n = super::count::read_count(self.g(), &what)?;
             return Ok((vec![column], vec![vec![n]]));
         }
@@ -475,6 +537,9 @@ impl<'a, 'b> Ctx<'a, 'b> {
         let mut scope: Vec<String> = Vec::new();
         for (ci, clause) in q.clauses.iter().enumerate() {
             self.clause_pos = q.positions.get(ci).copied();
+            if let Some(p) = self.profile.as_mut() {
+                p.open(part, clause.name(), rows.len());
+            }
             match clause {
                 Clause::Match {
                     optional,
@@ -496,6 +561,9 @@ impl<'a, 'b> Ctx<'a, 'b> {
                         && !p.star
                         && p.items.iter().any(|i| i.expr.has_aggregate())
                     {
+                        if let Some(prof) = self.profile.as_mut() {
+                            prof.rename("Match + aggregating Return (streamed)");
+                        }
                         let mut agg = Aggregator::new(p);
                         for row in &rows {
                             self.match_into(row, patterns, where_.as_ref(), &mut agg)?;

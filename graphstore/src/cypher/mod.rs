@@ -274,7 +274,8 @@ pub struct QueryResult {
     pub rels: BTreeMap<u64, RelData>,
     /// What the statement wrote.
     pub stats: Stats,
-    /// For `EXPLAIN`: the plan; no rows are produced.
+    /// For `EXPLAIN`: the plan; no rows are produced. For `PROFILE`: the plan, then per clause
+    /// the rows it handed on and its time, beside the rows.
     pub plan: Option<String>,
 }
 
@@ -584,8 +585,11 @@ fn run_statement(
 ) -> R<QueryResult> {
     let mut columns = Vec::new();
     let mut rows: Vec<Vec<Val>> = Vec::new();
+    if stmt.profile {
+        ctx.profile = Some(exec::Profile::default());
+    }
     for (i, part) in stmt.parts.iter().enumerate() {
-        let run = ctx.run_single(part);
+        let run = ctx.run_single(part, i);
         let (cols, mut r) = run.map_err(|e| match ctx.clause_pos {
             Some(p) => e.at(p),
             None => e,
@@ -609,10 +613,32 @@ fn run_statement(
         let mut seen = std::collections::BTreeSet::new();
         rows.retain(|r| seen.insert(value::Key(r.clone())));
     }
+    let plan = ctx.profile.take().map(|p| {
+        let mut text = plan::explain(stmt, ctx.g());
+        text.push_str("Profile (rows handed on, time per clause)\n");
+        for s in &p.steps {
+            let _ = std::fmt::Write::write_fmt(
+                &mut text,
+                format_args!(
+                    "  {}{}: {} rows, {:.3} ms\n",
+                    if stmt.parts.len() > 1 {
+                        format!("part {} ", s.part + 1)
+                    } else {
+                        String::new()
+                    },
+                    s.clause,
+                    s.rows,
+                    s.ms
+                ),
+            );
+        }
+        text
+    });
     Ok(QueryResult {
         columns,
         rows,
         stats: ctx.stats,
+        plan,
         ..QueryResult::default()
     })
 }

@@ -191,6 +191,7 @@ impl Parser<'_> {
 
     fn statement(&mut self) -> R<Statement> {
         let explain = self.eat_kw("explain");
+        let profile = !explain && self.eat_kw("profile");
         let mut parts = vec![self.single_query()?];
         let mut union_all = Vec::new();
         while self.eat_kw("union") {
@@ -203,6 +204,7 @@ impl Parser<'_> {
         }
         Ok(Statement {
             explain,
+            profile,
             parts,
             union_all,
         })
