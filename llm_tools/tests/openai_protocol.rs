@@ -223,3 +223,74 @@ fn bad_settings_are_refused_before_any_request() {
             .is_none()
     );
 }
+
+/// A server that refuses OpenAI's `json_schema` response format (llama-cpp-python answers 500
+/// with a validation error) is asked again at once in the `json_object` form, which it takes,
+/// and keeps being asked that way; the retry budget is not spent on it.
+#[test]
+fn a_server_without_json_schema_gets_the_json_object_form() {
+    let server = RecordedServer::start(move |body: &Value| -> Answer {
+        match body.pointer("/response_format/type").and_then(Value::as_str) {
+            Some("json_schema") => (
+                500,
+                r#"{"error": {"message": "1 validation error: ('body', 'response_format', 'type'): Input should be 'text' or 'json_object'"}}"#
+                    .to_string(),
+            )
+                .into(),
+            Some("json_object") => {
+                assert!(body.pointer("/response_format/schema/properties").is_some());
+                (200, ok_body(r#"{"colour": "blue"}"#)).into()
+            }
+            _ => (400, r#"{"error": {"message": "no schema"}}"#.to_string()).into(),
+        }
+    });
+    let mut m = client(&server, 2000, 0);
+    let schema = json!({"type": "object", "properties": {"colour": {"type": "string"}},
+                        "required": ["colour"], "additionalProperties": false});
+    let mut req = hello();
+    req.schema = Some(schema.clone());
+    for _ in 0..2 {
+        let r = m.chat(&req).unwrap();
+        assert_eq!(r.json, Some(json!({"colour": "blue"})));
+    }
+    let forms: Vec<String> = server
+        .requests()
+        .iter()
+        .map(|s| {
+            s.body["response_format"]["type"]
+                .as_str()
+                .unwrap_or("")
+                .to_string()
+        })
+        .collect();
+    assert_eq!(forms, ["json_schema", "json_object", "json_object"]);
+}
+
+/// Tool calls a chat template left in the text (`<tool_call>{...}</tool_call>`, as Qwen2.5's
+/// template writes them) are read as tool calls, and checked against the offered tools.
+#[test]
+fn tool_calls_written_into_the_text_are_read() {
+    let server = RecordedServer::start(move |_: &Value| -> Answer {
+        (
+            200,
+            ok_body(
+                "<tool_call>\n{\"name\": \"count_objects\", \"arguments\": {\"kind\": \"bench\"}}\n</tool_call>",
+            ),
+        )
+            .into()
+    });
+    let mut req = hello();
+    req.tools = vec![llm_tools::ToolSpec {
+        name: "count_objects".into(),
+        description: "count".into(),
+        parameters: json!({"type": "object", "properties": {"kind": {"type": "string"}},
+                           "required": ["kind"]}),
+    }];
+    let r = client(&server, 2000, 0).chat(&req).unwrap();
+    assert_eq!(r.tool_calls.len(), 1);
+    assert_eq!(r.tool_calls[0].name, "count_objects");
+    assert_eq!(r.tool_calls[0].arguments, json!({"kind": "bench"}));
+    // a call to a tool not offered is an error, as in tool_calls
+    req.tools[0].name = "other".into();
+    assert!(client(&server, 2000, 0).chat(&req).is_err());
+}

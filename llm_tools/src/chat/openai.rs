@@ -20,9 +20,20 @@ type Reply = (u16, String, Option<u64>);
 /// Largest reply body read, bytes.
 const MAX_REPLY_BYTES: u64 = 16 << 20;
 
+/// How a structured answer's schema is asked for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SchemaForm {
+    /// OpenAI's `{"type": "json_schema", "json_schema": {"name", "schema", "strict"}}`.
+    JsonSchema,
+    /// `{"type": "json_object", "schema": ...}`: llama-cpp-python's server (and Anyscale's),
+    /// which refuses the OpenAI form; taken after the server refuses it once.
+    JsonObject,
+}
+
 /// The OpenAI-compatible backend.
 #[derive(Debug, Clone)]
 pub struct OpenAiChat {
+    schema_form: SchemaForm,
     base_url: String,
     model: String,
     api_key: Option<String>,
@@ -66,6 +77,7 @@ impl OpenAiChat {
             .build()
             .into();
         Ok(OpenAiChat {
+            schema_form: SchemaForm::JsonSchema,
             base_url,
             model: model.trim().to_string(),
             api_key: api_key.filter(|k| !k.is_empty()),
@@ -125,10 +137,13 @@ impl OpenAiChat {
             "max_tokens": req.max_tokens,
         });
         if let Some(s) = &req.schema {
-            body["response_format"] = json!({
-                "type": "json_schema",
-                "json_schema": {"name": "answer", "schema": s, "strict": true},
-            });
+            body["response_format"] = match self.schema_form {
+                SchemaForm::JsonSchema => json!({
+                    "type": "json_schema",
+                    "json_schema": {"name": "answer", "schema": s, "strict": true},
+                }),
+                SchemaForm::JsonObject => json!({"type": "json_object", "schema": s}),
+            };
         }
         if !req.tools.is_empty() {
             body["tools"] = req
@@ -215,6 +230,36 @@ fn message_json(m: &Message) -> Value {
     v
 }
 
+/// Whether an error body says the server does not take `response_format.type: json_schema`.
+fn refuses_json_schema(body: &str) -> bool {
+    let m = server_message(body);
+    m.contains("response_format") && (m.contains("json_schema") || m.contains("json_object"))
+}
+
+/// Tool calls a chat template wrote into the text instead of `tool_calls`: Qwen2.5's
+/// `<tool_call>{"name": ..., "arguments": {...}}</tool_call>` (llama-cpp-python's server
+/// with the model's own template leaves them there). Each as `(name, arguments)`.
+fn tool_calls_in_text(content: &str) -> Vec<(String, Value)> {
+    let mut out = Vec::new();
+    let mut rest = content;
+    while let Some(i) = rest.find("<tool_call>") {
+        let after = &rest[i + "<tool_call>".len()..];
+        let end = after.find("</tool_call>").unwrap_or(after.len());
+        if let Ok(v) = serde_json::from_str::<Value>(after[..end].trim())
+            && let Some(name) = v.get("name").and_then(Value::as_str)
+        {
+            let args = match v.get("arguments") {
+                Some(Value::String(s)) => serde_json::from_str(s).unwrap_or(Value::Null),
+                Some(a) => a.clone(),
+                None => Value::Object(Default::default()),
+            };
+            out.push((name.to_string(), args));
+        }
+        rest = &after[end.min(after.len())..];
+    }
+    out
+}
+
 /// The server's own error message from an error body, if it has one.
 fn server_message(body: &str) -> String {
     serde_json::from_str::<Value>(body)
@@ -246,7 +291,7 @@ impl ChatModel for OpenAiChat {
     }
 
     fn chat(&mut self, req: &ChatRequest) -> Result<ChatResponse> {
-        let body = self.body(req).to_string();
+        let mut body = self.body(req).to_string();
         let t0 = Instant::now();
         let mut delay = self.backoff;
         let mut last = String::new();
@@ -262,6 +307,30 @@ impl ChatModel for OpenAiChat {
                     continue;
                 }
             };
+            // a server that refuses OpenAI's json_schema form (llama-cpp-python answers 500
+            // with a validation error) is asked again at once in the json_object form, and
+            // from then on
+            if !(200..=299).contains(&status)
+                && req.schema.is_some()
+                && self.schema_form == SchemaForm::JsonSchema
+                && refuses_json_schema(&text)
+            {
+                self.schema_form = SchemaForm::JsonObject;
+                body = self.body(req).to_string();
+                match self.post(&body)? {
+                    Ok((st, tx, _)) if (200..=299).contains(&st) => {
+                        let mut r = parse_reply(&tx, req)?;
+                        r.model = self.model_id();
+                        r.usage.completion_ms = t0.elapsed().as_secs_f64() * 1e3;
+                        return Ok(r);
+                    }
+                    Ok((st, tx, _)) => {
+                        last = format!("HTTP {st}: {}", server_message(&tx));
+                    }
+                    Err(e) => last = e,
+                }
+                continue;
+            }
             match status {
                 200..=299 => {
                     let mut r = parse_reply(&text, req)?;
@@ -337,6 +406,19 @@ pub fn parse_reply(text: &str, req: &ChatRequest) -> Result<ChatResponse> {
                     .map(str::to_string)
                     .unwrap_or_else(|| format!("call_{i}")),
                 name: name.to_string(),
+                arguments: args,
+            });
+        }
+    }
+    if tool_calls.is_empty() && !req.tools.is_empty() {
+        for (i, (name, args)) in tool_calls_in_text(&content).into_iter().enumerate() {
+            let spec = req.tools.iter().find(|t| t.name == name).ok_or_else(|| {
+                Error::LlmAnswer(format!("the model called {name:?}, which was not offered"))
+            })?;
+            super::validate(&args, &spec.parameters)?;
+            tool_calls.push(ToolCall {
+                id: format!("call_{i}"),
+                name,
                 arguments: args,
             });
         }
