@@ -20,7 +20,9 @@ use std::time::{Duration, Instant};
 fn python_with_llama_server() -> Option<PathBuf> {
     let venv = std::env::var_os("OPENGRAPH_VENV")
         .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/opengraph/venv")))?;
+        .or_else(|| {
+            std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/opengraph/venv"))
+        })?;
     let py = venv.join("bin/python");
     Command::new(&py)
         .args(["-c", "import llama_cpp.server"])
@@ -100,23 +102,37 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
         return;
     }
     let Some(py) = python_with_llama_server() else {
-        eprintln!("skipping: the project's Python has no llama_cpp (run scripts/setup_llama_server.sh)");
+        eprintln!(
+            "skipping: the project's Python has no llama_cpp (run scripts/setup_llama_server.sh)"
+        );
         return;
     };
-    let model = llm_tools::embed::default_models_dir().join("qwen2.5-coder-0.5b-instruct-q4_k_m.gguf");
+    let model =
+        llm_tools::embed::default_models_dir().join("qwen2.5-coder-0.5b-instruct-q4_k_m.gguf");
     if !model.exists() {
-        eprintln!("skipping: {} is not there (run scripts/setup.sh)", model.display());
+        eprintln!(
+            "skipping: {} is not there (run scripts/setup.sh)",
+            model.display()
+        );
         return;
     }
     let dir = tempfile::tempdir().unwrap();
     let (_sim, db) = sim_map(dir.path(), &["--size", "small", "--seed", "0"], &[]);
     let log = dir.path().join("llama_server.log");
     let server = start_server(&py, &model, &log);
+    let url = server.url.clone();
     let openai = |args: &[&str]| -> Vec<String> {
         let mut v: Vec<String> = args.iter().map(|a| a.to_string()).collect();
         v.extend(
-            ["--llm", "openai", "--llm-url", &server.url, "--llm-model", "qwen2.5-coder-0.5b"]
-                .map(str::to_string),
+            [
+                "--llm",
+                "openai",
+                "--llm-url",
+                &url,
+                "--llm-model",
+                "qwen2.5-coder-0.5b",
+            ]
+            .map(str::to_string),
         );
         v
     };
@@ -126,16 +142,27 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
     };
 
     // ask: the question read as a task by the model behind the server, answered by the tools
-    let truth = read_query(&db, "MATCH (i:Instance) WHERE i.label = 'bench' RETURN count(i) AS n")
-        [0]["n"]
+    let truth = read_query(
+        &db,
+        "MATCH (i:Instance) WHERE i.label = 'bench' RETURN count(i) AS n",
+    )[0]["n"]
         .as_u64()
         .unwrap();
     let t0 = Instant::now();
-    let out = run(openai(&["ask", "--db", s(&db), "--json", "How many benches are there?"]));
+    let out = run(openai(&[
+        "ask",
+        "--db",
+        s(&db),
+        "--json",
+        "How many benches are there?",
+    ]));
     let secs = t0.elapsed().as_secs_f64();
     let a = json(&out);
     let model_id = a["model"].as_str().unwrap();
-    assert!(model_id.contains("openai:qwen2.5-coder-0.5b@127.0.0.1"), "{a}");
+    assert!(
+        model_id.contains("openai:qwen2.5-coder-0.5b@127.0.0.1"),
+        "{a}"
+    );
     assert_eq!(a["task"]["action"], "count", "{a}");
     assert_eq!(a["value"].as_u64(), Some(truth), "{a}");
     eprintln!("ask through llama_cpp.server: {secs:.1} s, model {model_id}");
@@ -150,7 +177,11 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
         "--json",
         "the bench near the bus stop",
     ]));
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("parsed by openai:qwen2.5-coder-0.5b"), "{err}");
     let results = json(&out);
@@ -166,7 +197,6 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
         "--json",
         "What is the nearest bench to the start of the drive?",
     ]));
-    let url = server.url.clone();
     let mut server = server;
     let killer = std::thread::spawn(move || {
         std::thread::sleep(Duration::from_millis(300));
@@ -177,17 +207,30 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
     let out = output_within(cmd, 300);
     killer.join().unwrap();
     let took = t0.elapsed();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let a: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(
-        a["model"].as_str().unwrap().starts_with("rules, after openai:"),
+        a["model"]
+            .as_str()
+            .unwrap()
+            .starts_with("rules, after openai:"),
         "{a}"
     );
     let transcript = a["transcript"].to_string();
-    assert!(transcript.contains("127.0.0.1"), "the failure names the server: {transcript}");
+    assert!(
+        transcript.contains("127.0.0.1"),
+        "the failure names the server: {transcript}"
+    );
     assert!(a["answer"].is_string(), "{a}");
     assert!(took < Duration::from_secs(240), "{took:?}");
-    eprintln!("server killed mid-answer: rules answered after {:.1} s", took.as_secs_f64());
+    eprintln!(
+        "server killed mid-answer: rules answered after {:.1} s",
+        took.as_secs_f64()
+    );
 
     // with the server gone, a find parsed by it fails at once, naming the server (exit 1: not
     // the user's input)
