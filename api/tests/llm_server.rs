@@ -163,7 +163,7 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
         model_id.contains("openai:qwen2.5-coder-0.5b@127.0.0.1"),
         "{a}"
     );
-    assert_eq!(a["task"]["action"], "count", "{a}");
+    assert_eq!(a["task"]["task"], "count", "{a}");
     assert_eq!(a["value"].as_u64(), Some(truth), "{a}");
     eprintln!("ask through llama_cpp.server: {secs:.1} s, model {model_id}");
 

@@ -428,16 +428,7 @@ impl Finder {
         req: &FindRequest,
         norms: Option<&graph_find::FindNorms>,
     ) -> Result<(FindAnswer, graph_find::FindCuts)> {
-        check_text(&req.text, "query")?;
-        if let Some(c) = &req.class
-            && !scene::classes::CLASSES.contains(&c.as_str())
-        {
-            return Err(llm_tools::Error::Invalid(format!(
-                "class {c:?} is not one of the 19 SemanticKITTI classes a map's instances carry: {}",
-                scene::classes::CLASSES.join(", ")
-            )));
-        }
-        self.check_embedder(r)?;
+        self.check_request(r, req)?;
         let (parser, rerank) = match req.ranking {
             Ranking::Plain => {
                 let opts = FindOptions {
@@ -480,6 +471,25 @@ impl Finder {
         let (parsed, parsed_by) = self.parse_request(&req.text, parser)?;
         let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
         self.find_parsed(r, req, rerank, parsed, parsed_by, parse_ms, norms)
+    }
+
+    /// Checks a request before any work: its text, its class, and that the map was built
+    /// with this finder's embedder.
+    ///
+    /// # Errors
+    /// Empty or overlong text, a class that is not one of the 19, a map built with another
+    /// embedder.
+    pub fn check_request(&self, r: &impl GraphRead, req: &FindRequest) -> Result<()> {
+        check_text(&req.text, "query")?;
+        if let Some(c) = &req.class
+            && !scene::classes::CLASSES.contains(&c.as_str())
+        {
+            return Err(llm_tools::Error::Invalid(format!(
+                "class {c:?} is not one of the 19 SemanticKITTI classes a map's instances carry: {}",
+                scene::classes::CLASSES.join(", ")
+            )));
+        }
+        self.check_embedder(r)
     }
 
     /// A request in words as one structured [`Request`], by the rules or the language model

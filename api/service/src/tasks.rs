@@ -440,9 +440,7 @@ pub fn find_near_places(
     let Ranking::Graph { parser, rerank } = req.ranking else {
         return Ok((finder.find(r, req)?, None));
     };
-    if req.text.trim().is_empty() {
-        return Ok((finder.find(r, req)?, None));
-    }
+    finder.check_request(r, req)?;
     let t0 = std::time::Instant::now();
     let (parsed, parsed_by) = finder.parse_request(&req.text, parser)?;
     let parse_ms = t0.elapsed().as_secs_f64() * 1e3;
