@@ -244,6 +244,7 @@ impl Toolbox {
         }
         let mut related = Vec::new();
         let mut segment = None;
+        let mut segment_distance_m = None;
         for adj in r.neighbours(id, Direction::Both, None).map_err(failed)? {
             let ty = r.name_of(adj.ty.0).unwrap_or_default();
             match ty.as_str() {
@@ -276,6 +277,13 @@ impl Toolbox {
                         id: adj.other,
                         kind: str_prop(&r, adj.other, key::KIND)?,
                     });
+                    segment_distance_m = match r.prop_key(key::DISTANCE_M) {
+                        Some(k) => r
+                            .rel_prop(adj.rel, k)
+                            .map_err(failed)?
+                            .and_then(|v| v.as_f64()),
+                        None => None,
+                    };
                 }
                 _ => {}
             }
@@ -284,6 +292,7 @@ impl Toolbox {
             id,
             properties,
             segment,
+            segment_distance_m,
             related,
         })
     }

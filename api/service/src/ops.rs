@@ -527,8 +527,11 @@ pub struct InstanceAnswer {
     pub id: u64,
     /// Its properties (the feature vectors and the caption list left out).
     pub properties: serde_json::Map<String, Json>,
-    /// Its segment.
+    /// Its segment: the nearest one (`IN_SEGMENT`).
     pub segment: Option<SegmentRef>,
+    /// How far outside that segment's area it lies, metres on the ground plane (0: inside;
+    /// more: it lies in no segment, and this one is the nearest); `IN_SEGMENT.distance_m`.
+    pub segment_distance_m: Option<f64>,
     /// Its `RELATED` neighbours.
     pub related: Vec<RelatedRef>,
 }

@@ -13,7 +13,7 @@
 //! | `locate` | [`LocateToolRequest`] | road segments for a description of the surroundings |
 //! | `plan_route` | [`PlanRouteRequest`] | a route between two ends given in words or as specs (`navigate`) |
 //! | `describe_area` | [`DescribeAreaRequest`] | top-down: the environment's segments, or one segment's objects |
-//! | `get_instance` | [`GetInstanceRequest`] | one instance: caption, class, box, segment, relations |
+//! | `get_instance` | [`GetInstanceRequest`] | one instance: caption, class, box, segment (and how far outside it), relations |
 //! | `nearest_objects` | [`NearestObjectsRequest`] | the objects of a kind nearest a place, with distances |
 //! | `count_objects` | [`CountObjectsRequest`] | the objects of a kind in a segment, a circle or the map |
 //! | `measure_distance` | [`DistanceRequest`] | the ground-plane distance between two places |
@@ -122,7 +122,7 @@ pub fn tools(writes: bool) -> Vec<Tool> {
         ),
         tool::<GetInstanceRequest, InstanceAnswer>(
             "get_instance",
-            "One instance by node id: caption, class, centroid, box, segment, and its RELATED neighbours.",
+            "One instance by node id: caption, label, class, centroid, box, its segment (the nearest; segment_distance_m says how far outside its area the object lies, 0 inside), and its RELATED neighbours.",
             false,
         ),
         tool::<SchemaRequest, SchemaAnswer>(
@@ -715,6 +715,18 @@ mod tests {
             json!({"query": "MATCH (n:Instance) WHERE n.feature IS NOT NULL RETURN n.feature AS f LIMIT 1"}),
         );
         assert_eq!(own["rows"][0]["f"].as_array().unwrap().len(), 384);
+        // get_instance says how far outside its segment an object lies, as IN_SEGMENT stores it
+        let rows = q(
+            &mut tb,
+            json!({"query": "MATCH (n:Instance)-[r:IN_SEGMENT]->(s) RETURN id(n) AS id, r.distance_m AS d, id(s) AS s"}),
+        );
+        let rows = rows["rows"].as_array().unwrap();
+        assert!(!rows.is_empty());
+        for row in rows {
+            let a = tb.call("get_instance", &json!({"id": row["id"]})).unwrap();
+            assert_eq!(a["segment"]["id"], row["s"], "{a}");
+            assert_eq!(a["segment_distance_m"], row["d"], "{a}");
+        }
     }
 
     #[test]
