@@ -296,7 +296,7 @@ mod tests {
             ),
             (
                 "which bin is nearest to the post box",
-                "which bin",
+                "bin",
                 "the post box",
             ),
         ] {

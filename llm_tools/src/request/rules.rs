@@ -475,6 +475,12 @@ pub fn parse_rules(text: &str) -> Result<Request> {
                 break;
             }
         }
+        // "which bin is nearest …": the question word is not part of the target
+        for q in ["which ", "what "] {
+            if let Some(b) = before.strip_prefix(q) {
+                before = b.trim();
+            }
+        }
         let after = t[i + w.len()..].trim();
         let after = after.strip_prefix("to ").unwrap_or(after).trim();
         if !strip_articles(before).is_empty() && !strip_articles(after).is_empty() {
