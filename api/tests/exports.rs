@@ -9,12 +9,7 @@ use common::{json, og, ok, read_query, s, sim_map};
 
 /// The Python of `$OPENGRAPH_VENV` when it has the export consumers.
 fn python_with_consumers() -> Option<std::path::PathBuf> {
-    let py = common::python_with_mcp()?;
-    let ok = std::process::Command::new(&py)
-        .args(["-c", "import networkx, shapely, plyfile, kuzu, spark_dsg"])
-        .status()
-        .is_ok_and(|s| s.success());
-    ok.then_some(py)
+    common::python_importing("mcp, networkx, shapely, plyfile, kuzu, spark_dsg")
 }
 
 #[test]

@@ -15,15 +15,6 @@ use common::*;
 use serde_json::{Value as Json, json};
 use zenoh::Wait;
 
-/// A free TCP port on loopback (bound, read, released).
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 /// `opengraph serve --zenoh` on `port`, its stderr in `log`.
 fn live_server(db: &Path, port: u16, sim: &Path, cfg: &Path, log: &Path, extra: &[&str]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_opengraph"))
@@ -421,12 +412,7 @@ fn malformed_samples_are_counted_and_ignored() {
 
 /// The venv's Python when it has PyPI `rosbags` and `eclipse-zenoh` (setup.sh installs them).
 fn python_with_ros() -> Option<PathBuf> {
-    let py = python_with_mcp()?;
-    Command::new(&py)
-        .args(["-c", "import rosbags, zenoh"])
-        .status()
-        .is_ok_and(|s| s.success())
-        .then_some(py)
+    python_importing("mcp, rosbags, zenoh")
 }
 
 /// Messages serialised by PyPI `rosbags` and published by PyPI `eclipse-zenoh` on rmw_zenoh

@@ -10,28 +10,11 @@
 //! and when the project's Python imports `llama_cpp`; otherwise it says why and passes.
 
 mod common;
-use common::{json, og, output_within, read_query, s, sim_map};
+use common::{free_port, json, og, output_within, python_importing, read_query, s, sim_map};
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// The project's Python when it has llama-cpp-python's server.
-fn python_with_llama_server() -> Option<PathBuf> {
-    let venv = std::env::var_os("OPENGRAPH_VENV")
-        .map(PathBuf::from)
-        .or_else(|| {
-            std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache/opengraph/venv"))
-        })?;
-    let py = venv.join("bin/python");
-    Command::new(&py)
-        .args(["-c", "import llama_cpp.server"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-        .then_some(py)
-}
 
 /// A llama_cpp.server child on a free loopback port, killed when dropped.
 struct LlamaServer {
@@ -44,14 +27,6 @@ impl Drop for LlamaServer {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 fn start_server(py: &Path, model: &Path, log: &Path) -> LlamaServer {
@@ -101,7 +76,7 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
         );
         return;
     }
-    let Some(py) = python_with_llama_server() else {
+    let Some(py) = python_importing("llama_cpp.server") else {
         eprintln!(
             "skipping: the project's Python has no llama_cpp (run scripts/setup_llama_server.sh)"
         );
@@ -168,15 +143,18 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
     eprintln!("ask through llama_cpp.server: {secs:.1} s, model {model_id}");
 
     // find with the request parsed by the model behind the server
-    let out = run(openai(&[
-        "find",
-        "--db",
-        s(&db),
-        "--parser",
-        "llm",
-        "--json",
-        "the bench near the bus stop",
-    ]));
+    let find_by_llm = || {
+        run(openai(&[
+            "find",
+            "--db",
+            s(&db),
+            "--parser",
+            "llm",
+            "--json",
+            "the bench near the bus stop",
+        ]))
+    };
+    let out = find_by_llm();
     assert!(
         out.status.success(),
         "{}",
@@ -234,14 +212,7 @@ fn ask_and_find_through_a_llama_cpp_python_server() {
 
     // with the server gone, a find parsed by it fails at once, naming the server (exit 1: not
     // the user's input)
-    let out = run(openai(&[
-        "find",
-        "--db",
-        s(&db),
-        "--parser",
-        "llm",
-        "the bench near the bus stop",
-    ]));
+    let out = find_by_llm();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.contains(&url), "{err}");

@@ -520,6 +520,23 @@ fn merge_set_remove_and_schema_errors() {
 
 // ----------------------------------------------------------- reference model
 
+/// A store with nodes `(:N {v: 0..n})` and a relationship `(start)-[:TYPE]->(end)` for each
+/// `(start, end, TYPE)` of `edges`, by `v`.
+fn numbered_graph(n: usize, edges: &[(usize, usize, &str)]) -> (tempfile::TempDir, Store) {
+    let (d, s) = store();
+    s.write(|tx| {
+        let ids: Vec<u64> = (0..n)
+            .map(|i| tx.create_node_named(&["N"], &[("v", Value::Int(i as i64))]))
+            .collect::<Result<_, _>>()?;
+        for (a, b, ty) in edges {
+            tx.create_rel_named(ids[*a], ty, ids[*b], &[])?;
+        }
+        Ok(())
+    })
+    .expect("fill");
+    (d, s)
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
 
@@ -530,15 +547,9 @@ proptest! {
         edges in proptest::collection::vec((0usize..12, 0usize..12), 0..30),
         threshold in 0i64..12,
     ) {
-        let (_d, s) = store();
         let edges: Vec<(usize, usize)> = edges.into_iter().map(|(a, b)| (a % n, b % n)).collect();
-        s.write(|tx| {
-            let ids: Vec<u64> = (0..n).map(|i| tx.create_node_named(&["N"], &[("v", Value::Int(i as i64))])).collect::<Result<_, _>>()?;
-            for (a, b) in &edges {
-                tx.create_rel_named(ids[*a], "R", ids[*b], &[])?;
-            }
-            Ok(())
-        }).expect("fill");
+        let typed: Vec<(usize, usize, &str)> = edges.iter().map(|&(a, b)| (a, b, "R")).collect();
+        let (_d, s) = numbered_graph(n, &typed);
         let r = s.query(
             &format!("MATCH (a:N)-[r1:R]->(b)-[r2:R]->(c) WHERE c.v >= {threshold} RETURN count(*) AS n"),
             &QueryOptions::default(),
@@ -622,16 +633,10 @@ proptest! {
         t_i in 0usize..10,
         both in proptest::bool::ANY,
     ) {
-        let (_d, s) = store();
         let edges: Vec<(usize, usize, bool)> = edges.into_iter().map(|(a, b, t)| (a % n, b % n, t)).collect();
         let (s_i, t_i) = (s_i % n, t_i % n);
-        s.write(|tx| {
-            let ids: Vec<u64> = (0..n).map(|i| tx.create_node_named(&["N"], &[("v", Value::Int(i as i64))])).collect::<Result<_, _>>()?;
-            for (a, b, is_a) in &edges {
-                tx.create_rel_named(ids[*a], if *is_a { "A" } else { "B" }, ids[*b], &[])?;
-            }
-            Ok(())
-        }).expect("fill");
+        let typed: Vec<(usize, usize, &str)> = edges.iter().map(|&(a, b, is_a)| (a, b, if is_a { "A" } else { "B" })).collect();
+        let (_d, s) = numbered_graph(n, &typed);
         let arrow = if both { "-" } else { "->" };
         let mut o = QueryOptions::default();
         o.params.insert("s".into(), Val::Int(s_i as i64));
@@ -680,15 +685,9 @@ proptest! {
         edges in proptest::collection::vec((0usize..10, 0usize..10), 0..24),
         threshold in 0i64..10,
     ) {
-        let (_d, s) = store();
         let edges: Vec<(usize, usize)> = edges.into_iter().map(|(a, b)| (a % n, b % n)).collect();
-        s.write(|tx| {
-            let ids: Vec<u64> = (0..n).map(|i| tx.create_node_named(&["N"], &[("v", Value::Int(i as i64))])).collect::<Result<_, _>>()?;
-            for (a, b) in &edges {
-                tx.create_rel_named(ids[*a], "R", ids[*b], &[])?;
-            }
-            Ok(())
-        }).expect("fill");
+        let typed: Vec<(usize, usize, &str)> = edges.iter().map(|&(a, b)| (a, b, "R")).collect();
+        let (_d, s) = numbered_graph(n, &typed);
         let r = s.query(
             &format!("MATCH (a:N) RETURN a.v AS v, COUNT {{ (a)-[:R]->(b) WHERE b.v >= {threshold} }} AS k, \
                       EXISTS {{ MATCH (a)-[:R]->()-[:R]->() }} AS two ORDER BY v"),

@@ -104,12 +104,7 @@ impl Toolbox {
             read_only,
             max_intermediate_rows: MAX_INTERMEDIATE_ROWS,
             max_memory_bytes: MAX_STATEMENT_BYTES,
-            ground_axes: self
-                .store
-                .read()
-                .ok()
-                .and_then(|r| scene::records::ground_frame(&r).ok())
-                .map(scene::GroundFrame::ground_axes),
+            ground_axes: scene::records::ground_axes(&self.store),
             ..graphstore::cypher::QueryOptions::default()
         };
         let r = self.store.query(query, &opts).map_err(|e| match e {

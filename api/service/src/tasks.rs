@@ -505,8 +505,7 @@ pub fn find_near_places(
     }
     a.results.retain(|g| Some(g.id) != target.node);
     for g in &mut a.results {
-        let c = ground.ground(g.centroid);
-        let d = (c[0] - target.xy[0]).hypot(c[1] - target.xy[1]);
+        let d = ground_dist(ground.ground(g.centroid), target.xy);
         g.place_distance_m = Some(d);
         g.score = 1.0 / (1.0 + d / 100.0);
     }

@@ -39,11 +39,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         timeout: Some(std::time::Duration::from_secs_f64(timeout_secs)),
         row_limit: Some(usize::try_from(max_rows).unwrap_or(usize::MAX)),
         read_only,
-        ground_axes: store
-            .read()
-            .ok()
-            .and_then(|r| scene::records::ground_frame(&r).ok())
-            .map(scene::GroundFrame::ground_axes),
+        ground_axes: scene::records::ground_axes(&store),
         ..graphstore::cypher::QueryOptions::default()
     };
     let t0 = std::time::Instant::now();

@@ -217,9 +217,9 @@ pub fn serve(db: &Path, extra: &[&str]) -> Server {
     Server { child, url }
 }
 
-/// The Python of `$OPENGRAPH_VENV` (default `~/.cache/opengraph/venv`) when it has the official
-/// MCP client (`scripts/setup.sh` installs it).
-pub fn python_with_mcp() -> Option<std::path::PathBuf> {
+/// The Python of `$OPENGRAPH_VENV` (default `~/.cache/opengraph/venv`) when it can import
+/// `modules` (comma-separated, as `import` takes them).
+pub fn python_importing(modules: &str) -> Option<std::path::PathBuf> {
     let venv = std::env::var_os("OPENGRAPH_VENV")
         .map(std::path::PathBuf::from)
         .or_else(|| {
@@ -227,10 +227,26 @@ pub fn python_with_mcp() -> Option<std::path::PathBuf> {
         })?;
     let py = venv.join("bin/python");
     let ok = Command::new(&py)
-        .args(["-c", "import mcp"])
+        .args(["-c", &format!("import {modules}")])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
         .status()
         .is_ok_and(|s| s.success());
     ok.then_some(py)
+}
+
+/// The project's Python when it has the official MCP client (`scripts/setup.sh` installs it).
+pub fn python_with_mcp() -> Option<std::path::PathBuf> {
+    python_importing("mcp")
+}
+
+/// A free TCP port on loopback (bound, read, released).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
 }
 
 /// Runs `cmd` with its output captured, waiting `secs` at most, and returns what it did.

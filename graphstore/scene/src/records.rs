@@ -11,6 +11,14 @@ use crate::error::{Error, Result};
 use crate::names::{key, label, rel};
 use crate::{GroundFrame, OrientedBox};
 
+/// The world axes of the map's ground plane ([`GroundFrame::ground_axes`]), as Cypher's ground
+/// procedures take them (`QueryOptions::ground_axes`); None when the store cannot be read or
+/// the map has no ground frame yet.
+pub fn ground_axes(store: &graphstore::Store) -> Option<[usize; 2]> {
+    let r = store.read().ok()?;
+    ground_frame(&r).ok().map(GroundFrame::ground_axes)
+}
+
 /// The map's ground frame, from its `Environment.ground_frame`.
 ///
 /// # Errors

@@ -352,30 +352,27 @@ pub(crate) fn explain(stmt: &Statement, g: &dyn GraphRead) -> String {
                                 rel_text(rp, true),
                                 node_text(end)
                             );
-                            for (v, _, _) in p.vars() {
-                                scope.insert(v.to_string());
+                        } else {
+                            for j in a.index..p.steps.len() {
+                                let (rp, np2) = &p.steps[j];
+                                let _ = writeln!(
+                                    out,
+                                    "  Expand {}{}{}",
+                                    node_text(node_pat(p, j)),
+                                    rel_text(rp, true),
+                                    node_text(np2)
+                                );
                             }
-                            continue;
-                        }
-                        for j in a.index..p.steps.len() {
-                            let (rp, np2) = &p.steps[j];
-                            let _ = writeln!(
-                                out,
-                                "  Expand {}{}{}",
-                                node_text(node_pat(p, j)),
-                                rel_text(rp, true),
-                                node_text(np2)
-                            );
-                        }
-                        for j in (0..a.index).rev() {
-                            let (rp, _) = &p.steps[j];
-                            let _ = writeln!(
-                                out,
-                                "  Expand {}{}{}",
-                                node_text(node_pat(p, j + 1)),
-                                rel_text(rp, false),
-                                node_text(node_pat(p, j))
-                            );
+                            for j in (0..a.index).rev() {
+                                let (rp, _) = &p.steps[j];
+                                let _ = writeln!(
+                                    out,
+                                    "  Expand {}{}{}",
+                                    node_text(node_pat(p, j + 1)),
+                                    rel_text(rp, false),
+                                    node_text(node_pat(p, j))
+                                );
+                            }
                         }
                         for (v, _, _) in p.vars() {
                             scope.insert(v.to_string());

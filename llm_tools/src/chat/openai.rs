@@ -300,37 +300,27 @@ impl ChatModel for OpenAiChat {
                 std::thread::sleep(delay);
                 delay = delay.saturating_mul(2);
             }
-            let (status, text, retry_after) = match self.post(&body)? {
+            let mut reply = self.post(&body)?;
+            // a server that refuses OpenAI's json_schema form (llama-cpp-python answers 500
+            // with a validation error) is asked again at once in the json_object form, and
+            // from then on
+            if let Ok((status, text, _)) = &reply
+                && !(200..=299).contains(status)
+                && req.schema.is_some()
+                && self.schema_form == SchemaForm::JsonSchema
+                && refuses_json_schema(text)
+            {
+                self.schema_form = SchemaForm::JsonObject;
+                body = self.body(req).to_string();
+                reply = self.post(&body)?;
+            }
+            let (status, text, retry_after) = match reply {
                 Ok(x) => x,
                 Err(e) => {
                     last = e;
                     continue;
                 }
             };
-            // a server that refuses OpenAI's json_schema form (llama-cpp-python answers 500
-            // with a validation error) is asked again at once in the json_object form, and
-            // from then on
-            if !(200..=299).contains(&status)
-                && req.schema.is_some()
-                && self.schema_form == SchemaForm::JsonSchema
-                && refuses_json_schema(&text)
-            {
-                self.schema_form = SchemaForm::JsonObject;
-                body = self.body(req).to_string();
-                match self.post(&body)? {
-                    Ok((st, tx, _)) if (200..=299).contains(&st) => {
-                        let mut r = parse_reply(&tx, req)?;
-                        r.model = self.model_id();
-                        r.usage.completion_ms = t0.elapsed().as_secs_f64() * 1e3;
-                        return Ok(r);
-                    }
-                    Ok((st, tx, _)) => {
-                        last = format!("HTTP {st}: {}", server_message(&tx));
-                    }
-                    Err(e) => last = e,
-                }
-                continue;
-            }
             match status {
                 200..=299 => {
                     let mut r = parse_reply(&text, req)?;
@@ -358,6 +348,13 @@ impl ChatModel for OpenAiChat {
             self.max_retries + 1
         )))
     }
+}
+
+/// The offered tool a model's call names.
+fn offered<'r>(req: &'r ChatRequest, name: &str) -> Result<&'r super::ToolSpec> {
+    req.tools.iter().find(|t| t.name == name).ok_or_else(|| {
+        Error::LlmAnswer(format!("the model called {name:?}, which was not offered"))
+    })
 }
 
 /// Reads an OpenAI chat-completion reply: the first choice's content and tool calls.
@@ -388,9 +385,7 @@ pub fn parse_reply(text: &str, req: &ChatRequest) -> Result<ChatResponse> {
                 .pointer("/function/name")
                 .and_then(Value::as_str)
                 .ok_or_else(|| Error::LlmAnswer(format!("tool call {i} has no function name")))?;
-            let spec = req.tools.iter().find(|t| t.name == name).ok_or_else(|| {
-                Error::LlmAnswer(format!("the model called {name:?}, which was not offered"))
-            })?;
+            let spec = offered(req, name)?;
             let args = match c.pointer("/function/arguments") {
                 Some(Value::String(s)) => serde_json::from_str(s).map_err(|e| {
                     Error::LlmAnswer(format!("tool call {name:?}: arguments are not JSON: {e}"))
@@ -412,10 +407,7 @@ pub fn parse_reply(text: &str, req: &ChatRequest) -> Result<ChatResponse> {
     }
     if tool_calls.is_empty() && !req.tools.is_empty() {
         for (i, (name, args)) in tool_calls_in_text(&content).into_iter().enumerate() {
-            let spec = req.tools.iter().find(|t| t.name == name).ok_or_else(|| {
-                Error::LlmAnswer(format!("the model called {name:?}, which was not offered"))
-            })?;
-            super::validate(&args, &spec.parameters)?;
+            super::validate(&args, &offered(req, &name)?.parameters)?;
             tool_calls.push(ToolCall {
                 id: format!("call_{i}"),
                 name,
