@@ -107,6 +107,8 @@ pub struct Committed {
     pub(crate) mem: Arc<Mem>,
     /// Commits since the store was opened (see [`crate::Store::commit_seq`]).
     pub(crate) seq: u64,
+    /// In-memory copies of hot tables for this commit's readers, built on demand.
+    pub(crate) hot: crate::hot::Hot,
 }
 
 /// Index entries of nodes, gathered per index (for rebuilding and for checking).

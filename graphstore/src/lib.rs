@@ -6,6 +6,7 @@ mod compiled;
 pub mod cypher;
 mod error;
 pub mod export;
+mod hot;
 pub mod import;
 mod index;
 mod integrity;

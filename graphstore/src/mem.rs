@@ -83,6 +83,15 @@ pub fn thread_net_bytes() -> i64 {
     NET.try_with(Cell::get).unwrap_or(0)
 }
 
+/// Runs `f` without charging what it allocates (and keeps) to this thread's count: for
+/// shared caches built while a statement runs, which outlive the statement.
+pub(crate) fn uncounted<T>(f: impl FnOnce() -> T) -> T {
+    let before = thread_net_bytes();
+    let out = f();
+    let _ = NET.try_with(|n| n.set(before));
+    out
+}
+
 /// Whether [`CountingAlloc`] counts this process's allocations (checked once, by allocating).
 pub fn counting() -> bool {
     static COUNTING: std::sync::OnceLock<bool> = std::sync::OnceLock::new();

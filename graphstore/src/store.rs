@@ -270,6 +270,7 @@ impl Store {
                     schema: Arc::new(compiled),
                     mem: Arc::new(Mem::default()),
                     seq: 0,
+                    hot: Default::default(),
                 })),
             }),
         };
@@ -282,6 +283,7 @@ impl Store {
                 schema: old.schema.clone(),
                 mem: Arc::new(mem),
                 seq: old.seq,
+                hot: Default::default(),
             });
         }
         tracing::debug!(path = %path.display(), "store opened");
@@ -373,6 +375,7 @@ impl Store {
             schema: base.schema.clone(),
             mem,
             seq: base.seq + 1,
+            hot: Default::default(),
         });
         Ok(value)
     }
@@ -411,6 +414,7 @@ impl Store {
             schema: compiled,
             mem: Arc::new(Mem::default()),
             seq: base.seq + 1,
+            hot: Default::default(),
         });
         let rtx = self.inner.db.begin_read().map_err(storage)?;
         let mem = build_mem(&ReadTxn::new(rtx, staged.clone())?)?;
@@ -419,6 +423,7 @@ impl Store {
             schema: staged.schema.clone(),
             mem: Arc::new(mem),
             seq: staged.seq,
+            hot: Default::default(),
         });
         Ok(())
     }

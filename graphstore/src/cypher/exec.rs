@@ -67,6 +67,9 @@ pub(crate) struct Ctx<'a, 'b> {
     /// the same node's labels and properties many times (every instance's segment, every
     /// edge's end), and a record decodes whole.
     node_cache: std::cell::RefCell<lru::LruCache<u64, std::rc::Rc<crate::Node>>>,
+    /// Label membership without node records, for read-only statements (see
+    /// [`super::label_set`]).
+    label_sets: super::label_set::LabelSets,
 }
 
 /// What `PROFILE` measured of one clause.
@@ -133,6 +136,65 @@ impl RowSink for Collect {
         self.rows.push(row);
         ctx.room(self.rows.len())?;
         Ok(self.limit.is_some_and(|l| self.rows.len() >= l))
+    }
+}
+
+/// A non-aggregating RETURN with LIMIT fed one matched row at a time: without ORDER BY it
+/// takes the first `keep` rows and stops the match; with ORDER BY it keeps the best `keep`
+/// (ties in the order they came, as the full sort would), sorting and cutting whenever the
+/// buffer doubles, so it holds at most 2 × `keep` rows however many match.
+struct TopRows<'p> {
+    p: &'p Projection,
+    items: Vec<Item>,
+    cols: Vec<String>,
+    keep: usize,
+    asc: Vec<bool>,
+    rows: Vec<(Vec<Val>, Vec<Val>, Option<usize>)>,
+}
+
+impl<'p> TopRows<'p> {
+    fn new(p: &'p Projection, keep: usize) -> Self {
+        TopRows {
+            p,
+            items: p.items.clone(),
+            cols: p.items.iter().map(|i| i.name.clone()).collect(),
+            keep,
+            asc: p.order.iter().map(|(_, a, _)| *a).collect(),
+            rows: Vec::new(),
+        }
+    }
+
+    /// Without ORDER BY: whether the rows wanted are all here.
+    fn full(&self) -> bool {
+        self.p.order.is_empty() && self.rows.len() >= self.keep
+    }
+
+    fn cut(&mut self) {
+        let asc = &self.asc;
+        self.rows.sort_by(|a, b| sort_key_cmp(&a.1, &b.1, asc));
+        self.rows.truncate(self.keep);
+    }
+
+    fn finish(mut self) -> Vec<(Vec<Val>, Vec<Val>, Option<usize>)> {
+        if !self.p.order.is_empty() {
+            self.cut();
+        }
+        self.rows
+    }
+}
+
+impl RowSink for TopRows<'_> {
+    fn push(&mut self, ctx: &Ctx<'_, '_>, row: Row) -> R<bool> {
+        if self.full() {
+            return Ok(true);
+        }
+        let (vals, okeys) = ctx.project_row(self.p, &self.items, &self.cols, &row)?;
+        self.rows.push((vals, okeys, None));
+        ctx.room(self.rows.len())?;
+        if !self.p.order.is_empty() && self.rows.len() >= self.keep.saturating_mul(2).max(64) {
+            self.cut();
+        }
+        Ok(self.full())
     }
 }
 
@@ -338,6 +400,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             mem_peak: Cell::new(0),
             label_counts: std::cell::OnceCell::new(),
             node_cache: std::cell::RefCell::new(lru::LruCache::new(NODE_CACHE)),
+            label_sets: Default::default(),
             stats: Stats::default(),
         }
     }
@@ -572,6 +635,37 @@ impl<'a, 'b> Ctx<'a, 'b> {
                         let cols = agg.cols.clone();
                         let out = agg.finish(self)?;
                         let rows = self.order_and_slice(p, out)?;
+                        return Ok((cols, rows.into_iter().map(|(v, _)| v).collect()));
+                    }
+                    // MATCH straight into a RETURN with LIMIT: only the first SKIP + LIMIT rows
+                    // are matched, or with ORDER BY only the best SKIP + LIMIT are kept
+                    if let (false, Some(Clause::Return(p))) = (*optional, q.clauses.get(ci + 1))
+                        && !p.star
+                        && !p.distinct
+                        && p.limit.is_some()
+                        && !p.items.iter().any(|i| i.expr.has_aggregate())
+                    {
+                        self.clause_pos = q.positions.get(ci + 1).copied();
+                        let skip = self.count_arg(p.skip.as_ref(), "SKIP")?.unwrap_or(0);
+                        let limit = self.count_arg(p.limit.as_ref(), "LIMIT")?.unwrap_or(0);
+                        self.clause_pos = q.positions.get(ci).copied();
+                        if let Some(prof) = self.profile.as_mut() {
+                            prof.rename(if p.order.is_empty() {
+                                "Match + Return with LIMIT (stops early)"
+                            } else {
+                                "Match + Return with ORDER BY and LIMIT (top rows kept)"
+                            });
+                        }
+                        let mut top = TopRows::new(p, skip.saturating_add(limit));
+                        for row in &rows {
+                            if top.full() {
+                                break;
+                            }
+                            self.match_into(row, patterns, where_.as_ref(), &mut top)?;
+                        }
+                        self.clause_pos = q.positions.get(ci + 1).copied();
+                        let cols = top.cols.clone();
+                        let rows = self.order_and_slice(p, top.finish())?;
                         return Ok((cols, rows.into_iter().map(|(v, _)| v).collect()));
                     }
                     let mut out = Vec::new();
@@ -842,36 +936,49 @@ impl<'a, 'b> Ctx<'a, 'b> {
         } else {
             for (ri, row) in rows.iter().enumerate() {
                 self.tick()?;
-                let vals = items
-                    .iter()
-                    .map(|i| self.eval(&i.expr, row))
-                    .collect::<R<Vec<_>>>()?;
-                let okeys = if p.order.is_empty() {
-                    Vec::new()
-                } else {
-                    let mut merged = if p.distinct {
-                        Row::default()
-                    } else {
-                        row.clone()
-                    };
-                    for (c, v) in cols.iter().zip(&vals) {
-                        merged.set(c, v.clone());
-                    }
-                    p.order
-                        .iter()
-                        .map(|(e, _, text)| {
-                            match items.iter().find(|i| &i.text == text || &i.name == text) {
-                                Some(i) => Ok(merged.get(&i.name).cloned().unwrap_or_default()),
-                                None => self.eval(e, &merged),
-                            }
-                        })
-                        .collect::<R<Vec<_>>>()?
-                };
+                let (vals, okeys) = self.project_row(p, &items, &cols, row)?;
                 out.push((vals, okeys, Some(ri)));
             }
         }
         let rows = self.order_and_slice(p, out)?;
         Ok((cols, rows))
+    }
+
+    /// One row of a non-aggregating projection: the items' values and the ORDER BY keys
+    /// (which may name an item or use the variables before the projection).
+    fn project_row(
+        &self,
+        p: &Projection,
+        items: &[Item],
+        cols: &[String],
+        row: &Row,
+    ) -> R<(Vec<Val>, Vec<Val>)> {
+        let vals = items
+            .iter()
+            .map(|i| self.eval(&i.expr, row))
+            .collect::<R<Vec<_>>>()?;
+        let okeys = if p.order.is_empty() {
+            Vec::new()
+        } else {
+            let mut merged = if p.distinct {
+                Row::default()
+            } else {
+                row.clone()
+            };
+            for (c, v) in cols.iter().zip(&vals) {
+                merged.set(c, v.clone());
+            }
+            p.order
+                .iter()
+                .map(|(e, _, text)| {
+                    match items.iter().find(|i| &i.text == text || &i.name == text) {
+                        Some(i) => Ok(merged.get(&i.name).cloned().unwrap_or_default()),
+                        None => self.eval(e, &merged),
+                    }
+                })
+                .collect::<R<Vec<_>>>()?
+        };
+        Ok((vals, okeys))
     }
 
     /// DISTINCT, ORDER BY, SKIP and LIMIT of a projection's rows (values, order keys, source
@@ -1018,9 +1125,26 @@ impl<'a, 'b> Ctx<'a, 'b> {
         let k = p.steps.len();
         let mut moves: Vec<(usize, bool)> = (anchor.index..k).map(|j| (j, true)).collect();
         moves.extend((0..anchor.index).rev().map(|j| (j, false)));
+        // a label scan's candidates carry its label: only the pattern's other labels are checked
+        let anchor_pat = node_pat(p, anchor.index);
+        let trimmed;
+        let np = match &anchor.source {
+            Source::Label(l) => {
+                trimmed = NodePat {
+                    labels: anchor_pat
+                        .labels
+                        .iter()
+                        .filter(|x| *x != l)
+                        .cloned()
+                        .collect(),
+                    ..anchor_pat.clone()
+                };
+                &trimmed
+            }
+            _ => anchor_pat,
+        };
         for cand in candidates {
             self.tick()?;
-            let np = node_pat(p, anchor.index);
             let mut r = row.clone();
             if !self.node_ok(cand, np, &mut r)? {
                 continue;
@@ -1308,16 +1432,33 @@ impl<'a, 'b> Ctx<'a, 'b> {
         }
         if !np.labels.is_empty() || np.props.is_some() {
             let g = self.g();
-            let Some(node) = self.node_cached(id)? else {
-                return Ok(false);
+            let mut record = None;
+            let mut node = |ctx: &Self| -> R<Option<Rc<crate::Node>>> {
+                if record.is_none() {
+                    record = Some(ctx.node_cached(id)?);
+                }
+                Ok(record.clone().flatten())
             };
             for l in &np.labels {
-                match g.label(l) {
-                    Some(lid) if node.has_label(lid) => {}
-                    _ => return Ok(false),
+                let Some(lid) = g.label(l) else {
+                    return Ok(false);
+                };
+                let set = match self.tx {
+                    Tx::Read(_) => self.label_sets.members(lid.0, || g.label_scan(lid))?,
+                    Tx::Write(_) => None,
+                };
+                let has = match set {
+                    Some(set) => set.contains(id),
+                    None => node(self)?.is_some_and(|n| n.has_label(lid)),
+                };
+                if !has {
+                    return Ok(false);
                 }
             }
             if let Some(pe) = &np.props {
+                let Some(node) = node(self)? else {
+                    return Ok(false);
+                };
                 let want = self.eval(pe, row)?;
                 if !self.props_match(&want, |k| {
                     g.prop_key(k).and_then(|pk| node.get(pk).cloned())

@@ -21,6 +21,7 @@ mod count;
 mod eval;
 mod exec;
 mod index_cmd;
+mod label_set;
 mod lexer;
 mod parser;
 mod plan;

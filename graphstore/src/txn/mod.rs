@@ -100,6 +100,9 @@ impl std::fmt::Debug for WriteTxn<'_> {
 macro_rules! raw_reads {
     () => {
         fn load_rec(&self, id: u64) -> Result<Option<NodeRec>> {
+            if let Some(hot) = self.hot_records(true) {
+                return hot.get(id).map(|b| NodeRec::decode(b, id)).transpose();
+            }
             match self.nodes.get(&id).map_err(storage)? {
                 Some(g) => Ok(Some(NodeRec::decode(g.value(), id)?)),
                 None => Ok(None),
@@ -107,6 +110,9 @@ macro_rules! raw_reads {
         }
 
         fn load_rel(&self, id: u64) -> Result<Option<Relationship>> {
+            if let Some(hot) = self.hot_records(false) {
+                return hot.get(id).map(|b| decode_rel(b, id)).transpose();
+            }
             match self.rels.get(&id).map_err(storage)? {
                 Some(g) => Ok(Some(decode_rel(g.value(), id)?)),
                 None => Ok(None),
@@ -114,6 +120,12 @@ macro_rules! raw_reads {
         }
 
         fn load_rel_prop(&self, id: u64, key: u32) -> Result<Option<Value>> {
+            if let Some(hot) = self.hot_records(false) {
+                return match hot.get(id) {
+                    Some(b) => codec::rel_prop(b, key).map_err(in_record("relationship", id)),
+                    None => Ok(None),
+                };
+            }
             match self.rels.get(&id).map_err(storage)? {
                 Some(g) => codec::rel_prop(g.value(), key).map_err(in_record("relationship", id)),
                 None => Ok(None),
@@ -121,6 +133,9 @@ macro_rules! raw_reads {
         }
 
         fn adj(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<(u64, u32, u64)>> {
+            if let Some(hot) = self.hot_adjacency() {
+                return Ok(hot.get(node, dir, ty));
+            }
             let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
             let mut out = Vec::new();
             for row in self
@@ -295,12 +310,78 @@ impl Raw for WriteTxn<'_> {
 }
 
 impl ReadTxn {
+    /// How many nodes (`which` 0) or relationships (1) the store holds (0 if unreadable).
+    fn total(&self, which: u32) -> u64 {
+        match self.counts.get((2u8, which)) {
+            Ok(Some(g)) => g.value(),
+            _ => 0,
+        }
+    }
+
+    /// The commit's in-memory adjacency, once enough asks made it worth building (see
+    /// [`crate::hot`]).
+    fn hot_adjacency(&self) -> Option<Arc<crate::hot::AdjMem>> {
+        self.base.hot.adj.get(
+            || 2 * self.total(1),
+            || {
+                let rows = self.adj.iter().ok()?.map(|row| {
+                    let (k, v) = row.map_err(storage)?;
+                    Ok((k.value(), v.value()))
+                });
+                match crate::hot::AdjMem::from_rows(rows) {
+                    Ok(m) => m,
+                    Err(e) => {
+                        tracing::warn!(error = %e, "adjacency not copied into memory");
+                        None
+                    }
+                }
+            },
+        )
+    }
+
+    /// The commit's node (`nodes`) or relationship records in memory, once enough reads made
+    /// it worth copying them (see [`crate::hot`]).
+    fn hot_records(&self, nodes: bool) -> Option<Arc<crate::hot::RecordsMem>> {
+        let (lazy, table, which) = if nodes {
+            (&self.base.hot.nodes, &self.nodes, 0)
+        } else {
+            (&self.base.hot.rels, &self.rels, 1)
+        };
+        lazy.get(
+            || self.total(which),
+            || {
+                let mut m = crate::hot::RecordsMem::new();
+                for row in table.iter().ok()? {
+                    match row {
+                        Ok((k, v)) if m.push(k.value(), v.value()) => {}
+                        Ok(_) => return None,
+                        Err(e) => {
+                            tracing::warn!(error = %e, "records not copied into memory");
+                            return None;
+                        }
+                    }
+                }
+                Some(m)
+            },
+        )
+    }
+
     fn deltas(&self) -> std::iter::Empty<(&(u8, u32), &i64)> {
         std::iter::empty()
     }
 }
 
 impl WriteTxn<'_> {
+    /// Never: a write transaction reads its own changes from the tables.
+    fn hot_adjacency(&self) -> Option<Arc<crate::hot::AdjMem>> {
+        None
+    }
+
+    /// Never, as for [`WriteTxn::hot_adjacency`].
+    fn hot_records(&self, _nodes: bool) -> Option<Arc<crate::hot::RecordsMem>> {
+        None
+    }
+
     fn deltas(&self) -> impl Iterator<Item = (&(u8, u32), &i64)> {
         self.count_deltas.iter()
     }

@@ -1,0 +1,355 @@
+//! Per-commit in-memory copies of hot tables, built on demand and shared by every read
+//! transaction of that commit.
+//!
+//! A traversal asks the adjacency table for one node's relationships at a time, and reads
+//! node and relationship records one id at a time; each ask is a B-tree descent in redb
+//! (1–2 µs). Once read transactions of one commit have asked a table often enough (see
+//! [`Lazy::get`]), the table is copied into memory in one sequential pass: the adjacency as
+//! columns in key order ([`AdjMem`], about 20 bytes a row, up to [`ADJ_MAX_ROWS`] rows), the
+//! record tables as one byte arena indexed by id ([`RecordsMem`], dense ids only, up to
+//! [`RECORDS_MAX_BYTES`]); later asks are a slice lookup. A table past those sizes keeps being
+//! read from redb. The copies belong to the commit's [`crate::Committed`] state: a new commit
+//! starts without them, so they are never stale, and the last reader of an old commit frees
+//! them. Write transactions never use them (they must see their own changes).
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
+
+/// Adjacency asks, per commit, answered from redb before the table is copied into memory.
+pub(crate) const ASKS_BEFORE_COPY: u64 = 4096;
+/// Adjacency rows (two per relationship) above which the table is not copied (about 160 MB).
+pub(crate) const ADJ_MAX_ROWS: usize = 8 << 20;
+
+/// Bytes of records (node or relationship table) above which a table is not copied.
+pub(crate) const RECORDS_MAX_BYTES: usize = 256 << 20;
+
+/// One table's copy: asks so far, then the copy (or `None`: too large or unreadable, and not
+/// tried again).
+#[derive(Debug)]
+pub(crate) struct Lazy<T> {
+    asks: AtomicU64,
+    /// Asks answered from redb before the copy is made.
+    due_after: OnceLock<u64>,
+    copy: OnceLock<Option<Arc<T>>>,
+}
+
+impl<T> Default for Lazy<T> {
+    fn default() -> Self {
+        Lazy {
+            asks: AtomicU64::new(0),
+            due_after: OnceLock::new(),
+            copy: OnceLock::new(),
+        }
+    }
+}
+
+impl<T> Lazy<T> {
+    /// The copy if it is built, or due now; then `build` makes it. It is due after
+    /// [`ASKS_BEFORE_COPY`] asks, or an eighth of the table's `rows` if more (a sequential copy
+    /// of a row costs far less than one point read, so the copy at most doubles the reads'
+    /// cost even if no more asks come).
+    pub(crate) fn get(
+        &self,
+        rows: impl FnOnce() -> u64,
+        build: impl FnOnce() -> Option<T>,
+    ) -> Option<Arc<T>> {
+        if let Some(m) = self.copy.get() {
+            return m.clone();
+        }
+        let due = *self
+            .due_after
+            .get_or_init(|| ASKS_BEFORE_COPY.max(rows() / 8));
+        if self.asks.fetch_add(1, Ordering::Relaxed) < due {
+            return None;
+        }
+        // the copy outlives the statement that triggers it: not charged to its memory budget
+        self.copy
+            .get_or_init(|| crate::mem::uncounted(|| build().map(Arc::new)))
+            .clone()
+    }
+}
+
+/// The hot-table state of one commit.
+#[derive(Debug, Default)]
+pub(crate) struct Hot {
+    /// The adjacency table.
+    pub(crate) adj: Lazy<AdjMem>,
+    /// The node records.
+    pub(crate) nodes: Lazy<RecordsMem>,
+    /// The relationship records.
+    pub(crate) rels: Lazy<RecordsMem>,
+}
+
+/// A table `id → record bytes` in memory: one byte arena, and per id (dense ids only) where its
+/// record lies.
+#[derive(Debug)]
+pub(crate) struct RecordsMem {
+    /// Record `id` is `data[ends[id - 1]..ends[id]]` (from 0 for id 0) when bit `id` of
+    /// `present` is set.
+    ends: Vec<u64>,
+    present: Vec<u64>,
+    data: Vec<u8>,
+    /// Records held.
+    count: u64,
+}
+
+impl RecordsMem {
+    /// An empty copy to [`RecordsMem::push`] rows into.
+    pub(crate) fn new() -> RecordsMem {
+        RecordsMem {
+            ends: Vec::new(),
+            present: Vec::new(),
+            data: Vec::new(),
+            count: 0,
+        }
+    }
+
+    /// Adds the next row (ids ascending); false when the copy must be given up: the ids are
+    /// sparse (more than four slots per record so far), the bytes pass
+    /// [`RECORDS_MAX_BYTES`], or the id is out of order.
+    pub(crate) fn push(&mut self, id: u64, bytes: &[u8]) -> bool {
+        let slots = 4 * (self.count + 1) + 4096;
+        if id >= slots
+            || (id as usize) < self.ends.len()
+            || self.data.len() + bytes.len() > RECORDS_MAX_BYTES
+        {
+            return false;
+        }
+        let end = self.data.len() as u64;
+        self.ends.resize(id as usize, end);
+        self.data.extend_from_slice(bytes);
+        self.ends.push(self.data.len() as u64);
+        self.present.resize(id as usize / 64 + 1, 0);
+        self.present[id as usize / 64] |= 1 << (id % 64);
+        self.count += 1;
+        true
+    }
+
+    /// Record `id`'s bytes, if it exists.
+    pub(crate) fn get(&self, id: u64) -> Option<&[u8]> {
+        let i = usize::try_from(id).ok()?;
+        if self.present.get(i / 64)? & (1 << (i % 64)) == 0 {
+            return None;
+        }
+        let start = if i == 0 { 0 } else { self.ends[i - 1] };
+        Some(&self.data[start as usize..self.ends[i] as usize])
+    }
+}
+
+/// Where each node's rows start in [`AdjMem`]'s columns.
+#[derive(Debug)]
+enum Starts {
+    /// Indexed by node id: rows of node `n` are `starts[n]..starts[n + 1]`.
+    Dense(Vec<u32>),
+    /// Node id → (first row, end row), for sparse ids.
+    Sparse(HashMap<u64, (u32, u32)>),
+}
+
+/// The adjacency table `(node, direction, type, relationship) → other node` in memory, in its
+/// key order, as columns.
+#[derive(Debug)]
+pub(crate) struct AdjMem {
+    starts: Starts,
+    dirs: Vec<u8>,
+    tys: Vec<u32>,
+    rels: Vec<u64>,
+    others: Vec<u64>,
+}
+
+impl AdjMem {
+    /// The table from its rows in key order; `None` past [`ADJ_MAX_ROWS`] rows or when a row
+    /// is out of order (the caller then keeps reading the table).
+    pub(crate) fn from_rows(
+        rows: impl Iterator<Item = crate::Result<((u64, u8, u32, u64), u64)>>,
+    ) -> crate::Result<Option<AdjMem>> {
+        let (mut nodes, mut dirs, mut tys, mut rels, mut others) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut last: Option<(u64, u8, u32, u64)> = None;
+        for row in rows {
+            let (key, other) = row?;
+            if nodes.len() >= ADJ_MAX_ROWS || last.is_some_and(|l| l >= key) {
+                return Ok(None);
+            }
+            last = Some(key);
+            nodes.push(key.0);
+            dirs.push(key.1);
+            tys.push(key.2);
+            rels.push(key.3);
+            others.push(other);
+        }
+        let distinct = nodes.windows(2).filter(|w| w[0] != w[1]).count() + 1;
+        let max = nodes.last().copied().unwrap_or(0);
+        let starts = if max < 4 * distinct as u64 + 4096 {
+            let mut starts = vec![0u32; max as usize + 2];
+            // count rows per node, then prefix sums
+            for &n in &nodes {
+                starts[n as usize + 1] += 1;
+            }
+            for i in 1..starts.len() {
+                starts[i] += starts[i - 1];
+            }
+            Starts::Dense(starts)
+        } else {
+            let mut m = HashMap::with_capacity(distinct);
+            let mut i = 0;
+            while i < nodes.len() {
+                let j = i + nodes[i..].partition_point(|&n| n == nodes[i]);
+                m.insert(nodes[i], (i as u32, j as u32));
+                i = j;
+            }
+            Starts::Sparse(m)
+        };
+        Ok(Some(AdjMem {
+            starts,
+            dirs,
+            tys,
+            rels,
+            others,
+        }))
+    }
+
+    /// Rows of `node` in direction `dir` (0 out, 1 in), of type `ty` or all types, as
+    /// (relationship, type, other node) in key order: what the table's range scan gives.
+    pub(crate) fn get(&self, node: u64, dir: u8, ty: Option<u32>) -> Vec<(u64, u32, u64)> {
+        let (s, e) = match &self.starts {
+            Starts::Dense(st) => match (st.get(node as usize), st.get(node as usize + 1)) {
+                (Some(&s), Some(&e)) => (s as usize, e as usize),
+                _ => return Vec::new(),
+            },
+            Starts::Sparse(m) => match m.get(&node) {
+                Some(&(s, e)) => (s as usize, e as usize),
+                None => return Vec::new(),
+            },
+        };
+        let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
+        let key = |i: usize| (self.dirs[s + i], self.tys[s + i]);
+        let n = e - s;
+        let lo = partition(n, |i| key(i) < (dir, t0));
+        let hi = lo + partition(n - lo, |i| key(lo + i) <= (dir, t1));
+        (s + lo..s + hi)
+            .map(|i| (self.rels[i], self.tys[i], self.others[i]))
+            .collect()
+    }
+}
+
+/// The first `i` in `0..n` where `pred` turns false (`pred` true then false).
+fn partition(n: usize, pred: impl Fn(usize) -> bool) -> usize {
+    let (mut lo, mut hi) = (0, n);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if pred(mid) {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    type Row = ((u64, u8, u32, u64), u64);
+
+    fn reference(rows: &[Row], node: u64, dir: u8, ty: Option<u32>) -> Vec<(u64, u32, u64)> {
+        rows.iter()
+            .filter(|((n, d, t, _), _)| *n == node && *d == dir && ty.is_none_or(|ty| ty == *t))
+            .map(|((_, _, t, r), o)| (*r, *t, *o))
+            .collect()
+    }
+
+    proptest! {
+        /// Every (node, direction, type) lookup gives what a scan of the rows gives, for dense
+        /// and sparse node ids.
+        #[test]
+        fn lookups_match_a_scan_of_the_rows(
+            raw in proptest::collection::vec(((0u64..40, 0u8..2, 0u32..4, 0u64..1000), 0u64..40), 0..200),
+            sparse in any::<bool>(),
+        ) {
+            let mut rows: Vec<Row> = raw
+                .into_iter()
+                .map(|((n, d, t, r), o)| ((if sparse { n << 33 } else { n }, d, t, r), o))
+                .collect();
+            rows.sort_unstable();
+            rows.dedup_by_key(|r| r.0);
+            let m = AdjMem::from_rows(rows.iter().map(|r| Ok(*r))).unwrap().unwrap();
+            if sparse && rows.iter().any(|r| r.0.0 > 0) {
+                prop_assert!(matches!(m.starts, Starts::Sparse(_)));
+            }
+            for n in 0..42u64 {
+                let node = if sparse { n << 33 } else { n };
+                for dir in 0..2 {
+                    for ty in [None, Some(0), Some(1), Some(3), Some(9)] {
+                        prop_assert_eq!(m.get(node, dir, ty), reference(&rows, node, dir, ty));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn unsorted_rows_are_not_copied() {
+        let rows = [((2u64, 0u8, 0u32, 1u64), 5u64), ((1, 0, 0, 2), 6)];
+        assert!(
+            AdjMem::from_rows(rows.iter().map(|r| Ok(*r)))
+                .unwrap()
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn the_copy_is_made_once_after_enough_asks() {
+        let hot = Hot::default();
+        let mut builds = 0;
+        for _ in 0..ASKS_BEFORE_COPY {
+            assert!(hot.adj.get(|| 0, || unreachable!()).is_none());
+        }
+        let rows = [((1u64, 0u8, 0u32, 1u64), 5u64)];
+        let m = hot.adj.get(
+            || 0,
+            || {
+                builds += 1;
+                AdjMem::from_rows(rows.iter().map(|r| Ok(*r))).unwrap()
+            },
+        );
+        assert_eq!(m.unwrap().get(1, 0, None), vec![(1, 0, 5)]);
+        assert!(hot.adj.get(|| 0, || unreachable!()).is_some());
+        assert_eq!(builds, 1);
+        // a large table waits for an eighth of its rows in asks
+        let hot = Hot::default();
+        for _ in 0..100_000 {
+            assert!(hot.adj.get(|| 800_000, || unreachable!()).is_none());
+        }
+        assert!(hot.adj.get(|| unreachable!(), || None).is_none());
+        assert!(hot.adj.get(|| unreachable!(), || unreachable!()).is_none());
+    }
+
+    proptest! {
+        /// Every id reads back its own bytes, and ids without a record read nothing.
+        #[test]
+        fn records_read_back(
+            recs in proptest::collection::btree_map(0u64..300, proptest::collection::vec(any::<u8>(), 0..20), 0..60),
+        ) {
+            let mut m = RecordsMem::new();
+            for (id, b) in &recs {
+                prop_assert!(m.push(*id, b));
+            }
+            for id in 0..320u64 {
+                prop_assert_eq!(m.get(id), recs.get(&id).map(Vec::as_slice));
+            }
+            prop_assert_eq!(m.get(u64::MAX), None);
+        }
+    }
+
+    #[test]
+    fn sparse_or_unordered_records_are_not_copied() {
+        assert!(!RecordsMem::new().push(1 << 40, b"x"));
+        let mut m = RecordsMem::new();
+        assert!(m.push(5, b"x"));
+        assert!(!m.push(3, b"y"));
+        assert!(!m.push(5, b"y"));
+    }
+}
