@@ -1267,3 +1267,50 @@ fn streamed_limit_stops_early_and_checks_its_arguments() {
     );
     assert!(e.to_string().contains("SKIP"), "{e}");
 }
+
+#[test]
+fn create_vector_index_indexes_existing_and_new_nodes() {
+    let (_d, s) = store();
+    q(
+        &s,
+        "UNWIND range(0, 9) AS i CREATE (:Doc {i: i, e: [toFloat(i), 1.0, 0.0]})",
+    );
+    q(
+        &s,
+        "CREATE VECTOR INDEX doc_e IF NOT EXISTS FOR (d:Doc) ON d.e OPTIONS \
+         {indexConfig: {`vector.dimensions`: 3, `vector.similarity_function`: 'cosine'}}",
+    );
+    // written after the index: stored as a vector
+    q(&s, "CREATE (:Doc {i: 100, e: [0.0, 0.0, 1.0]})");
+    let top = |v: &str| -> Vec<String> {
+        let r = q(
+            &s,
+            &format!(
+                "CALL db.index.vector.queryNodes('doc_e', 2, {v}) YIELD node, score \
+                 RETURN node.i AS i ORDER BY score DESC, i"
+            ),
+        );
+        r.rows.iter().map(|row| format!("{:?}", row[0])).collect()
+    };
+    assert_eq!(top("[9.0, 1.0, 0.0]"), ["Int(9)", "Int(8)"]);
+    assert_eq!(top("[0.0, 1.0, 0.0]"), ["Int(0)", "Int(1)"]);
+    assert_eq!(top("[0.0, 0.1, 5.0]")[0], "Int(100)");
+    let shown = q(&s, "SHOW INDEXES");
+    assert!(format!("{:?}", shown.rows).contains("VECTOR"), "{:?}", shown.rows);
+    // the same name again: refused, or nothing with IF NOT EXISTS
+    let opts = QueryOptions::default();
+    let again = "CREATE VECTOR INDEX doc_e FOR (d:Doc) ON d.e OPTIONS {indexConfig: {`vector.dimensions`: 3}}";
+    assert!(qerr(&s, again, &opts).to_string().contains("already exists"));
+    let read_only = QueryOptions {
+        read_only: true,
+        ..QueryOptions::default()
+    };
+    assert!(qerr(&s, again, &read_only).to_string().contains("read-only"));
+    q(&s, "DROP INDEX doc_e");
+    let e = qerr(
+        &s,
+        "CALL db.index.vector.queryNodes('doc_e', 2, [1.0, 0.0, 0.0])",
+        &opts,
+    );
+    assert!(e.to_string().contains("doc_e"), "{e}");
+}

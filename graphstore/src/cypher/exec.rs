@@ -1859,7 +1859,10 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 r.properties
                     .iter()
                     .any(|p| p.key == key && p.ty == crate::ValueType::Vector)
-            })
+            }) || schema
+                .vector_indexes
+                .iter()
+                .any(|x| &x.label == l && x.key == key)
         });
         if !wants {
             return Ok(v);

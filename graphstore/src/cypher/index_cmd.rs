@@ -4,6 +4,13 @@
 //! and `SHOW INDEXES`. A property index serves equality and range lookups of `Label.key`
 //! (inline `{key: value}` and `WHERE n.key = / < / > ...`); the planner picks it (EXPLAIN
 //! shows `NodeIndexSeek`). An index's name is the one given, else `label_key` in lower case.
+//!
+//! `CREATE VECTOR INDEX [name] [IF NOT EXISTS] FOR (n:Label) ON [(]n.key[)] OPTIONS
+//! {indexConfig: {`vector.dimensions`: 384, `vector.similarity_function`: 'cosine',
+//! `vector.quantization.enabled`: true}}` declares an exact cosine vector index in Neo4j 5's
+//! syntax (for `db.index.vector.queryNodes`); dimensions are required, cosine is the only
+//! similarity, and quantization (an int8 pre-scan that keeps results exact) is on by default.
+//! `DROP INDEX name` drops either kind.
 
 use super::value::Val;
 use super::{ErrorKind, QueryError};
@@ -25,8 +32,133 @@ pub(crate) enum IndexCmd {
         on: Option<(String, String)>,
         if_exists: bool,
     },
+    /// Create an exact cosine vector index.
+    CreateVector {
+        name: Option<String>,
+        label: String,
+        key: String,
+        dim: usize,
+        int8: bool,
+        if_not_exists: bool,
+    },
     /// List every index.
     Show,
+}
+
+/// A value in an index command's OPTIONS map.
+#[derive(Debug, Clone, PartialEq)]
+enum Opt {
+    Map(Vec<(String, Opt)>),
+    Str(String),
+    Int(i64),
+    Bool(bool),
+}
+
+/// Largest vector dimension an index takes (Neo4j's limit).
+const MAX_DIMENSIONS: i64 = 4096;
+
+/// Reads `{key: value, ...}` starting at token `*i` (values: maps, strings, integers, booleans).
+fn options_map(t: &[String], i: &mut usize) -> Result<Opt, QueryError> {
+    let at = |i: usize| t.get(i).map(String::as_str);
+    if at(*i) != Some("{") {
+        return Err(syntax("expected { after OPTIONS"));
+    }
+    *i += 1;
+    let mut out = Vec::new();
+    if at(*i) == Some("}") {
+        *i += 1;
+        return Ok(Opt::Map(out));
+    }
+    loop {
+        let key = match at(*i) {
+            Some(k) if !"{}:,'".contains(k) && !k.starts_with('\'') => name(k),
+            _ => return Err(syntax("expected an option name in OPTIONS")),
+        };
+        if at(*i + 1) != Some(":") {
+            return Err(syntax(format!("expected : after option {key}")));
+        }
+        *i += 2;
+        let value = match at(*i) {
+            Some("{") => options_map(t, i)?,
+            Some(v) if v.starts_with('\'') => {
+                *i += 1;
+                Opt::Str(v[1..].to_string())
+            }
+            Some(v) if v.eq_ignore_ascii_case("true") => {
+                *i += 1;
+                Opt::Bool(true)
+            }
+            Some(v) if v.eq_ignore_ascii_case("false") => {
+                *i += 1;
+                Opt::Bool(false)
+            }
+            Some(v) => match v.parse::<i64>() {
+                Ok(n) => {
+                    *i += 1;
+                    Opt::Int(n)
+                }
+                Err(_) => {
+                    return Err(syntax(format!(
+                        "option {key}: expected a map, a quoted string, an integer or a boolean, got {v:?}"
+                    )));
+                }
+            },
+            None => return Err(syntax(format!("option {key} has no value"))),
+        };
+        out.push((key, value));
+        match at(*i) {
+            Some(",") => *i += 1,
+            Some("}") => {
+                *i += 1;
+                return Ok(Opt::Map(out));
+            }
+            _ => return Err(syntax("expected , or } in OPTIONS")),
+        }
+    }
+}
+
+/// Dimensions and quantization from a vector index's OPTIONS.
+fn vector_options(opts: Option<Opt>) -> Result<(usize, bool), QueryError> {
+    let need =
+        "a vector index needs OPTIONS {indexConfig: {`vector.dimensions`: N}} (N from 1 to 4096)";
+    let Some(Opt::Map(top)) = opts else {
+        return Err(syntax(need));
+    };
+    let mut config = None;
+    for (k, v) in top {
+        match (k.as_str(), v) {
+            ("indexConfig", Opt::Map(m)) => config = Some(m),
+            ("indexProvider", Opt::Str(_)) => {}
+            (k, _) => {
+                return Err(syntax(format!(
+                    "unsupported vector index option {k} (indexConfig is read; indexProvider is ignored)"
+                )));
+            }
+        }
+    }
+    let (mut dim, mut int8) = (None, true);
+    for (k, v) in config.ok_or_else(|| syntax(need))? {
+        match (k.as_str(), v) {
+            ("vector.dimensions", Opt::Int(n)) if (1..=MAX_DIMENSIONS).contains(&n) => {
+                dim = Some(n as usize);
+            }
+            ("vector.similarity_function", Opt::Str(f)) if f.eq_ignore_ascii_case("cosine") => {}
+            ("vector.similarity_function", other) => {
+                return Err(syntax(format!(
+                    "vector.similarity_function: only 'cosine' is supported, got {other:?}"
+                )));
+            }
+            ("vector.quantization.enabled", Opt::Bool(b)) => int8 = b,
+            (k, v) => {
+                return Err(syntax(format!(
+                    "unsupported or invalid vector index setting {k}: {v:?} (vector.dimensions: \
+                     1..4096, vector.similarity_function: 'cosine', \
+                     vector.quantization.enabled: true/false)"
+                )));
+            }
+        }
+    }
+    Ok((dim.ok_or_else(|| syntax(need))?, int8))
 }
 
 fn syntax(msg: impl Into<String>) -> QueryError {
@@ -54,10 +186,21 @@ fn tokens(text: &str) -> Result<Vec<String>, QueryError> {
                 }
             }
             out.push(format!("`{s}"));
-        } else if c.is_alphanumeric() || c == '_' {
+        } else if c == '\'' || c == '"' {
+            it.next();
+            let mut s = String::from("'");
+            loop {
+                match it.next() {
+                    Some(ch) if ch == c => break,
+                    Some(ch) => s.push(ch),
+                    None => return Err(syntax("a quoted string is not closed")),
+                }
+            }
+            out.push(s);
+        } else if c.is_alphanumeric() || c == '_' || c == '-' {
             let mut s = String::new();
             while let Some(&ch) = it.peek() {
-                if ch.is_alphanumeric() || ch == '_' {
+                if ch.is_alphanumeric() || ch == '_' || ch == '-' {
                     s.push(ch);
                     it.next();
                 } else {
@@ -92,12 +235,18 @@ pub(crate) fn parse(text: &str) -> Result<Option<IndexCmd>, QueryError> {
         head.get(1).map(String::as_str),
     ) {
         (Some("CREATE"), Some("INDEX")) => 0,
+        (Some("CREATE"), Some("VECTOR")) => 3,
         (Some("DROP"), Some("INDEX")) => 1,
         (Some("SHOW"), Some(w)) if w.starts_with("INDEX") => 2,
         _ => return Ok(None),
     };
     let t = tokens(text)?;
-    let mut i = 2;
+    let vector = kind == 3;
+    if vector && !is_kw(t.get(2), "INDEX") {
+        return Err(syntax("expected CREATE VECTOR INDEX"));
+    }
+    let kind = if vector { 0 } else { kind };
+    let mut i = if vector { 3 } else { 2 };
     let at = |i: usize| t.get(i);
     // `ON :Label(key)`, after CREATE INDEX or DROP INDEX
     let on_label_key = |i: &mut usize| -> Result<(String, String), QueryError> {
@@ -146,25 +295,57 @@ pub(crate) fn parse(text: &str) -> Result<Option<IndexCmd>, QueryError> {
                 let var = at(i + 2).ok_or_else(bad)?.clone();
                 let label = name(at(i + 4).ok_or_else(bad)?);
                 i += 6;
-                if !(is_kw(at(i), "ON") && want(i + 1, "(") && want(i + 3, ".") && want(i + 5, ")"))
-                {
-                    return Err(bad());
+                // a vector index may name its property without parentheses: ON n.key
+                if vector && is_kw(at(i), "ON") && !want(i + 1, "(") && want(i + 2, ".") {
+                    i -= 1;
+                    if at(i + 2) != Some(&var) {
+                        return Err(bad());
+                    }
+                    let key = name(at(i + 4).ok_or_else(bad)?);
+                    i += 5;
+                    (label, key)
+                } else {
+                    if !(is_kw(at(i), "ON")
+                        && want(i + 1, "(")
+                        && want(i + 3, ".")
+                        && want(i + 5, ")"))
+                    {
+                        return Err(bad());
+                    }
+                    if at(i + 2) != Some(&var) {
+                        return Err(syntax(format!(
+                            "ON ({}.key) must use the variable of FOR ({var}:{label})",
+                            at(i + 2).map(|s| name(s)).unwrap_or_default()
+                        )));
+                    }
+                    let key = name(at(i + 4).ok_or_else(bad)?);
+                    i += 6;
+                    (label, key)
                 }
-                if at(i + 2) != Some(&var) {
-                    return Err(syntax(format!(
-                        "ON ({}.key) must use the variable of FOR ({var}:{label})",
-                        at(i + 2).map(|s| name(s)).unwrap_or_default()
-                    )));
-                }
-                let key = name(at(i + 4).ok_or_else(bad)?);
-                i += 6;
-                (label, key)
             };
-            IndexCmd::Create {
-                name: nm,
-                label,
-                key,
-                if_not_exists,
+            if vector {
+                let opts = if is_kw(at(i), "OPTIONS") {
+                    i += 1;
+                    Some(options_map(&t, &mut i)?)
+                } else {
+                    None
+                };
+                let (dim, int8) = vector_options(opts)?;
+                IndexCmd::CreateVector {
+                    name: nm,
+                    label,
+                    key,
+                    dim,
+                    int8,
+                    if_not_exists,
+                }
+            } else {
+                IndexCmd::Create {
+                    name: nm,
+                    label,
+                    key,
+                    if_not_exists,
+                }
             }
         }
         1 => {
@@ -322,5 +503,67 @@ mod tests {
         assert_eq!(parse("MATCH (n) RETURN n").unwrap(), None);
         assert!(parse("CREATE INDEX FOR (s:Segment) ON (t.name)").is_err());
         assert!(parse("CREATE INDEX FOR (s:Segment) ON (s.name) extra").is_err());
+    }
+
+    #[test]
+    fn the_vector_index_command_parses_in_neo4j_syntax() {
+        let want = |name: Option<&str>, dim, int8, if_not_exists| {
+            Some(IndexCmd::CreateVector {
+                name: name.map(String::from),
+                label: "Instance".into(),
+                key: "feature".into(),
+                dim,
+                int8,
+                if_not_exists,
+            })
+        };
+        assert_eq!(
+            parse(
+                "CREATE VECTOR INDEX feat IF NOT EXISTS FOR (n:Instance) ON n.feature OPTIONS \
+                 {indexConfig: {`vector.dimensions`: 384, `vector.similarity_function`: 'COSINE'}}"
+            )
+            .unwrap(),
+            want(Some("feat"), 384, true, true)
+        );
+        assert_eq!(
+            parse(
+                "create vector index for (n:Instance) on (n.feature) options {indexProvider: \
+                 'vector-2.0', indexConfig: {`vector.dimensions`: 8, \
+                 `vector.quantization.enabled`: false}};"
+            )
+            .unwrap(),
+            want(None, 8, false, false)
+        );
+        for (bad, says) in [
+            ("CREATE VECTOR INDEX v FOR (n:I) ON n.f", "needs OPTIONS"),
+            (
+                "CREATE VECTOR INDEX v FOR (n:I) ON n.f OPTIONS {indexConfig: {}}",
+                "needs OPTIONS",
+            ),
+            (
+                "CREATE VECTOR INDEX v FOR (n:I) ON n.f OPTIONS {indexConfig: {`vector.dimensions`: 0}}",
+                "vector.dimensions",
+            ),
+            (
+                "CREATE VECTOR INDEX v FOR (n:I) ON n.f OPTIONS {indexConfig: {`vector.dimensions`: 3, `vector.similarity_function`: 'euclidean'}}",
+                "only 'cosine'",
+            ),
+            (
+                "CREATE VECTOR INDEX v FOR (n:I) ON m.f OPTIONS {}",
+                "expected FOR",
+            ),
+            (
+                "CREATE VECTOR INDEX v FOR (n:I) ON n.f OPTIONS {indexConfig: 'x",
+                "not closed",
+            ),
+            ("CREATE VECTOR v", "CREATE VECTOR INDEX"),
+            (
+                "CREATE VECTOR INDEX v FOR (n:I) ON n.f OPTIONS {a: 1}",
+                "unsupported",
+            ),
+        ] {
+            let e = parse(bad).expect_err(bad).to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
     }
 }

@@ -713,6 +713,54 @@ impl Store {
                 }
                 schema.property_indexes.push(spec);
             }
+            IndexCmd::CreateVector {
+                name,
+                label,
+                key,
+                dim,
+                int8,
+                if_not_exists,
+            } => {
+                let name = name.unwrap_or_else(|| format!("{label}_{key}").to_lowercase());
+                let same = |n: &str| n == name;
+                let clash = schema
+                    .vector_indexes
+                    .iter()
+                    .any(|v| same(&v.name) || (v.label == label && v.key == key))
+                    || schema.spatial_indexes.iter().any(|x| same(&x.name))
+                    || schema.text_indexes.iter().any(|x| same(&x.name))
+                    || schema
+                        .effective_property_indexes()
+                        .iter()
+                        .any(|p| same(&index_cmd::index_name(p)));
+                if clash {
+                    if if_not_exists {
+                        return Ok(QueryResult::default());
+                    }
+                    return err(
+                        ErrorKind::Constraint,
+                        "IndexAlreadyExists",
+                        format!(
+                            "an index named {name}, or a vector index on :{label}({key}), already exists"
+                        ),
+                    );
+                }
+                schema.vector_indexes.push(crate::schema::VectorIndexSpec {
+                    name,
+                    label,
+                    key,
+                    dim,
+                    int8,
+                    method: Default::default(),
+                });
+            }
+            IndexCmd::Drop {
+                name: Some(n),
+                on: None,
+                ..
+            } if schema.vector_indexes.iter().any(|v| v.name == n) => {
+                schema.vector_indexes.retain(|v| v.name != n);
+            }
             IndexCmd::Drop {
                 name,
                 on,

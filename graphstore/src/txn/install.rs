@@ -63,6 +63,31 @@ impl WriteTxn<'_> {
         let compiled = Arc::new(compiled);
         self.schema = compiled.clone();
         self.pending = PendingMem::for_schema(&compiled);
+        // a vector index over a property written as lists of numbers (before the index was
+        // declared): store them as vectors, as writing them now would
+        if !compiled.vector.is_empty() {
+            for id in Raw::all_nodes(self)? {
+                let rec = self.rec(id)?;
+                for v in &compiled.vector {
+                    if !rec.has_label(v.label) {
+                        continue;
+                    }
+                    if let Some(Value::List(items)) = rec.get(v.key)
+                        && !items.is_empty()
+                        && let Some(xs) = items
+                            .iter()
+                            .map(|x| match x {
+                                Value::Int(n) => Some(*n as f32),
+                                Value::Float(f) => Some(*f as f32),
+                                _ => None,
+                            })
+                            .collect::<Option<Vec<f32>>>()
+                    {
+                        self.set_node_prop(id, PropKey(v.key), Value::Vector(xs))?;
+                    }
+                }
+            }
+        }
         // rebuild the property index from scratch, checking every node on the way
         let old: Vec<Vec<u8>> = Raw::raw_propidx_rows(self)?;
         for k in old {
