@@ -30,7 +30,7 @@ static TEST_ALLOC: mem::CountingAlloc = mem::CountingAlloc;
 pub use error::{Error, Result};
 pub use index::text::tokenize;
 pub use layout::{Committed, FORMAT_VERSION, GraphCounts};
-pub use model::{Adjacent, Direction, Node, Relationship};
+pub use model::{Adjacent, Direction, NewRel, Node, Relationship};
 pub use payload::{DEFAULT_RESOLUTION_M, PointCloud};
 pub use read::{FlatVectorIndex, GraphRead, Hit, ValueBound, VectorSearch, View};
 pub use schema::{

@@ -110,6 +110,10 @@ pub(crate) fn raw_props(props: &[(PropKey, Value)]) -> Vec<(u32, Value)> {
     props.iter().map(|(k, v)| (k.0, v.clone())).collect()
 }
 
+/// A relationship to create in bulk ([`crate::WriteTxn::create_rels`]): start node, type, end
+/// node, properties.
+pub type NewRel = (u64, RelType, u64, Vec<(PropKey, Value)>);
+
 pub(crate) fn typed_props(props: Vec<(u32, Value)>) -> Vec<(PropKey, Value)> {
     props.into_iter().map(|(k, v)| (PropKey(k), v)).collect()
 }

@@ -1296,16 +1296,28 @@ fn create_vector_index_indexes_existing_and_new_nodes() {
     assert_eq!(top("[0.0, 1.0, 0.0]"), ["Int(0)", "Int(1)"]);
     assert_eq!(top("[0.0, 0.1, 5.0]")[0], "Int(100)");
     let shown = q(&s, "SHOW INDEXES");
-    assert!(format!("{:?}", shown.rows).contains("VECTOR"), "{:?}", shown.rows);
+    assert!(
+        format!("{:?}", shown.rows).contains("VECTOR"),
+        "{:?}",
+        shown.rows
+    );
     // the same name again: refused, or nothing with IF NOT EXISTS
     let opts = QueryOptions::default();
     let again = "CREATE VECTOR INDEX doc_e FOR (d:Doc) ON d.e OPTIONS {indexConfig: {`vector.dimensions`: 3}}";
-    assert!(qerr(&s, again, &opts).to_string().contains("already exists"));
+    assert!(
+        qerr(&s, again, &opts)
+            .to_string()
+            .contains("already exists")
+    );
     let read_only = QueryOptions {
         read_only: true,
         ..QueryOptions::default()
     };
-    assert!(qerr(&s, again, &read_only).to_string().contains("read-only"));
+    assert!(
+        qerr(&s, again, &read_only)
+            .to_string()
+            .contains("read-only")
+    );
     q(&s, "DROP INDEX doc_e");
     let e = qerr(
         &s,

@@ -169,6 +169,12 @@ fn bad_files_fail_with_the_file_and_line() {
             "no node has the :ID \"9\"",
         ),
         (
+            ":ID\n1\n2\n",
+            Some(":START_ID,:END_ID,:TYPE\n1,2,R\n2,1,R\n7,1,R\n2,2,R\n"),
+            "relationships.csv:4",
+            "column 1: no node has the :ID \"7\"",
+        ),
+        (
             ":ID\n1\n",
             Some(":START_ID,:END_ID\n1,1\n"),
             "relationships.csv:1",
@@ -189,4 +195,112 @@ fn bad_files_fail_with_the_file_and_line() {
             .to_string();
         assert!(e.contains(at) && e.contains(what), "case {i}: {e}");
     }
+}
+
+/// Everything a relationship store holds, for comparing two stores: each relationship by id,
+/// each node's adjacency, and the counts.
+fn rel_state(store: &Store) -> String {
+    let r = store.read().unwrap();
+    let mut out = String::new();
+    for id in r.all_rel_ids().unwrap() {
+        out += &format!("{:?}\n", r.rel(id).unwrap());
+    }
+    for id in r.all_node_ids().unwrap() {
+        out += &format!(
+            "{id}: {:?}\n",
+            r.neighbours(id, graphstore::Direction::Both, None).unwrap()
+        );
+    }
+    out + &format!("{:?}", r.counts().unwrap())
+}
+
+fn numbered(n: usize) -> (tempfile::TempDir, Store, Vec<u64>) {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::create(dir.path().join("g.og")).unwrap();
+    let ids = store
+        .write(|tx| (0..n).map(|_| tx.create_node_named(&["N"], &[])).collect())
+        .unwrap();
+    (dir, store, ids)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 32, ..Default::default() })]
+
+    /// `create_rels` (the bulk path the import takes) leaves the store exactly as
+    /// `create_rel` row by row does: same ids, records, adjacency and counts.
+    #[test]
+    fn bulk_relationships_equal_one_by_one(
+        n in 1usize..20,
+        edges in proptest::collection::vec((0usize..20, 0usize..20, 0usize..3, proptest::option::of(-5i64..5)), 0..60),
+    ) {
+        let types = ["A", "B", "C"];
+        let (_d1, one, ids1) = numbered(n);
+        let (_d2, bulk, ids2) = numbered(n);
+        one.write(|tx| {
+            for (a, b, t, w) in &edges {
+                let props: Vec<(&str, Value)> = w.iter().map(|w| ("w", Value::Int(*w))).collect();
+                tx.create_rel_named(ids1[a % n], types[*t], ids1[b % n], &props)?;
+            }
+            Ok(())
+        }).unwrap();
+        bulk.write(|tx| {
+            let mut rows = Vec::new();
+            for (a, b, t, w) in &edges {
+                let ty = tx.rel_type_id(types[*t])?;
+                let props = match w {
+                    Some(w) => vec![(tx.prop_key_id("w")?, Value::Int(*w))],
+                    None => Vec::new(),
+                };
+                rows.push((ids2[a % n], ty, ids2[b % n], props));
+            }
+            tx.create_rels(rows).map_err(|(_, e)| e)?;
+            Ok(())
+        }).unwrap();
+        proptest::prop_assert_eq!(rel_state(&one), rel_state(&bulk));
+    }
+}
+
+#[test]
+fn bulk_relationships_over_many_nodes_and_a_bad_row() {
+    // more distinct ends than the bulk path keeps records for at once
+    let n = 70_000;
+    let (_d, store, ids) = numbered(n);
+    let rows = |tx: &mut graphstore::WriteTxn<'_>, bad: Option<usize>| {
+        let ty = tx.rel_type_id("R").unwrap();
+        (0..n)
+            .map(|i| {
+                let end = if Some(i) == bad {
+                    10 * n as u64
+                } else {
+                    ids[(i * 7919) % n]
+                };
+                (ids[i], ty, end, Vec::new())
+            })
+            .collect::<Vec<_>>()
+    };
+    // a missing end in row 50,000: that row is named and nothing is written
+    let e = store
+        .write(|tx| {
+            let r = rows(tx, Some(50_000));
+            match tx.create_rels(r) {
+                Err((i, e)) => Err(graphstore::Error::InvalidValue(format!("row {i}: {e}"))),
+                Ok(_) => Ok(()),
+            }
+        })
+        .expect_err("a missing end");
+    assert!(e.to_string().contains("row 50000"), "{e}");
+    assert_eq!(store.counts().unwrap().total_relationships, 0);
+    store
+        .write(|tx| {
+            let r = rows(tx, None);
+            tx.create_rels(r).map_err(|(_, e)| e)
+        })
+        .unwrap();
+    let r = store.read().unwrap();
+    assert_eq!(store.counts().unwrap().total_relationships, n as u64);
+    let out = r
+        .neighbours(ids[3], graphstore::Direction::Outgoing, None)
+        .unwrap();
+    assert_eq!(out.len(), 1);
+    assert_eq!(out[0].other, ids[(3 * 7919) % n]);
 }

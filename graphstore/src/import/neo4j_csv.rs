@@ -454,6 +454,7 @@ fn in_batches(
     r: &mut Reader,
     batch_rows: usize,
     row: &mut dyn FnMut(&mut WriteTxn<'_>, &Reader) -> Result<()>,
+    flush: &mut dyn FnMut(&mut WriteTxn<'_>) -> Result<()>,
     committed: &mut dyn FnMut(u64, u64),
 ) -> Result<()> {
     let mut more = true;
@@ -468,6 +469,7 @@ fn in_batches(
                 row(tx, r)?;
                 n += 1;
             }
+            flush(tx)?;
             Ok(n)
         })?;
         committed(n, r.bytes());
@@ -610,11 +612,18 @@ pub fn import_neo4j_csv(
             }
             Ok(())
         };
-        in_batches(store, &mut r, batch_rows, &mut row, &mut |rows, bytes| {
-            out.nodes += rows;
-            out.batches += 1;
-            progress(done_bytes + bytes, total);
-        })?;
+        in_batches(
+            store,
+            &mut r,
+            batch_rows,
+            &mut row,
+            &mut |_| Ok(()),
+            &mut |rows, bytes| {
+                out.nodes += rows;
+                out.batches += 1;
+                progress(done_bytes + bytes, total);
+            },
+        )?;
         done_bytes += std::fs::metadata(&f.path).map_or(0, |m| m.len());
     }
     // pass 3: relationships
@@ -643,6 +652,33 @@ pub fn import_neo4j_csv(
         };
         let mut keys: Option<Vec<Option<PropKey>>> = None;
         let mut types: HashMap<String, RelType> = HashMap::new();
+        // a batch's rows, created together when it ends (see `WriteTxn::create_rels`), with
+        // each row's line for errors
+        let pending: std::cell::RefCell<(Vec<crate::NewRel>, Vec<u64>)> = Default::default();
+        let path = f.path.clone();
+        let mut flush = |tx: &mut WriteTxn<'_>| -> Result<()> {
+            let (rows, lines) = std::mem::take(&mut *pending.borrow_mut());
+            let ends: Vec<(u64, u64)> = rows.iter().map(|(s, _, e, _)| (*s, *e)).collect();
+            tx.create_rels(rows).map_err(|(i, err)| {
+                let detail = match err {
+                    Error::NodeNotFound(id) => format!(
+                        "column {}: no node has the :ID \"{id}\"",
+                        if ends.get(i).is_some_and(|(s, _)| *s == id) {
+                            sc + 1
+                        } else {
+                            ec + 1
+                        }
+                    ),
+                    other => other.to_string(),
+                };
+                Error::Import {
+                    path: path.clone(),
+                    line: lines.get(i).copied().unwrap_or(0),
+                    detail,
+                }
+            })?;
+            Ok(())
+        };
         let mut row = |tx: &mut WriteTxn<'_>, r: &Reader| -> Result<()> {
             let keys = match &keys {
                 Some(k) => k,
@@ -685,20 +721,23 @@ pub fn import_neo4j_csv(
             let declared = rel_types.get(tname);
             let want = |k: &str| declared.and_then(|m| m.get(k)).copied();
             let props = row_props(r, keys, &want)?;
-            tx.create_rel(s, ty, e, props).map_err(|err| match err {
-                Error::NodeNotFound(id) => r.err(format!(
-                    "column {}: no node has the :ID \"{id}\"",
-                    if id == s { sc + 1 } else { ec + 1 }
-                )),
-                other => r.err(other.to_string()),
-            })?;
+            let mut p = pending.borrow_mut();
+            p.0.push((s, ty, e, props));
+            p.1.push(r.line());
             Ok(())
         };
-        in_batches(store, &mut r, batch_rows, &mut row, &mut |rows, bytes| {
-            out.relationships += rows;
-            out.batches += 1;
-            progress(done_bytes + bytes, total);
-        })?;
+        in_batches(
+            store,
+            &mut r,
+            batch_rows,
+            &mut row,
+            &mut flush,
+            &mut |rows, bytes| {
+                out.relationships += rows;
+                out.batches += 1;
+                progress(done_bytes + bytes, total);
+            },
+        )?;
         done_bytes += std::fs::metadata(&f.path).map_or(0, |m| m.len());
     }
     Ok(out)
