@@ -206,4 +206,79 @@ fn a_map_exported_as_neo4j_csv_imports_as_the_same_map() {
     );
     assert!(!bad_db.exists());
     assert!(!dir.path().join("bad.og.importing").exists());
+
+    // the same map through node-link JSON: the same nodes, ids, properties and relationships
+    let nl = dir.path().join("map.json");
+    ok(&og(&[
+        "export",
+        "--db",
+        s(&db),
+        "--format",
+        "node-link",
+        "--out",
+        s(&nl),
+    ]));
+    let from_json = dir.path().join("from_json.og");
+    let a = json(&og(&[
+        "import",
+        "--db",
+        s(&from_json),
+        "--schema",
+        "opengraph",
+        "--node-link",
+        s(&nl),
+        "--json",
+    ]));
+    assert_eq!(a["ids_kept"], true, "{a}");
+    assert_eq!(info(&from_json), info(&db));
+    for q in [
+        "MATCH (n:Instance) RETURN id(n) AS id, n.caption AS caption, n.center AS center, \
+         n.feature AS feature, n.bbox AS bbox ORDER BY id",
+        "MATCH (s:Segment) RETURN id(s) AS id, properties(s) AS p ORDER BY id",
+    ] {
+        assert_eq!(read_query(&from_json, q), read_query(&db, q), "{q}");
+    }
+    assert_eq!(rels(&from_json), want);
+    // the vector index works on the copy: an instance's own feature finds it first
+    let top = read_query(
+        &from_json,
+        "MATCH (i:Instance) WITH i ORDER BY id(i) LIMIT 1 \
+         CALL db.index.vector.queryNodes('instance_feature', 1, i.feature) YIELD node \
+         RETURN id(node) = id(i) AS same",
+    );
+    assert_eq!(top[0]["same"], true, "{top}");
+    // a node-link file with an edge to nowhere: exit 2 naming the edge, nothing left behind
+    std::fs::write(
+        dir.path().join("bad.json"),
+        r#"{"nodes": [{"id": 1}], "links": [{"source": 1, "target": 7}]}"#,
+    )
+    .unwrap();
+    let bad_db = dir.path().join("bad_json.og");
+    let bad = og(&[
+        "import",
+        "--db",
+        s(&bad_db),
+        "--node-link",
+        s(&dir.path().join("bad.json")),
+    ]);
+    assert_eq!(bad.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("edges[0]: target 7 is no node's id"), "{err}");
+    assert!(!bad_db.exists());
+    // bad JSON: the line and column
+    std::fs::write(
+        dir.path().join("broken.json"),
+        "{\"nodes\": [\n{\"id\": 1},,\n]}",
+    )
+    .unwrap();
+    let bad = og(&[
+        "import",
+        "--db",
+        s(&bad_db),
+        "--node-link",
+        s(&dir.path().join("broken.json")),
+    ]);
+    assert_eq!(bad.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("broken.json:2: column"), "{err}");
 }

@@ -304,3 +304,85 @@ fn bulk_relationships_over_many_nodes_and_a_bad_row() {
     assert_eq!(out.len(), 1);
     assert_eq!(out[0].other, ids[(3 * 7919) % n]);
 }
+
+/// A graph exported as node-link JSON (either edge key) imports as the same graph, properties
+/// named like node-link's own keys included; string ids get new node ids, and edges without a
+/// type get the default type.
+#[test]
+fn node_link_json_imports_as_the_same_graph() {
+    use graphstore::import::import_node_link;
+    let dir = tempfile::tempdir().unwrap();
+    let src = Store::create(dir.path().join("src.og")).unwrap();
+    src.write(|tx| {
+        let a = tx.create_node_named(
+            &["P", "Q"],
+            &[
+                ("id", Value::String("own id".into())),
+                ("labels", Value::Int(3)),
+                ("at", Value::Point3D([1.0, 2.5, -3.0])),
+                ("tags", Value::List(vec![Value::String("x".into())])),
+            ],
+        )?;
+        let b = tx.create_node_named(&[], &[("w", Value::Float(0.5))])?;
+        tx.create_rel_named(
+            a,
+            "R",
+            b,
+            &[("type", Value::String("own".into())), ("d", Value::Int(2))],
+        )?;
+        tx.create_rel_named(b, "S", b, &[])?;
+        tx.create_rel_named(a, "R", b, &[])?;
+        Ok(())
+    })
+    .unwrap();
+    for key in ["edges", "links"] {
+        let path = dir.path().join(format!("{key}.json"));
+        let mut f = std::fs::File::create(&path).unwrap();
+        graphstore::export::export_node_link(&src.read().unwrap(), key, &mut f).unwrap();
+        drop(f);
+        let dst = Store::create(dir.path().join(format!("{key}.og"))).unwrap();
+        let got = import_node_link(&dst, &path, "RELATED_TO", 2, &mut |_, _| {}).unwrap();
+        assert!(got.ids_kept);
+        assert_eq!((got.nodes, got.relationships), (2, 3));
+        assert_eq!(canon(&dst), canon(&src), "{key}");
+    }
+    let text = r#"{"nodes": [{"id": "a", "labels": ["City"], "pop": 3}, {"id": "b"}],
+                   "links": [{"source": "a", "target": "b", "km": 2.5}]}"#;
+    let path = dir.path().join("strings.json");
+    std::fs::write(&path, text).unwrap();
+    let dst = Store::create(dir.path().join("strings.og")).unwrap();
+    let got = import_node_link(&dst, &path, "ROAD", 100, &mut |_, _| {}).unwrap();
+    assert!(!got.ids_kept);
+    let r = dst
+        .query(
+            "MATCH (c:City)-[r:ROAD]->(o) RETURN c.pop AS pop, r.km AS km, labels(o) AS l",
+            &Default::default(),
+        )
+        .unwrap();
+    assert_eq!(format!("{:?}", r.rows), "[[Int(3), Float(2.5), List([])]]");
+    for (bad, says) in [
+        (
+            r#"{"nodes": [{"id": 1}, {"id": 1}]}"#,
+            "nodes[1]: the id 1 appears twice",
+        ),
+        (r#"{"nodes": [{"name": 1}]}"#, "nodes[0] has no \"id\""),
+        (r#"{"edges": []}"#, "no \"nodes\" list"),
+        (
+            r#"{"nodes": [{"id": 1, "labels": "P"}]}"#,
+            "list of strings",
+        ),
+        (
+            r#"{"nodes": [{"id": 1}], "edges": [{"source": 1, "target": 1, "type": 4}]}"#,
+            "edges[0]: \"type\"",
+        ),
+    ] {
+        std::fs::write(&path, bad).unwrap();
+        let dst = Store::create(dir.path().join("bad.og")).unwrap();
+        let e = import_node_link(&dst, &path, "R", 100, &mut |_, _| {})
+            .expect_err(bad)
+            .to_string();
+        assert!(e.contains(says), "{bad}: {e}");
+        drop(dst);
+        std::fs::remove_file(dir.path().join("bad.og")).unwrap();
+    }
+}

@@ -65,6 +65,12 @@ pub(crate) enum Command {
         /// A relationship file, `file.csv` or `TYPE=file.csv` (repeatable).
         #[arg(long)]
         relationships: Vec<String>,
+        /// A networkx node-link JSON file instead of CSV (`export --format node-link` writes one).
+        #[arg(long, conflicts_with_all = ["folder", "nodes", "relationships"])]
+        node_link: Option<PathBuf>,
+        /// The relationship type of node-link edges without a `type`.
+        #[arg(long, default_value = "RELATED_TO")]
+        default_type: String,
         /// `none` (schema-free) or `opengraph` (the map schema, for an exported map).
         #[arg(long, default_value = "none", value_parser = ["none", "opengraph"])]
         schema: String,

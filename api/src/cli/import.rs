@@ -11,6 +11,8 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         folder,
         nodes,
         relationships,
+        node_link,
+        default_type,
         schema,
         batch_rows,
         json,
@@ -23,6 +25,8 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         folder,
         nodes,
         relationships,
+        node_link,
+        default_type,
         schema: if schema == "opengraph" {
             ImportSchema::Opengraph
         } else {
@@ -30,11 +34,14 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         },
         batch_rows,
     };
+    let req_node_link = req.node_link.is_some();
     let bar = indicatif::ProgressBar::new(0);
     bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {bytes}/{total_bytes} {bytes_per_sec}",
-        )
+        indicatif::ProgressStyle::with_template(if req_node_link {
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} nodes and edges"
+        } else {
+            "{spinner} [{elapsed_precise}] {bar:40} {bytes}/{total_bytes} {bytes_per_sec}"
+        })
         .expect("valid template"),
     );
     let answer = opengraph_service::import::import(&req, &mut |done, total| {
@@ -47,7 +54,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         outln!("{}", serde_json::to_string_pretty(&a)?);
     } else {
         outln!(
-            "imported {} nodes and {} relationships into {} in {:.2} s ({} commits; node ids {}; store {:.1} MB from {:.1} MB of CSV)",
+            "imported {} nodes and {} relationships into {} in {:.2} s ({} commits; node ids {}; store {:.1} MB from {:.1} MB of {})",
             a.nodes,
             a.relationships,
             a.db.display(),
@@ -55,7 +62,12 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
             a.batches,
             if a.ids_kept { "kept" } else { "new" },
             a.store_bytes as f64 / 1e6,
-            a.csv_bytes as f64 / 1e6
+            a.input_bytes as f64 / 1e6,
+            if req_node_link {
+                "node-link JSON"
+            } else {
+                "CSV"
+            }
         );
     }
     Ok(())
