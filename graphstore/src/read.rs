@@ -380,22 +380,14 @@ pub trait GraphRead {
     /// Nodes of a spatial index within `radius_m` of `center` (distance to the box), nearest
     /// first.
     fn spatial_within(&self, index: &str, center: [f64; 3], radius_m: f64) -> Result<Vec<Hit>> {
-        let raw = self.view().raw;
-        let i = raw.base().schema.spatial_by_name(index)?;
         if !(radius_m >= 0.0 && radius_m.is_finite()) || center.iter().any(|c| !c.is_finite()) {
             return Err(Error::InvalidValue(format!(
                 "radius {radius_m} m or centre {center:?} is not finite and non-negative"
             )));
         }
-        Ok(spatial::within(
-            &raw.base().mem.spatial[i],
-            raw.pending_mem().map(|p| &p.spatial[i]),
-            center,
-            radius_m,
-        )
-        .into_iter()
-        .map(|(node, d)| Hit { node, score: d })
-        .collect())
+        spatial_hits(self.view(), index, |stack, pending| {
+            spatial::within(stack, pending, center, radius_m)
+        })
     }
 
     /// Nodes of a spatial index whose footprint lies within `radius_m` of the ground point
@@ -412,24 +404,15 @@ pub trait GraphRead {
         axes: [usize; 2],
         radius_m: f64,
     ) -> Result<Vec<Hit>> {
-        let raw = self.view().raw;
-        let i = raw.base().schema.spatial_by_name(index)?;
         check_ground(ground, axes)?;
         if !(radius_m >= 0.0 && radius_m.is_finite()) {
             return Err(Error::InvalidValue(format!(
                 "radius {radius_m} m is not finite and non-negative"
             )));
         }
-        Ok(spatial::within_ground(
-            &raw.base().mem.spatial[i],
-            raw.pending_mem().map(|p| &p.spatial[i]),
-            ground,
-            axes,
-            radius_m,
-        )
-        .into_iter()
-        .map(|(node, d)| Hit { node, score: d })
-        .collect())
+        spatial_hits(self.view(), index, |stack, pending| {
+            spatial::within_ground(stack, pending, ground, axes, radius_m)
+        })
     }
 
     /// The `k` nodes of a spatial index whose footprints are nearest the ground point
@@ -444,39 +427,22 @@ pub trait GraphRead {
         axes: [usize; 2],
         k: usize,
     ) -> Result<Vec<Hit>> {
-        let raw = self.view().raw;
-        let i = raw.base().schema.spatial_by_name(index)?;
         check_ground(ground, axes)?;
-        Ok(spatial::nearest_ground(
-            &raw.base().mem.spatial[i],
-            raw.pending_mem().map(|p| &p.spatial[i]),
-            ground,
-            axes,
-            k,
-        )
-        .into_iter()
-        .map(|(node, d)| Hit { node, score: d })
-        .collect())
+        spatial_hits(self.view(), index, |stack, pending| {
+            spatial::nearest_ground(stack, pending, ground, axes, k)
+        })
     }
 
     /// The `k` nodes of a spatial index nearest to `center`, nearest first.
     fn spatial_nearest(&self, index: &str, center: [f64; 3], k: usize) -> Result<Vec<Hit>> {
-        let raw = self.view().raw;
-        let i = raw.base().schema.spatial_by_name(index)?;
         if center.iter().any(|c| !c.is_finite()) {
             return Err(Error::InvalidValue(format!(
                 "centre {center:?} is not finite"
             )));
         }
-        Ok(spatial::nearest(
-            &raw.base().mem.spatial[i],
-            raw.pending_mem().map(|p| &p.spatial[i]),
-            center,
-            k,
-        )
-        .into_iter()
-        .map(|(node, d)| Hit { node, score: d })
-        .collect())
+        spatial_hits(self.view(), index, |stack, pending| {
+            spatial::nearest(stack, pending, center, k)
+        })
     }
 
     /// A vector index by name, searchable through [`VectorSearch`].
@@ -555,6 +521,27 @@ pub trait GraphRead {
             .map(|(_, n)| n)
             .collect()
     }
+}
+
+/// Runs `search` over spatial index `index` (its committed layers and this transaction's
+/// pending entries) and gives its (node, distance) results as hits.
+fn spatial_hits(
+    v: View<'_>,
+    index: &str,
+    search: impl FnOnce(
+        &crate::index::Stack<spatial::SpatialLayer>,
+        Option<&crate::index::Pending<spatial::Aabb>>,
+    ) -> Vec<(u64, f64)>,
+) -> Result<Vec<Hit>> {
+    let i = v.raw.base().schema.spatial_by_name(index)?;
+    let hits = search(
+        &v.raw.base().mem.spatial[i],
+        v.raw.pending_mem().map(|p| &p.spatial[i]),
+    );
+    Ok(hits
+        .into_iter()
+        .map(|(node, score)| Hit { node, score })
+        .collect())
 }
 
 fn property_index(v: View<'_>, label: &str, key: &str) -> Result<Option<u32>> {

@@ -1326,3 +1326,28 @@ fn create_vector_index_indexes_existing_and_new_nodes() {
     );
     assert!(e.to_string().contains("doc_e"), "{e}");
 }
+
+/// A statement asked again comes from the thread's parsed-statement cache: it still takes new
+/// parameters and sees new data, and a bad statement fails every time.
+#[test]
+fn repeated_statements_take_new_parameters_and_data() {
+    let (_d, s) = store();
+    q(&s, "UNWIND range(1, 5) AS i CREATE (:P {v: i})");
+    let text = "MATCH (p:P) WHERE p.v >= $min RETURN count(*) AS n";
+    let run = |min: i64| {
+        let opts = QueryOptions {
+            params: [("min".to_string(), graphstore::cypher::Val::Int(min))].into(),
+            ..QueryOptions::default()
+        };
+        format!("{:?}", s.query(text, &opts).unwrap().rows)
+    };
+    assert_eq!(run(2), "[[Int(4)]]");
+    assert_eq!(run(5), "[[Int(1)]]");
+    q(&s, "CREATE (:P {v: 9})");
+    assert_eq!(run(5), "[[Int(2)]]");
+    let opts = QueryOptions::default();
+    for _ in 0..2 {
+        let e = qerr(&s, "MATCH (p:P) RETURN q", &opts);
+        assert!(e.to_string().contains("q"), "{e}");
+    }
+}

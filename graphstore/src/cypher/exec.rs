@@ -399,7 +399,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             mem_reserved: Cell::new(0),
             mem_peak: Cell::new(0),
             label_counts: std::cell::OnceCell::new(),
-            node_cache: std::cell::RefCell::new(lru::LruCache::new(NODE_CACHE)),
+            node_cache: std::cell::RefCell::new(lru::LruCache::sparse(NODE_CACHE)),
             label_sets: Default::default(),
             stats: Stats::default(),
         }

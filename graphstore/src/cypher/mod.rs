@@ -656,6 +656,32 @@ fn after_statement<T>(res: R<T>, peak: u64) -> R<T> {
     res
 }
 
+/// Statements parsed and checked on this thread, most recently used kept: a service asks the
+/// same statements over and over, and for an anchored pattern parsing costs as much as
+/// running it. Keyed by the statement's text (a pure function of it).
+const STATEMENT_CACHE: std::num::NonZeroUsize = std::num::NonZeroUsize::new(128).unwrap();
+/// Longer statements are not kept (they are rare, and would hold memory).
+const STATEMENT_CACHE_MAX_TEXT: usize = 4096;
+
+thread_local! {
+    static STATEMENTS: std::cell::RefCell<lru::LruCache<String, std::rc::Rc<ast::Statement>>> =
+        std::cell::RefCell::new(lru::LruCache::new(STATEMENT_CACHE));
+}
+
+/// `text` parsed and semantically checked, from this thread's cache when it was seen lately.
+fn checked(text: &str) -> Result<std::rc::Rc<ast::Statement>, QueryError> {
+    if let Some(s) = STATEMENTS.with(|c| c.borrow_mut().get(text).cloned()) {
+        return Ok(s);
+    }
+    let stmt = parser::parse(text)?;
+    check::check(&stmt)?;
+    let stmt = std::rc::Rc::new(stmt);
+    if text.len() <= STATEMENT_CACHE_MAX_TEXT {
+        STATEMENTS.with(|c| c.borrow_mut().put(text.to_string(), stmt.clone()));
+    }
+    Ok(stmt)
+}
+
 impl Store {
     /// Runs `CREATE INDEX`, `DROP INDEX` or `SHOW INDEXES` (see [`index_cmd`]).
     fn index_command(
@@ -805,8 +831,8 @@ impl Store {
         if let Some(cmd) = index_cmd::parse(text)? {
             return self.index_command(cmd, opts);
         }
-        let stmt = parser::parse(text)?;
-        check::check(&stmt)?;
+        let stmt = checked(text)?;
+        let stmt = &*stmt;
         let deadline = opts.timeout.map(|t| Instant::now() + t);
         let writes = stmt
             .parts
@@ -814,7 +840,7 @@ impl Store {
             .any(|p| p.clauses.iter().any(ast::Clause::is_write));
         if stmt.explain {
             let txn = self.read()?;
-            let plan = plan::explain(&stmt, &txn);
+            let plan = plan::explain(stmt, &txn);
             return Ok(QueryResult {
                 plan: Some(plan),
                 ..QueryResult::default()
@@ -842,7 +868,7 @@ impl Store {
                 ctx.max_rows = opts.max_intermediate_rows;
                 ctx.max_memory = opts.max_memory_bytes;
                 ctx.ground_axes = opts.ground_axes;
-                let res = run_statement(&mut ctx, &stmt, opts);
+                let res = run_statement(&mut ctx, stmt, opts);
                 let peak = ctx.mem_peak();
                 drop(ctx);
                 let mut res = after_statement(res, peak)?;
@@ -855,7 +881,7 @@ impl Store {
             ctx.max_rows = opts.max_intermediate_rows;
             ctx.max_memory = opts.max_memory_bytes;
             ctx.ground_axes = opts.ground_axes;
-            let res = run_statement(&mut ctx, &stmt, opts);
+            let res = run_statement(&mut ctx, stmt, opts);
             let peak = ctx.mem_peak();
             drop(ctx);
             let mut res = after_statement(res, peak)?;
