@@ -231,9 +231,23 @@ def main():
     except ImportError:
         print("skipping: no kuzu in this Python (run scripts/setup.sh, then use its venv)")
         return 0
+    # a scratch folder: a new temporary one (removed at the end), or --work, which must be
+    # empty or one this bench made before (it is cleared: the stores are written afresh)
+    marker = ".og-kuzu-bench"
     work = args.work or tempfile.mkdtemp(prefix="og-kuzu-")
+    if args.work and os.path.isdir(work) and os.listdir(work):
+        if not os.path.exists(os.path.join(work, marker)):
+            sys.exit(
+                f"--work {work} is not empty and was not made by this bench: give an empty or new folder"
+            )
     if os.path.exists(work):
         shutil.rmtree(work)
+    os.makedirs(work)
+    open(os.path.join(work, marker), "w").close()
+    if not args.work:
+        import atexit
+
+        atexit.register(shutil.rmtree, work, True)
     t = time.perf_counter()
     g = generate(work, args.nodes, args.rels, args.seed)
     print(

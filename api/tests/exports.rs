@@ -280,5 +280,5 @@ fn a_map_exported_as_neo4j_csv_imports_as_the_same_map() {
     ]);
     assert_eq!(bad.status.code(), Some(2));
     let err = String::from_utf8_lossy(&bad.stderr);
-    assert!(err.contains("broken.json:2: column"), "{err}");
+    assert!(err.contains("broken.json:2: not JSON"), "{err}");
 }

@@ -1295,6 +1295,23 @@ fn create_vector_index_indexes_existing_and_new_nodes() {
     assert_eq!(top("[9.0, 1.0, 0.0]"), ["Int(9)", "Int(8)"]);
     assert_eq!(top("[0.0, 1.0, 0.0]"), ["Int(0)", "Int(1)"]);
     assert_eq!(top("[0.0, 0.1, 5.0]")[0], "Int(100)");
+    // scores stay within [0, 1] even where f32 rounding puts a cosine a hair above 1
+    let best = q(
+        &s,
+        "CALL db.index.vector.queryNodes('doc_e', 11, [9.0, 1.0, 0.0]) YIELD score RETURN max(score) AS m, min(score) AS n",
+    );
+    let (hi, lo) = match (&best.rows[0][0], &best.rows[0][1]) {
+        (graphstore::cypher::Val::Float(a), graphstore::cypher::Val::Float(b)) => (*a, *b),
+        other => panic!("{other:?}"),
+    };
+    assert!(hi <= 1.0 && hi > 0.999 && lo >= 0.0, "{hi} {lo}");
+    // a query vector with no direction is an argument error, not an empty answer
+    let e = qerr(
+        &s,
+        "CALL db.index.vector.queryNodes('doc_e', 2, [0.0, 0.0, 0.0])",
+        &QueryOptions::default(),
+    );
+    assert!(e.to_string().contains("not all zeros"), "{e}");
     let shown = q(&s, "SHOW INDEXES");
     assert!(
         format!("{:?}", shown.rows).contains("VECTOR"),

@@ -318,6 +318,8 @@ fn node_link_json_imports_as_the_same_graph() {
             &["P", "Q"],
             &[
                 ("id", Value::String("own id".into())),
+                ("_id", Value::String("under".into())),
+                ("__labels", Value::Int(7)),
                 ("labels", Value::Int(3)),
                 ("at", Value::Point3D([1.0, 2.5, -3.0])),
                 ("tags", Value::List(vec![Value::String("x".into())])),
@@ -355,11 +357,14 @@ fn node_link_json_imports_as_the_same_graph() {
     assert!(!got.ids_kept);
     let r = dst
         .query(
-            "MATCH (c:City)-[r:ROAD]->(o) RETURN c.pop AS pop, r.km AS km, labels(o) AS l",
+            "MATCH (c:City)-[r:ROAD]->(o) RETURN c.pop AS pop, r.km AS km, labels(o) AS l, c.id AS a, o.id AS b",
             &Default::default(),
         )
         .unwrap();
-    assert_eq!(format!("{:?}", r.rows), "[[Int(3), Float(2.5), List([])]]");
+    assert_eq!(
+        format!("{:?}", r.rows),
+        "[[Int(3), Float(2.5), List([]), Str(\"a\"), Str(\"b\")]]"
+    );
     for (bad, says) in [
         (
             r#"{"nodes": [{"id": 1}, {"id": 1}]}"#,
@@ -371,6 +376,15 @@ fn node_link_json_imports_as_the_same_graph() {
             r#"{"nodes": [{"id": 1, "labels": "P"}]}"#,
             "list of strings",
         ),
+        (
+            r#"{"nodes": [{"id": 1, "labels": ["P", ""]}]}"#,
+            "nodes[0]: ",
+        ),
+        (
+            r#"{"nodes": [], "edges": [], "links": []}"#,
+            "both \"edges\" and \"links\"",
+        ),
+        ("{\"nodes\": [\n1,,]}", "strings.json:2: not JSON"),
         (
             r#"{"nodes": [{"id": 1}], "edges": [{"source": 1, "target": 1, "type": 4}]}"#,
             "edges[0]: \"type\"",

@@ -2283,9 +2283,18 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 let q = a[2]
                     .as_f32s()
                     .ok_or_else(|| type_err(format!("{name}: vector must be a list of numbers")))?;
-                // Neo4j reports cosine similarity as (1 + cos) / 2
+                if !q.iter().any(|x| *x != 0.0) || q.iter().any(|x| !x.is_finite()) {
+                    return Err(arg_err(
+                        "InvalidArgumentValue",
+                        format!(
+                            "{name}: the query vector must be finite and not all zeros (it has no direction)"
+                        ),
+                    ));
+                }
+                // Neo4j reports cosine similarity as (1 + cos) / 2, in [0, 1] (f32 rounding can
+                // put a cosine a hair outside [-1, 1])
                 Ok(scored(g.vector_top_k(&idx, &q, k)?, "score", |c| {
-                    (1.0 + c) / 2.0
+                    ((1.0 + c) / 2.0).clamp(0.0, 1.0)
                 }))
             }
             "db.index.fulltext.querynodes" => {

@@ -54,6 +54,23 @@ enum Opt {
     Bool(bool),
 }
 
+impl std::fmt::Display for Opt {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Opt::Map(m) => {
+                write!(f, "{{")?;
+                for (i, (k, v)) in m.iter().enumerate() {
+                    write!(f, "{}{k}: {v}", if i > 0 { ", " } else { "" })?;
+                }
+                write!(f, "}}")
+            }
+            Opt::Str(s) => write!(f, "'{s}'"),
+            Opt::Int(n) => write!(f, "{n}"),
+            Opt::Bool(b) => write!(f, "{b}"),
+        }
+    }
+}
+
 /// Largest vector dimension an index takes (Neo4j's limit).
 const MAX_DIMENSIONS: i64 = 4096;
 
@@ -145,13 +162,13 @@ fn vector_options(opts: Option<Opt>) -> Result<(usize, bool), QueryError> {
             ("vector.similarity_function", Opt::Str(f)) if f.eq_ignore_ascii_case("cosine") => {}
             ("vector.similarity_function", other) => {
                 return Err(syntax(format!(
-                    "vector.similarity_function: only 'cosine' is supported, got {other:?}"
+                    "vector.similarity_function: only 'cosine' is supported, got {other}"
                 )));
             }
             ("vector.quantization.enabled", Opt::Bool(b)) => int8 = b,
             (k, v) => {
                 return Err(syntax(format!(
-                    "unsupported or invalid vector index setting {k}: {v:?} (vector.dimensions: \
+                    "unsupported or invalid vector index setting {k}: {v} (vector.dimensions: \
                      1..4096, vector.similarity_function: 'cosine', \
                      vector.quantization.enabled: true/false)"
                 )));

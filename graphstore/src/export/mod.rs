@@ -47,8 +47,12 @@ impl std::str::FromStr for ExportFormat {
 const NODE_RESERVED: &[&str] = &["id", "labels"];
 const EDGE_RESERVED: &[&str] = &["source", "target", "key", "type"];
 
-fn attr_name(name: String, reserved: &[&str]) -> String {
-    if reserved.contains(&name.as_str()) {
+/// The attribute a property is written as: a name that is reserved once its leading
+/// underscores are dropped (`id`, `_id`, `__id`, ...) gets one more underscore, so every
+/// property keeps a distinct attribute and the import ([`crate::import::node_link`]) can
+/// take exactly one off again.
+pub(crate) fn attr_name(name: String, reserved: &[&str]) -> String {
+    if reserved.contains(&name.trim_start_matches('_')) {
         format!("_{name}")
     } else {
         name

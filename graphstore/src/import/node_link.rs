@@ -11,7 +11,9 @@
 //! booleans, lists and maps; `{x, y[, z]}` maps are points; a list of numbers is a vector
 //! where the schema declares one, and an integer a float where it declares a float; `null`
 //! is no property. When every node id is a non-negative integer (JSON number), nodes keep it
-//! as their node id, so a map exported and imported again answers with the same ids.
+//! as their node id, so a map exported and imported again answers with the same ids;
+//! otherwise nodes get new ids and each keeps its file id as the property `id` (unless it has
+//! an `_id` attribute, the export's name for a property `id`).
 //! The file is read whole (at most [`MAX_BYTES`]); errors name the file and, for bad JSON,
 //! the line and column, else the node or edge by its index in the file.
 
@@ -48,7 +50,7 @@ const EDGE_RESERVED: &[&str] = &["source", "target", "key", "type"];
 /// like a reserved attribute.
 fn property_name(attr: &str, reserved: &[&str]) -> String {
     match attr.strip_prefix('_') {
-        Some(r) if reserved.contains(&r) => r.to_string(),
+        Some(r) if reserved.contains(&r.trim_start_matches('_')) => r.to_string(),
         _ => attr.to_string(),
     }
 }
@@ -108,7 +110,7 @@ pub fn import_node_link(
     let doc: serde_json::Value = serde_json::from_slice(&text).map_err(|e| Error::Import {
         path: path.to_path_buf(),
         line: e.line() as u64,
-        detail: format!("column {}: {e}", e.column()),
+        detail: format!("not JSON: {e}"),
     })?;
     drop(text);
     let no_list = |k: &str| err(format!("no \"{k}\" list: not node-link JSON"));
@@ -118,6 +120,11 @@ pub fn import_node_link(
         .ok_or_else(|| no_list("nodes"))?;
     let empty = Vec::new();
     let edges = match (doc.get("edges"), doc.get("links")) {
+        (Some(_), Some(_)) => {
+            return Err(err(
+                "both \"edges\" and \"links\": give the edge list under one of them".into(),
+            ));
+        }
         (Some(e), _) | (None, Some(e)) => e.as_array().ok_or_else(|| no_list("edges"))?,
         (None, None) => &empty,
     };
@@ -194,7 +201,7 @@ pub fn import_node_link(
                 };
                 let labels: Vec<LabelId> = names
                     .iter()
-                    .map(|l| tx.label_id(l))
+                    .map(|l| tx.label_id(l).map_err(at))
                     .collect::<Result<_>>()?;
                 let mut props: Vec<(PropKey, Value)> = Vec::new();
                 for (k, v) in obj {
@@ -206,6 +213,11 @@ pub fn import_node_link(
                     props.push((tx.prop_key_id(&key)?, value(v, want)));
                 }
                 let id_json = &obj["id"];
+                // an id that cannot be the node id is kept as the `id` property (unless the
+                // node has its own, exported as `_id`)
+                if !kept && !obj.contains_key("_id") {
+                    props.push((tx.prop_key_id("id")?, Value::from_json(id_json)));
+                }
                 let id = match id_json.as_u64().filter(|_| kept) {
                     Some(id) => {
                         tx.restore_node(id, &labels, props).map_err(at)?;
@@ -288,6 +300,11 @@ mod tests {
         assert_eq!(property_name("_id", NODE_RESERVED), "id");
         assert_eq!(property_name("_type", NODE_RESERVED), "_type");
         assert_eq!(property_name("_type", EDGE_RESERVED), "type");
+        assert_eq!(property_name("__id", NODE_RESERVED), "_id");
+        for name in ["id", "_id", "__id", "idx", "_x"] {
+            let attr = crate::export::attr_name(name.to_string(), NODE_RESERVED);
+            assert_eq!(property_name(&attr, NODE_RESERVED), name);
+        }
         let j = serde_json::json!([1, 2.5]);
         assert_eq!(
             value(&j, Some(ValueType::Vector)),
