@@ -353,6 +353,36 @@ pub(crate) fn rel_prop(buf: &[u8], key: u32) -> Result<Option<Value>> {
     r.u32_varint()?;
     r.varint()?;
     r.varint()?;
+    props_value(&mut r, key)
+}
+
+/// One property of a node record, building only its value (labels and the other properties
+/// are stepped over), as [`rel_prop`] does for relationships.
+pub(crate) fn node_prop(buf: &[u8], key: u32) -> Result<Option<Value>> {
+    let mut r = Reader::new(buf, "node record");
+    let n = r.len(1)?;
+    for _ in 0..n {
+        r.u32_varint()?;
+    }
+    props_value(&mut r, key)
+}
+
+/// Whether a node record carries label `label` (its labels are sorted; the properties are
+/// not read).
+pub(crate) fn node_has_label(buf: &[u8], label: u32) -> Result<bool> {
+    let mut r = Reader::new(buf, "node record");
+    let n = r.len(1)?;
+    for _ in 0..n {
+        let l = r.u32_varint()?;
+        if l >= label {
+            return Ok(l == label);
+        }
+    }
+    Ok(false)
+}
+
+/// The value of `key` in the property list `r` is at (keys sorted).
+fn props_value(r: &mut Reader<'_>, key: u32) -> Result<Option<Value>> {
     let n = r.len(2)?;
     for _ in 0..n {
         let k = r.u32_varint()?;

@@ -79,6 +79,35 @@ pub(crate) struct Hot {
     pub(crate) nodes: Lazy<RecordsMem>,
     /// The relationship records.
     pub(crate) rels: Lazy<RecordsMem>,
+    /// Per label id: its nodes, read once from the label index by the first reader that
+    /// scans the label.
+    pub(crate) labels: Keyed<OnceLock<Arc<crate::columns::LabelMembers>>>,
+    /// Per property key: that property of every node, as a column (see [`crate::columns`]).
+    pub(crate) node_columns: Keyed<Lazy<crate::columns::Column>>,
+    /// Per property key: that property of every relationship.
+    pub(crate) rel_columns: Keyed<Lazy<crate::columns::Column>>,
+}
+
+/// Per-token state of one commit, made on first use (a statement resolves the few it needs
+/// once, then uses them without this lock).
+#[derive(Debug)]
+pub(crate) struct Keyed<T>(std::sync::Mutex<HashMap<u32, Arc<T>>>);
+
+impl<T> Default for Keyed<T> {
+    fn default() -> Self {
+        Keyed(std::sync::Mutex::new(HashMap::new()))
+    }
+}
+
+impl<T: Default> Keyed<T> {
+    /// The state of token `id`.
+    pub(crate) fn get(&self, id: u32) -> Arc<T> {
+        let mut m = self
+            .0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        m.entry(id).or_default().clone()
+    }
 }
 
 /// A table `id → record bytes` in memory: one byte arena, and per id (dense ids only) where its
@@ -127,6 +156,11 @@ impl RecordsMem {
     }
 
     /// Record `id`'s bytes, if it exists.
+    /// Every record, ids ascending.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (u64, &[u8])> + '_ {
+        (0..self.ends.len() as u64).filter_map(|id| self.get(id).map(|b| (id, b)))
+    }
+
     pub(crate) fn get(&self, id: u64) -> Option<&[u8]> {
         let i = usize::try_from(id).ok()?;
         if self.present.get(i / 64)? & (1 << (i % 64)) == 0 {
@@ -209,17 +243,17 @@ impl AdjMem {
         }))
     }
 
-    /// Rows of `node` in direction `dir` (0 out, 1 in), of type `ty` or all types, as
-    /// (relationship, type, other node) in key order: what the table's range scan gives.
-    pub(crate) fn get(&self, node: u64, dir: u8, ty: Option<u32>) -> Vec<(u64, u32, u64)> {
+    /// Rows of `node` in direction `dir` (0 out, 1 in), of type `ty` or all types, in key
+    /// order, as columns borrowed from the table: (relationships, types, other nodes).
+    pub(crate) fn slice(&self, node: u64, dir: u8, ty: Option<u32>) -> AdjSlice<'_> {
         let (s, e) = match &self.starts {
             Starts::Dense(st) => match (st.get(node as usize), st.get(node as usize + 1)) {
                 (Some(&s), Some(&e)) => (s as usize, e as usize),
-                _ => return Vec::new(),
+                _ => (0, 0),
             },
             Starts::Sparse(m) => match m.get(&node) {
                 Some(&(s, e)) => (s as usize, e as usize),
-                None => return Vec::new(),
+                None => (0, 0),
             },
         };
         let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
@@ -227,10 +261,30 @@ impl AdjMem {
         let n = e - s;
         let lo = partition(n, |i| key(i) < (dir, t0));
         let hi = lo + partition(n - lo, |i| key(lo + i) <= (dir, t1));
-        (s + lo..s + hi)
-            .map(|i| (self.rels[i], self.tys[i], self.others[i]))
+        let r = s + lo..s + hi;
+        AdjSlice {
+            rels: &self.rels[r.clone()],
+            tys: &self.tys[r.clone()],
+            others: &self.others[r],
+        }
+    }
+
+    /// Rows of `node` in direction `dir` (0 out, 1 in), of type `ty` or all types, as
+    /// (relationship, type, other node) in key order: what the table's range scan gives.
+    pub(crate) fn get(&self, node: u64, dir: u8, ty: Option<u32>) -> Vec<(u64, u32, u64)> {
+        let a = self.slice(node, dir, ty);
+        (0..a.rels.len())
+            .map(|i| (a.rels[i], a.tys[i], a.others[i]))
             .collect()
     }
+}
+
+/// One node's adjacency rows in one direction, as borrowed columns of equal length.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct AdjSlice<'a> {
+    pub(crate) rels: &'a [u64],
+    pub(crate) tys: &'a [u32],
+    pub(crate) others: &'a [u64],
 }
 
 /// The first `i` in `0..n` where `pred` turns false (`pred` true then false).
@@ -284,6 +338,9 @@ mod tests {
                 for dir in 0..2 {
                     for ty in [None, Some(0), Some(1), Some(3), Some(9)] {
                         prop_assert_eq!(m.get(node, dir, ty), reference(&rows, node, dir, ty));
+                        let a = m.slice(node, dir, ty);
+                        prop_assert_eq!(a.rels.len(), a.others.len());
+                        prop_assert_eq!(a.rels.len(), a.tys.len());
                     }
                 }
             }

@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 mod codec;
+mod columns;
 mod compiled;
 pub mod cypher;
 mod error;

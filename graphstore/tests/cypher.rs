@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-use graphstore::cypher::{ErrorKind, QueryError, QueryOptions, Val};
+use graphstore::cypher::{Engine, ErrorKind, QueryError, QueryOptions, Val};
 use graphstore::{Error, Store, Value};
 use proptest::prelude::*;
 use scene::opengraph_schema;
@@ -156,20 +156,47 @@ fn read_only_timeout_and_row_limit() {
         qerr(&s, "UNWIND range(1, 11) AS x RETURN x", &limited).kind,
         ErrorKind::RowLimit
     );
-    // a runaway intermediate result stops at the cap instead of eating memory
+    // a runaway intermediate result stops at the cap instead of eating memory: rows an
+    // operator holds (a sort) count, on both engines
     let capped = QueryOptions {
         max_intermediate_rows: 100_000,
         ..QueryOptions::default()
     };
+    for engine in [Engine::Auto, Engine::Interpreter] {
+        let e = qerr(
+            &s,
+            "UNWIND range(1, 1000) AS x UNWIND range(1, 1000) AS y RETURN x, y ORDER BY y DESC",
+            &QueryOptions {
+                engine,
+                ..capped.clone()
+            },
+        );
+        assert_eq!(
+            (e.kind, e.code),
+            (ErrorKind::RowLimit, "IntermediateRowLimit")
+        );
+    }
+    // the interpreter holds the rows of two UNWINDs before counting them; the pipeline
+    // streams them into the count and holds none
     let e = qerr(
         &s,
         "UNWIND range(1, 1000) AS x UNWIND range(1, 1000) AS y RETURN count(*)",
-        &capped,
+        &QueryOptions {
+            engine: Engine::Interpreter,
+            ..capped.clone()
+        },
     );
     assert_eq!(
         (e.kind, e.code),
         (ErrorKind::RowLimit, "IntermediateRowLimit")
     );
+    let r = s
+        .query(
+            "UNWIND range(1, 1000) AS x UNWIND range(1, 1000) AS y RETURN count(*) AS n",
+            &capped,
+        )
+        .expect("streamed");
+    assert_eq!(r.rows, vec![vec![Val::Int(1_000_000)]]);
     let r = s
         .query(
             "UNWIND range(1, 300) AS x UNWIND range(1, 300) AS y RETURN count(*) AS n",
@@ -736,7 +763,7 @@ fn subquery_expressions_scope_and_errors() {
 }
 
 #[test]
-fn profile_returns_the_rows_and_rows_and_time_per_clause() {
+fn profile_returns_the_rows_and_rows_and_time_per_operator() {
     let (_d, s) = store();
     q(
         &s,
@@ -753,21 +780,52 @@ fn profile_returns_the_rows_and_rows_and_time_per_clause() {
         .lines()
         .skip_while(|l| !l.starts_with("Profile"))
         .skip(1)
+        .map(str::trim)
         .collect();
-    assert_eq!(steps.len(), 3, "{plan}");
-    assert!(steps[0].trim().starts_with("Match: 7 rows"), "{plan}");
-    assert!(steps[1].trim().starts_with("With: 4 rows"), "{plan}");
-    assert!(steps[2].trim().starts_with("Return: 4 rows"), "{plan}");
+    let rows_of = |op: &str| -> Option<u64> {
+        let line = steps.iter().find(|l| l.starts_with(op))?;
+        line.rsplit_once(": ")?.1.split(' ').next()?.parse().ok()
+    };
+    // 10 P nodes scanned, 7 pass the filter (pushed below the expansion), 7 expanded, the
+    // top-4 sort hands on 4, and 4 rows are produced
+    assert_eq!(rows_of("NodeByLabelScan p:P"), Some(10), "{plan}");
+    assert_eq!(rows_of("Filter p.v > 3"), Some(7), "{plan}");
+    assert_eq!(rows_of("Expand (p:P)-[:K]->(x)"), Some(7), "{plan}");
+    assert_eq!(rows_of("Top p.v"), Some(4), "{plan}");
+    assert_eq!(rows_of("Limit 4"), Some(4), "{plan}");
+    assert_eq!(rows_of("ProduceResults p.v, x.v"), Some(4), "{plan}");
+    assert!(
+        steps.iter().all(|l| l.ends_with(" ms")),
+        "every operator has its time: {plan}"
+    );
+    // the physical plan and the logical plan come first
+    assert!(plan.starts_with("Physical plan"), "{plan}");
+    assert!(plan.contains("Logical plan"), "{plan}");
     // a streamed aggregation and a count from the store say so
     let agg = q(&s, "PROFILE MATCH (p:P)-->(x) RETURN count(x)")
         .plan
         .unwrap();
     assert!(
-        agg.contains("Match + aggregating Return (streamed): 1 rows"),
+        agg.contains("Aggregate (grouping keys: none) count: 1 rows"),
         "{agg}"
     );
     let count = q(&s, "PROFILE MATCH (p:P) RETURN count(*)").plan.unwrap();
     assert!(count.contains("CountFromStore: 1 rows"), "{count}");
+    // the interpreter's profile is per clause
+    let interp = s
+        .query(
+            &format!("PROFILE {text}"),
+            &QueryOptions {
+                engine: Engine::Interpreter,
+                ..QueryOptions::default()
+            },
+        )
+        .unwrap();
+    assert_eq!(interp.rows, plain.rows);
+    assert!(
+        interp.plan.unwrap().contains("Match: 7 rows"),
+        "the interpreter's profile"
+    );
 }
 
 #[test]
@@ -1248,10 +1306,9 @@ fn streamed_limit_stops_early_and_checks_its_arguments() {
     let r = q(&s, "PROFILE MATCH (a:N)-[:R]->(b) RETURN a.v AS v LIMIT 3");
     assert_eq!(r.rows.len(), 3);
     let plan = r.plan.expect("a profile");
-    assert!(
-        plan.contains("Match + Return with LIMIT (stops early): 3 rows"),
-        "{plan}"
-    );
+    // the scan stops once the limit has its rows
+    assert!(plan.contains("NodeByLabelScan a:N: 3 rows"), "{plan}");
+    assert!(plan.contains("Limit 3: 3 rows"), "{plan}");
     let top = q(
         &s,
         "PROFILE MATCH (a:N)-[:R]->(b) RETURN a.v AS v ORDER BY v DESC LIMIT 2",

@@ -43,7 +43,7 @@ pub(crate) fn fmt_float(f: f64) -> String {
     if s.contains('.') { s } else { format!("{s}.0") }
 }
 
-fn to_bool(v: &Val, what: &str) -> R<Option<bool>> {
+pub(crate) fn to_bool(v: &Val, what: &str) -> R<Option<bool>> {
     match v {
         Val::Null => Ok(None),
         Val::Bool(b) => Ok(Some(*b)),
@@ -54,7 +54,7 @@ fn to_bool(v: &Val, what: &str) -> R<Option<bool>> {
     }
 }
 
-fn int_overflow() -> QueryError {
+pub(crate) fn int_overflow() -> QueryError {
     arg_err("NumberOutOfRange", "integer overflow")
 }
 
@@ -179,7 +179,7 @@ pub(crate) fn to_string(v: &Val) -> Option<String> {
     }
 }
 
-fn cmp_op(op: BinOp, a: &Val, b: &Val) -> Val {
+pub(crate) fn cmp_op(op: BinOp, a: &Val, b: &Val) -> Val {
     match op {
         BinOp::Eq => equals(a, b).map_or(Val::Null, Val::Bool),
         BinOp::Ne => equals(a, b).map_or(Val::Null, |x| Val::Bool(!x)),
@@ -682,75 +682,7 @@ impl Ctx<'_, '_> {
 
     /// Applies a binary operator to two evaluated operands.
     fn apply(&self, op: BinOp, x: &Val, y: &Val) -> R<Val> {
-        match op {
-            BinOp::And | BinOp::Or | BinOp::Xor => match op {
-                BinOp::And => and3(x, y),
-                BinOp::Or => {
-                    let (p, q) = (to_bool(x, "OR")?, to_bool(y, "OR")?);
-                    Ok(match (p, q) {
-                        (Some(true), _) | (_, Some(true)) => Val::Bool(true),
-                        (Some(false), Some(false)) => Val::Bool(false),
-                        _ => Val::Null,
-                    })
-                }
-                _ => {
-                    let (p, q) = (to_bool(x, "XOR")?, to_bool(y, "XOR")?);
-                    Ok(match (p, q) {
-                        (Some(p), Some(q)) => Val::Bool(p != q),
-                        _ => Val::Null,
-                    })
-                }
-            },
-            _ => match op {
-                BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
-                    Ok(cmp_op(op, x, y))
-                }
-                BinOp::In => match y {
-                    Val::Null => Ok(Val::Null),
-                    Val::List(l) => {
-                        let mut unknown = false;
-                        for it in l {
-                            match equals(x, it) {
-                                Some(true) => return Ok(Val::Bool(true)),
-                                None => unknown = true,
-                                Some(false) => {}
-                            }
-                        }
-                        Ok(if unknown { Val::Null } else { Val::Bool(false) })
-                    }
-                    o => Err(type_err(format!(
-                        "IN expects a list, got {}",
-                        o.type_name()
-                    ))),
-                },
-                BinOp::StartsWith | BinOp::EndsWith | BinOp::Contains => match (x, y) {
-                    (Val::Str(s), Val::Str(t)) => Ok(Val::Bool(match op {
-                        BinOp::StartsWith => s.starts_with(t.as_str()),
-                        BinOp::EndsWith => s.ends_with(t.as_str()),
-                        _ => s.contains(t.as_str()),
-                    })),
-                    _ => Ok(Val::Null),
-                },
-                BinOp::Regex => match (x, y) {
-                    (Val::Str(s), Val::Str(p)) => {
-                        let re = regex::Regex::new(&format!("^(?:{p})$")).map_err(|e| {
-                            arg_err(
-                                "InvalidArgumentValue",
-                                format!("invalid regular expression: {e}"),
-                            )
-                        })?;
-                        Ok(Val::Bool(re.is_match(s)))
-                    }
-                    _ => Ok(Val::Null),
-                },
-                _ => {
-                    if op == BinOp::Add {
-                        self.reserve(concat_bytes(x, y), "a concatenation")?;
-                    }
-                    arith(op, x, y)
-                }
-            },
-        }
+        apply_op(op, x, y, &|bytes, what| self.reserve(bytes, what))
     }
 
     /// `x.key` on a node, relationship, map or point.
@@ -845,7 +777,7 @@ impl Ctx<'_, '_> {
         Ok(out)
     }
 
-    fn call_function(&self, lower: &str, name: &str, a: Vec<Val>) -> R<Val> {
+    pub(crate) fn call_function(&self, lower: &str, name: &str, a: Vec<Val>) -> R<Val> {
         use Val::*;
         let n = a.len();
         let arity = |lo: usize, hi: usize| -> R<()> {
@@ -1386,6 +1318,85 @@ impl Ctx<'_, '_> {
                 None,
             )),
         }
+    }
+}
+
+/// Applies a binary operator to two evaluated operands; `reserve` is asked first for the bytes
+/// a concatenation will hold.
+pub(crate) fn apply_op(
+    op: BinOp,
+    x: &Val,
+    y: &Val,
+    reserve: &dyn Fn(u64, &str) -> R<()>,
+) -> R<Val> {
+    match op {
+        BinOp::And | BinOp::Or | BinOp::Xor => match op {
+            BinOp::And => and3(x, y),
+            BinOp::Or => {
+                let (p, q) = (to_bool(x, "OR")?, to_bool(y, "OR")?);
+                Ok(match (p, q) {
+                    (Some(true), _) | (_, Some(true)) => Val::Bool(true),
+                    (Some(false), Some(false)) => Val::Bool(false),
+                    _ => Val::Null,
+                })
+            }
+            _ => {
+                let (p, q) = (to_bool(x, "XOR")?, to_bool(y, "XOR")?);
+                Ok(match (p, q) {
+                    (Some(p), Some(q)) => Val::Bool(p != q),
+                    _ => Val::Null,
+                })
+            }
+        },
+        _ => match op {
+            BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
+                Ok(cmp_op(op, x, y))
+            }
+            BinOp::In => match y {
+                Val::Null => Ok(Val::Null),
+                Val::List(l) => {
+                    let mut unknown = false;
+                    for it in l {
+                        match equals(x, it) {
+                            Some(true) => return Ok(Val::Bool(true)),
+                            None => unknown = true,
+                            Some(false) => {}
+                        }
+                    }
+                    Ok(if unknown { Val::Null } else { Val::Bool(false) })
+                }
+                o => Err(type_err(format!(
+                    "IN expects a list, got {}",
+                    o.type_name()
+                ))),
+            },
+            BinOp::StartsWith | BinOp::EndsWith | BinOp::Contains => match (x, y) {
+                (Val::Str(s), Val::Str(t)) => Ok(Val::Bool(match op {
+                    BinOp::StartsWith => s.starts_with(t.as_str()),
+                    BinOp::EndsWith => s.ends_with(t.as_str()),
+                    _ => s.contains(t.as_str()),
+                })),
+                _ => Ok(Val::Null),
+            },
+            BinOp::Regex => match (x, y) {
+                (Val::Str(s), Val::Str(p)) => {
+                    let re = regex::Regex::new(&format!("^(?:{p})$")).map_err(|e| {
+                        arg_err(
+                            "InvalidArgumentValue",
+                            format!("invalid regular expression: {e}"),
+                        )
+                    })?;
+                    Ok(Val::Bool(re.is_match(s)))
+                }
+                _ => Ok(Val::Null),
+            },
+            _ => {
+                if op == BinOp::Add {
+                    reserve(concat_bytes(x, y), "a concatenation")?;
+                }
+                arith(op, x, y)
+            }
+        },
     }
 }
 

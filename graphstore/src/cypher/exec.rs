@@ -421,6 +421,14 @@ impl<'a, 'b> Ctx<'a, 'b> {
         Ok(n)
     }
 
+    /// The read transaction of a read-only statement (None while writing).
+    pub(crate) fn read_txn(&self) -> Option<&'a ReadTxn> {
+        match &self.tx {
+            Tx::Read(r) => Some(*r),
+            Tx::Write(_) => None,
+        }
+    }
+
     pub fn g(&self) -> &dyn GraphRead {
         match &self.tx {
             Tx::Read(r) => *r,
@@ -514,7 +522,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
     }
 
     /// Fails when an intermediate result grows past the cap (memory guard).
-    fn room(&self, rows: usize) -> R<()> {
+    pub(crate) fn room(&self, rows: usize) -> R<()> {
         if rows > self.max_rows {
             return Err(QueryError::new(
                 ErrorKind::RowLimit,
@@ -1008,7 +1016,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
         Ok(rows)
     }
 
-    fn count_arg(&self, e: Option<&Expr>, what: &str) -> R<Option<usize>> {
+    pub(crate) fn count_arg(&self, e: Option<&Expr>, what: &str) -> R<Option<usize>> {
         let Some(e) = e else { return Ok(None) };
         match self.eval(e, &Row::default()) {
             Ok(Val::Int(i)) if i >= 0 => Ok(Some(i as usize)),
@@ -1118,7 +1126,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
             conj,
             &|v| row.get(v).is_some(),
             &|e| expr_bound(e, &row),
-            g,
+            &|l, k| g.has_property_index(l, k),
             &|l| self.label_count(l),
         );
         let candidates = self.candidates(&anchor, &row)?;
@@ -1216,7 +1224,7 @@ impl<'a, 'b> Ctx<'a, 'b> {
                 conj,
                 &|v| row.get(v).is_some(),
                 &|e| expr_bound(e, row),
-                self.g(),
+                &|l, k| self.g().has_property_index(l, k),
                 &|l| self.label_count(l),
             );
             self.candidates(&anchor, row)
@@ -2408,9 +2416,15 @@ fn bound(v: Value, inclusive: bool) -> crate::ValueBound {
 
 /// Whether every variable `e` reads is bound in `row` (so it can be evaluated before matching).
 fn expr_bound(e: &Expr, row: &Row) -> bool {
+    expr_bound_by(e, &|v| row.get(v).is_some())
+}
+
+/// Whether `e` reads only variables `bound` says are bound, and nothing that depends on more
+/// than them (patterns, comprehensions, subqueries, aggregates, `rand()`).
+pub(crate) fn expr_bound_by(e: &Expr, bound: &dyn Fn(&str) -> bool) -> bool {
     let mut ok = true;
     e.walk(&mut |x| match x {
-        Expr::Var(v, _) if row.get(v).is_none() => ok = false,
+        Expr::Var(v, _) if !bound(v) => ok = false,
         Expr::Pattern(_)
         | Expr::PatternComp { .. }
         | Expr::Subquery { .. }
@@ -2485,7 +2499,7 @@ fn collect_deletes(v: &Val, nodes: &mut Vec<u64>, rels: &mut Vec<u64>) -> R<()> 
 }
 
 /// Replaces aggregate calls by slots, recording `(name, distinct, args)` for each.
-fn rewrite_aggs(e: &Expr, specs: &mut Vec<(String, bool, Vec<Expr>)>) -> Expr {
+pub(crate) fn rewrite_aggs(e: &Expr, specs: &mut Vec<(String, bool, Vec<Expr>)>) -> Expr {
     match e {
         Expr::CountStar => {
             specs.push(("count*".into(), false, Vec::new()));
@@ -2504,7 +2518,7 @@ fn rewrite_aggs(e: &Expr, specs: &mut Vec<(String, bool, Vec<Expr>)>) -> Expr {
     }
 }
 
-fn aggregate(name: &str, distinct: bool, mut vals: Vec<Val>) -> R<Val> {
+pub(crate) fn aggregate(name: &str, distinct: bool, mut vals: Vec<Val>) -> R<Val> {
     if name == "count*" {
         return Ok(Val::Int(vals.len() as i64));
     }

@@ -23,8 +23,12 @@ mod exec;
 mod index_cmd;
 mod label_set;
 mod lexer;
+mod logical;
 mod parser;
+mod physical;
+mod pipeline;
 mod plan;
+mod source;
 mod value;
 
 use std::collections::BTreeMap;
@@ -202,6 +206,22 @@ pub struct QueryOptions {
     /// `nearest` refuse a 2-D point (it has no height). None: the ground procedures fail.
     /// OpenGraph sets it from the map's `Environment.ground_frame` (`[0, 2]` for KITTI).
     pub ground_axes: Option<[usize; 2]>,
+    /// Which engine runs read-only single queries (see [`Engine`]).
+    pub engine: Engine,
+}
+
+/// Which engine runs a read-only single query.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Engine {
+    /// The pipeline of physical operators where its logical plan covers the query (MATCH
+    /// of fixed-length patterns, OPTIONAL MATCH, WHERE, UNWIND, WITH, RETURN, aggregation,
+    /// DISTINCT, ORDER BY, SKIP, LIMIT), else the clause interpreter. Writes, procedures,
+    /// variable-length and shortest paths run on the interpreter.
+    #[default]
+    Auto,
+    /// The clause interpreter for everything (for differential tests and comparisons).
+    Interpreter,
 }
 
 impl Default for QueryOptions {
@@ -215,6 +235,7 @@ impl Default for QueryOptions {
             max_memory_bytes: 1 << 30,
             seed: 0,
             ground_axes: None,
+            engine: Engine::Auto,
         }
     }
 }
@@ -589,8 +610,23 @@ fn run_statement(
     if stmt.profile {
         ctx.profile = Some(exec::Profile::default());
     }
+    // PROFILE of the parts the pipeline ran: their plans with rows and time per operator
+    let mut profiled: Vec<Option<String>> = Vec::new();
     for (i, part) in stmt.parts.iter().enumerate() {
-        let run = ctx.run_single(part, i);
+        let piped = match opts.engine {
+            Engine::Auto => pipeline::try_run(ctx, part, stmt.profile),
+            Engine::Interpreter => None,
+        };
+        let run = match piped {
+            Some(r) => r.map(|(cols, rows, text)| {
+                profiled.push(text);
+                (cols, rows)
+            }),
+            None => {
+                profiled.push(None);
+                ctx.run_single(part, i)
+            }
+        };
         let (cols, mut r) = run.map_err(|e| match ctx.clause_pos {
             Some(p) => e.at(p),
             None => e,
@@ -614,7 +650,11 @@ fn run_statement(
         let mut seen = std::collections::BTreeSet::new();
         rows.retain(|r| seen.insert(value::Key(r.clone())));
     }
+    let on_pipeline = profiled.iter().all(Option::is_some);
     let plan = ctx.profile.take().map(|p| {
+        if on_pipeline {
+            return union_text(stmt, profiled.into_iter().flatten().collect());
+        }
         let mut text = plan::explain(stmt, ctx.g());
         text.push_str("Profile (rows handed on, time per clause)\n");
         for s in &p.steps {
@@ -642,6 +682,39 @@ fn run_statement(
         plan,
         ..QueryResult::default()
     })
+}
+
+/// The texts of a statement's parts, with the UNION between each two.
+fn union_text(stmt: &ast::Statement, parts: Vec<String>) -> String {
+    let mut text = String::new();
+    for (i, t) in parts.into_iter().enumerate() {
+        if i > 0 {
+            let all = stmt.union_all.get(i - 1).copied().unwrap_or(false);
+            text.push_str(if all {
+                "UnionAll\n"
+            } else {
+                "Union (distinct)\n"
+            });
+        }
+        text.push_str(&t);
+    }
+    text
+}
+
+/// EXPLAIN's text: the pipeline's physical and logical plans when it runs every part, else
+/// the interpreter's plan.
+fn explain_text(stmt: &ast::Statement, txn: &crate::ReadTxn, engine: Engine) -> String {
+    if engine == Engine::Auto {
+        let parts: Option<Vec<String>> = stmt
+            .parts
+            .iter()
+            .map(|p| pipeline::explain(p, txn))
+            .collect();
+        if let Some(parts) = parts {
+            return union_text(stmt, parts);
+        }
+    }
+    plan::explain(stmt, txn)
 }
 
 /// A statement that held more than this at its peak hands freed memory back to the system
@@ -840,7 +913,7 @@ impl Store {
             .any(|p| p.clauses.iter().any(ast::Clause::is_write));
         if stmt.explain {
             let txn = self.read()?;
-            let plan = plan::explain(stmt, &txn);
+            let plan = explain_text(stmt, &txn, opts.engine);
             return Ok(QueryResult {
                 plan: Some(plan),
                 ..QueryResult::default()
@@ -895,7 +968,7 @@ impl Store {
         let stmt = parser::parse(text)?;
         check::check(&stmt)?;
         let txn = self.read()?;
-        Ok(plan::explain(&stmt, &txn))
+        Ok(explain_text(&stmt, &txn, Engine::Auto))
     }
 }
 

@@ -63,7 +63,7 @@ pub(crate) fn choose_anchor<'e>(
     conj: &[&'e Expr],
     is_bound: &dyn Fn(&str) -> bool,
     can_eval: &dyn Fn(&Expr) -> bool,
-    g: &dyn GraphRead,
+    has_index: &dyn Fn(&str, &str) -> bool,
     label_count: &dyn Fn(&str) -> u64,
 ) -> Anchor<'e> {
     // (score, anchor): lower scores are cheaper; ties go to the earlier node
@@ -81,7 +81,7 @@ pub(crate) fn choose_anchor<'e>(
         for l in &np.labels {
             if let Some(Expr::Map(entries)) = &np.props {
                 for (k, e) in entries {
-                    if g.has_property_index(l, k) && can_eval(e) {
+                    if has_index(l, k) && can_eval(e) {
                         push(
                             1,
                             Source::IndexEq {
@@ -115,7 +115,7 @@ pub(crate) fn choose_anchor<'e>(
                         ),
                         _ => continue,
                     };
-                    if !g.has_property_index(l, key) || !can_eval(value) {
+                    if !has_index(l, key) || !can_eval(value) {
                         continue;
                     }
                     match op {
@@ -232,7 +232,7 @@ fn op_text(op: BinOp) -> &'static str {
     }
 }
 
-fn node_text(np: &NodePat) -> String {
+pub(crate) fn node_text(np: &NodePat) -> String {
     let mut s = format!("({}", np.var.as_deref().unwrap_or(""));
     for l in &np.labels {
         s.push(':');
@@ -242,7 +242,7 @@ fn node_text(np: &NodePat) -> String {
     s
 }
 
-fn rel_text(rp: &RelPat, forward: bool) -> String {
+pub(crate) fn rel_text(rp: &RelPat, forward: bool) -> String {
     let mut inner = rp.var.clone().unwrap_or_default();
     if !rp.types.is_empty() {
         inner.push(':');
@@ -260,6 +260,21 @@ fn rel_text(rp: &RelPat, forward: bool) -> String {
         (Dir::Both, _) => ("-[", "]-"),
     };
     format!("{}{inner}{}", dir.0, dir.1)
+}
+
+/// A pattern as text: `(a:A)-[:T]->(b)`.
+pub(crate) fn pattern_text(p: &PathPattern) -> String {
+    let mut s = String::new();
+    if let Some(v) = &p.var {
+        s.push_str(v);
+        s.push_str(" = ");
+    }
+    s.push_str(&node_text(&p.start));
+    for (r, n) in &p.steps {
+        s.push_str(&rel_text(r, true));
+        s.push_str(&node_text(n));
+    }
+    s
 }
 
 fn vars_of(e: &Expr) -> BTreeSet<String> {
@@ -303,7 +318,7 @@ pub(crate) fn explain(stmt: &Statement, g: &dyn GraphRead) -> String {
                             &conj,
                             &|v| sc.contains(v),
                             &|e| vars_of(e).iter().all(|v| sc.contains(v)),
-                            g,
+                            &|l, k| g.has_property_index(l, k),
                             &label_count,
                         );
                         let np = node_pat(p, a.index);

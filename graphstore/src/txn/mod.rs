@@ -369,6 +369,117 @@ impl ReadTxn {
     fn deltas(&self) -> std::iter::Empty<(&(u8, u32), &i64)> {
         std::iter::empty()
     }
+
+    /// The commit's adjacency in memory, once it is built or due (each call is one ask; see
+    /// [`crate::hot`]).
+    pub(crate) fn adjacency_mem(&self) -> Option<Arc<crate::hot::AdjMem>> {
+        self.hot_adjacency()
+    }
+
+    /// The nodes of label `label`, read from the label index once per commit and shared by
+    /// every reader of it.
+    pub(crate) fn label_members(&self, label: u32) -> Result<Arc<crate::columns::LabelMembers>> {
+        let cell = self.base.hot.labels.get(label);
+        if let Some(m) = cell.get() {
+            return Ok(m.clone());
+        }
+        // the list outlives the statement that reads it: not charged to its memory budget
+        let ids = crate::mem::uncounted(|| self.label_nodes(label))?;
+        Ok(cell
+            .get_or_init(|| {
+                crate::mem::uncounted(|| Arc::new(crate::columns::LabelMembers::new(ids)))
+            })
+            .clone())
+    }
+
+    /// The nodes of `label` if a reader of this commit has read them already.
+    pub(crate) fn label_members_if_read(
+        &self,
+        label: u32,
+    ) -> Option<Arc<crate::columns::LabelMembers>> {
+        self.base.hot.labels.get(label).get().cloned()
+    }
+
+    /// The state of the node (`nodes`) or relationship column of property `key` in this
+    /// commit: resolve it once, then ask [`ReadTxn::column`] per read.
+    pub(crate) fn column_state(
+        &self,
+        nodes: bool,
+        key: u32,
+    ) -> Arc<crate::hot::Lazy<crate::columns::Column>> {
+        if nodes {
+            self.base.hot.node_columns.get(key)
+        } else {
+            self.base.hot.rel_columns.get(key)
+        }
+    }
+
+    /// The column behind `state` (from [`ReadTxn::column_state`]) once it is built or due:
+    /// after as many reads of the property in this commit as a record copy waits for (see
+    /// [`crate::hot::Lazy::get`]); None before, or when the table cannot be a column.
+    pub(crate) fn column(
+        &self,
+        state: &crate::hot::Lazy<crate::columns::Column>,
+        nodes: bool,
+        key: u32,
+    ) -> Option<Arc<crate::columns::Column>> {
+        state.get(
+            || self.total(if nodes { 0 } else { 1 }),
+            || self.build_column(nodes, key),
+        )
+    }
+
+    /// Property `key` of every node or relationship, read in one pass.
+    fn build_column(&self, nodes: bool, key: u32) -> Option<crate::columns::Column> {
+        let mut b = crate::columns::ColumnBuilder::default();
+        let one = |bytes: &[u8]| {
+            if nodes {
+                codec::node_prop(bytes, key)
+            } else {
+                codec::rel_prop(bytes, key)
+            }
+        };
+        if let Some(hot) = self.hot_records(nodes) {
+            for (id, bytes) in hot.iter() {
+                if !b.push(id, one(bytes).ok()?) {
+                    return None;
+                }
+            }
+        } else {
+            let table = if nodes { &self.nodes } else { &self.rels };
+            for row in table.iter().ok()? {
+                let (k, v) = row.ok()?;
+                if !b.push(k.value(), one(v.value()).ok()?) {
+                    return None;
+                }
+            }
+        }
+        b.finish()
+    }
+
+    /// One property of a node, decoding only that value (None: no such node or property).
+    pub(crate) fn node_prop_only(&self, id: u64, key: u32) -> Result<Option<Value>> {
+        let one = |b: &[u8]| codec::node_prop(b, key).map_err(in_record("node", id));
+        if let Some(hot) = self.hot_records(true) {
+            return hot.get(id).map(one).transpose().map(Option::flatten);
+        }
+        match self.nodes.get(&id).map_err(storage)? {
+            Some(g) => one(g.value()),
+            None => Ok(None),
+        }
+    }
+
+    /// Whether node `id` exists and carries label `label`, reading only its labels.
+    pub(crate) fn node_has_label(&self, id: u64, label: u32) -> Result<bool> {
+        let one = |b: &[u8]| codec::node_has_label(b, label).map_err(in_record("node", id));
+        if let Some(hot) = self.hot_records(true) {
+            return hot.get(id).map_or(Ok(false), one);
+        }
+        match self.nodes.get(&id).map_err(storage)? {
+            Some(g) => one(g.value()),
+            None => Ok(false),
+        }
+    }
 }
 
 impl WriteTxn<'_> {
