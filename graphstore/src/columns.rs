@@ -159,6 +159,16 @@ impl Column {
         Column::Any(vals.into_iter().map(|v| v.unwrap_or(Value::Null)).collect())
     }
 
+    /// The dictionary code of `id`'s string in a [`Column::Str`] (None: absent, or not a
+    /// string column).
+    #[inline]
+    pub(crate) fn code(&self, id: u64) -> Option<u32> {
+        match self {
+            Column::Str { codes, .. } => codes.get(id as usize).copied().filter(|c| *c != u32::MAX),
+            _ => None,
+        }
+    }
+
     /// The entry of `id`.
     #[inline]
     pub(crate) fn get(&self, id: u64) -> Cell<'_> {

@@ -70,6 +70,16 @@ impl<T> Lazy<T> {
     }
 }
 
+impl<T> Lazy<T> {
+    /// The copy, built now if it is not yet (for a reader about to read the whole table
+    /// anyway); None when it cannot be made.
+    pub(crate) fn force(&self, build: impl FnOnce() -> Option<T>) -> Option<Arc<T>> {
+        self.copy
+            .get_or_init(|| crate::mem::uncounted(|| build().map(Arc::new)))
+            .clone()
+    }
+}
+
 /// The hot-table state of one commit.
 #[derive(Debug, Default)]
 pub(crate) struct Hot {

@@ -189,8 +189,10 @@ pub struct QueryOptions {
     pub row_limit: Option<usize>,
     /// Refuse statements that write.
     pub read_only: bool,
-    /// Fail with [`ErrorKind::RowLimit`] when any clause produces more rows than this
-    /// (a memory guard for runaway patterns; default 10 million).
+    /// Fail with [`ErrorKind::RowLimit`] when an operator holds more rows than this at once (a
+    /// memory guard for runaway patterns; default 10 million). The interpreter holds every
+    /// clause's rows; the pipeline streams, so only what sorts, groups, deduplicates or is
+    /// returned counts there.
     pub max_intermediate_rows: usize,
     /// Fail with [`ErrorKind::MemoryLimit`] when the statement would hold more bytes than
     /// this at once: rows, paths, lists, strings, maps, aggregation state (measured with

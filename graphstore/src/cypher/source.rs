@@ -65,6 +65,14 @@ pub(crate) trait Source {
     fn node_prop(&self, node: u64, handle: usize) -> R<Val>;
     /// A relationship's property through a handle (null when absent).
     fn rel_prop(&self, rel: u64, handle: usize) -> R<Val>;
+    /// The column behind a node property handle, for whole-graph kernels: None until the
+    /// commit has it (with `force`, built now unless the table cannot be a column), and
+    /// always None for a source without columns.
+    fn node_column(&self, handle: usize, force: bool) -> Option<Arc<Column>>;
+    /// The column behind a relationship property handle, as [`Source::node_column`].
+    fn rel_column(&self, handle: usize, force: bool) -> Option<Arc<Column>>;
+    /// The adjacency in memory, for whole-graph kernels (as [`Source::node_column`]).
+    fn adjacency(&self, force: bool) -> Option<Arc<AdjMem>>;
     /// Whether `label.key` has a property index.
     fn has_index(&self, label: &str, key: &str) -> bool;
     /// Nodes of `label` whose `key` equals `v`, by the property index.
@@ -73,6 +81,8 @@ pub(crate) trait Source {
     fn index_range(&self, label: &str, key: &str, lo: ValueBound, hi: ValueBound) -> R<Vec<u64>>;
     /// Nodes carrying `label` (0 for an unknown label): planning statistics.
     fn label_count(&self, label: &str) -> u64;
+    /// Nodes in the graph: planning statistics.
+    fn node_count(&self) -> u64;
 }
 
 /// One property's state for one statement: the commit's column once it is built.
@@ -137,6 +147,22 @@ impl<'t> StoreSource<'t> {
         v.len() - 1
     }
 
+    fn column_of(&self, nodes: bool, handle: usize, force: bool) -> Option<Arc<Column>> {
+        let mut v = if nodes {
+            self.node_props.borrow_mut()
+        } else {
+            self.rel_props.borrow_mut()
+        };
+        let st = v.get_mut(handle)?;
+        if st.col.is_none() {
+            let (Some(key), Some(lazy)) = (st.key, &st.lazy) else {
+                return None;
+            };
+            st.col = self.txn.column(lazy, nodes, key, force);
+        }
+        st.col.clone()
+    }
+
     fn prop(&self, nodes: bool, id: u64, handle: usize) -> R<Val> {
         let mut v = if nodes {
             self.node_props.borrow_mut()
@@ -150,7 +176,7 @@ impl<'t> StoreSource<'t> {
             return Ok(Val::Null);
         };
         if st.col.is_none() {
-            st.col = self.txn.column(lazy, nodes, key);
+            st.col = self.txn.column(lazy, nodes, key, false);
         }
         if let Some(c) = &st.col {
             return Ok(cell_val(c.get(id)));
@@ -264,7 +290,7 @@ impl Source for StoreSource<'_> {
         };
         let mut adj = self.adj.borrow_mut();
         if adj.is_none() {
-            *adj = self.txn.adjacency_mem();
+            *adj = self.txn.adjacency_mem(false);
         }
         let dirs: &[(u8, Option<u64>)] = match way {
             Way::Out => &[(0, None)],
@@ -302,6 +328,20 @@ impl Source for StoreSource<'_> {
         self.prop(false, rel, handle)
     }
 
+    fn node_column(&self, handle: usize, force: bool) -> Option<Arc<Column>> {
+        self.column_of(true, handle, force)
+    }
+    fn rel_column(&self, handle: usize, force: bool) -> Option<Arc<Column>> {
+        self.column_of(false, handle, force)
+    }
+    fn adjacency(&self, force: bool) -> Option<Arc<AdjMem>> {
+        let mut adj = self.adj.borrow_mut();
+        if adj.is_none() {
+            *adj = self.txn.adjacency_mem(force);
+        }
+        adj.clone()
+    }
+
     fn has_index(&self, label: &str, key: &str) -> bool {
         self.txn.has_property_index(label, key)
     }
@@ -317,5 +357,8 @@ impl Source for StoreSource<'_> {
             .label_counts
             .get_or_init(|| self.txn.counts().map(|c| c.nodes).unwrap_or_default());
         c.get(label).copied().unwrap_or(0)
+    }
+    fn node_count(&self) -> u64 {
+        self.txn.total_of(0)
     }
 }

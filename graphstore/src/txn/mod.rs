@@ -321,22 +321,25 @@ impl ReadTxn {
     /// The commit's in-memory adjacency, once enough asks made it worth building (see
     /// [`crate::hot`]).
     fn hot_adjacency(&self) -> Option<Arc<crate::hot::AdjMem>> {
-        self.base.hot.adj.get(
-            || 2 * self.total(1),
-            || {
-                let rows = self.adj.iter().ok()?.map(|row| {
-                    let (k, v) = row.map_err(storage)?;
-                    Ok((k.value(), v.value()))
-                });
-                match crate::hot::AdjMem::from_rows(rows) {
-                    Ok(m) => m,
-                    Err(e) => {
-                        tracing::warn!(error = %e, "adjacency not copied into memory");
-                        None
-                    }
-                }
-            },
-        )
+        self.base
+            .hot
+            .adj
+            .get(|| 2 * self.total(1), || self.copy_adjacency())
+    }
+
+    /// The adjacency table read into memory in one pass (None: too large, or unreadable).
+    fn copy_adjacency(&self) -> Option<crate::hot::AdjMem> {
+        let rows = self.adj.iter().ok()?.map(|row| {
+            let (k, v) = row.map_err(storage)?;
+            Ok((k.value(), v.value()))
+        });
+        match crate::hot::AdjMem::from_rows(rows) {
+            Ok(m) => m,
+            Err(e) => {
+                tracing::warn!(error = %e, "adjacency not copied into memory");
+                None
+            }
+        }
     }
 
     /// The commit's node (`nodes`) or relationship records in memory, once enough reads made
@@ -371,8 +374,11 @@ impl ReadTxn {
     }
 
     /// The commit's adjacency in memory, once it is built or due (each call is one ask; see
-    /// [`crate::hot`]).
-    pub(crate) fn adjacency_mem(&self) -> Option<Arc<crate::hot::AdjMem>> {
+    /// [`crate::hot`]); with `force`, built now.
+    pub(crate) fn adjacency_mem(&self, force: bool) -> Option<Arc<crate::hot::AdjMem>> {
+        if force {
+            return self.base.hot.adj.force(|| self.copy_adjacency());
+        }
         self.hot_adjacency()
     }
 
@@ -422,7 +428,11 @@ impl ReadTxn {
         state: &crate::hot::Lazy<crate::columns::Column>,
         nodes: bool,
         key: u32,
+        force: bool,
     ) -> Option<Arc<crate::columns::Column>> {
+        if force {
+            return state.force(|| self.build_column(nodes, key));
+        }
         state.get(
             || self.total(if nodes { 0 } else { 1 }),
             || self.build_column(nodes, key),
@@ -455,6 +465,11 @@ impl ReadTxn {
             }
         }
         b.finish()
+    }
+
+    /// Node (`which` 0) or relationship (1) total of the commit.
+    pub(crate) fn total_of(&self, which: u32) -> u64 {
+        self.total(which)
     }
 
     /// One property of a node, decoding only that value (None: no such node or property).

@@ -6,13 +6,15 @@
 //! input order, `stdev` and the percentiles computed by the interpreter's own `aggregate`
 //! from the values kept.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
+
+use hashbrown::{DefaultHashBuilder, HashTable};
 
 use super::super::R;
 use super::super::eval::{arg_err, type_err};
 use super::super::exec::aggregate;
 use super::super::value::{Val, order};
-use super::distinct::GroupKey;
+use super::distinct::{GroupKey, hash_vals, same_vals};
 use super::expr::CExpr;
 use super::{Exec, Flow, Next, Operator, Slots};
 
@@ -207,8 +209,12 @@ pub(crate) struct Aggregate {
     pub needs_first: bool,
     pub slots: usize,
     pub text: String,
-    groups: HashMap<GroupKey, usize>,
+    /// Group indexes into `list`, by the hash of their keys.
+    groups: HashTable<usize>,
+    hasher: DefaultHashBuilder,
     list: Vec<Group>,
+    /// This row's key values (reused).
+    keybuf: Vec<Val>,
 }
 
 impl Aggregate {
@@ -227,8 +233,10 @@ impl Aggregate {
             needs_first,
             slots,
             text,
-            groups: HashMap::new(),
+            groups: HashTable::new(),
+            hasher: DefaultHashBuilder::default(),
             list: Vec::new(),
+            keybuf: Vec::new(),
         }
     }
 
@@ -250,22 +258,38 @@ impl Aggregate {
 }
 
 impl Operator for Aggregate {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, _next: &mut Next<'_>) -> R<Flow> {
         ex.host.tick()?;
-        let key = GroupKey(
-            self.keys
-                .iter()
-                .map(|(e, _)| e.eval(ex, row, &[]))
-                .collect::<R<_>>()?,
-        );
-        let gi = match self.groups.get(&key) {
-            Some(gi) => *gi,
+        let mut key = std::mem::take(&mut self.keybuf);
+        key.clear();
+        for (e, _) in &self.keys {
+            key.push(e.eval(ex, row, &[])?);
+        }
+        let h = hash_vals(&key, &self.hasher);
+        let list = &self.list;
+        let found = if key.is_empty() && !list.is_empty() {
+            // no grouping keys: one group
+            Some(&0)
+        } else {
+            self.groups.find(h, |&g| same_vals(&list[g].keys, &key))
+        };
+        let gi = match found {
+            Some(&gi) => {
+                self.keybuf = key;
+                gi
+            }
             None => {
                 let first = self.needs_first.then(|| row.clone());
-                let g = self.fresh(key.0.clone(), first);
+                let g = self.fresh(key, first);
                 self.list.push(g);
                 let gi = self.list.len() - 1;
-                self.groups.insert(key, gi);
+                let (list, hasher) = (&self.list, &self.hasher);
+                self.groups
+                    .insert_unique(h, gi, |&g| hash_vals(&list[g].keys, hasher));
                 ex.host.room(self.list.len())?;
                 gi
             }
@@ -278,15 +302,13 @@ impl Operator for Aggregate {
                 }
                 continue;
             }
-            let mut vs = spec
-                .args
-                .iter()
-                .map(|a| a.eval(ex, row, &[]))
-                .collect::<R<Vec<_>>>()?;
-            let v = if vs.len() == 1 {
-                vs.pop().unwrap_or_default()
-            } else {
-                Val::List(vs)
+            let v = match spec.args.as_slice() {
+                [a] => a.eval(ex, row, &[])?,
+                args => Val::List(
+                    args.iter()
+                        .map(|a| a.eval(ex, row, &[]))
+                        .collect::<R<Vec<_>>>()?,
+                ),
             };
             if spec.kind == AggKind::Kept {
                 // the interpreter's aggregate() filters nulls and DISTINCT itself

@@ -33,6 +33,23 @@ impl Hash for GroupKey {
     }
 }
 
+/// The hash of a row of grouping values, consistent with [`GroupKey`]'s equality.
+pub(crate) fn hash_vals(vals: &[Val], b: &impl std::hash::BuildHasher) -> u64 {
+    let mut h = b.build_hasher();
+    for v in vals {
+        hash_val(v, &mut h);
+    }
+    h.finish()
+}
+
+/// Whether two rows of grouping values are one group.
+pub(crate) fn same_vals(a: &[Val], b: &[Val]) -> bool {
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| order(x, y) == std::cmp::Ordering::Equal)
+}
+
 /// A number's hash: an integral float hashes as the integer it equals.
 fn hash_num<H: Hasher>(v: &Val, h: &mut H) {
     match v {
@@ -133,6 +150,10 @@ pub(crate) struct Distinct {
 }
 
 impl Operator for Distinct {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let key = GroupKey(self.slots.iter().map(|s| row[*s].clone()).collect());
         if !self.seen.insert(key) {

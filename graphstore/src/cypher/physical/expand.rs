@@ -57,6 +57,10 @@ impl Expand {
 }
 
 impl Operator for Expand {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let Val::Node(from) = row[self.from] else {
             return Ok(Flow::Go);

@@ -12,6 +12,10 @@ pub(crate) struct Filter {
 }
 
 impl Operator for Filter {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         if self.pred.holds(ex, row)? {
             next(row)

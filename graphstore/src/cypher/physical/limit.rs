@@ -15,6 +15,10 @@ pub(crate) struct Skip {
 }
 
 impl Operator for Skip {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let left = match self.left {
             Some(l) => l,
@@ -51,6 +55,10 @@ pub(crate) struct Limit {
 }
 
 impl Operator for Limit {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let left = match self.left {
             Some(l) => l,

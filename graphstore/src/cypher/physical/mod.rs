@@ -19,10 +19,12 @@
 //! `expr.rs` (compiled expressions), `planner.rs` (logical plan → operators).
 
 pub(crate) mod aggregate;
+pub(crate) mod columnar;
 pub(crate) mod distinct;
 pub(crate) mod expand;
 pub(crate) mod expr;
 pub(crate) mod filter;
+pub(crate) mod fuse;
 pub(crate) mod limit;
 pub(crate) mod node_check;
 pub(crate) mod optional;
@@ -90,6 +92,8 @@ impl std::fmt::Debug for Exec<'_> {
 
 /// One physical operator.
 pub(crate) trait Operator: std::fmt::Debug {
+    /// The operator as `Any`, for the planner's fusion of operator sequences.
+    fn as_any(&self) -> &dyn std::any::Any;
     /// Takes one input row and hands every row it makes to `next`.
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow>;
     /// The input has ended: an operator that holds rows hands them on now.
@@ -164,6 +168,35 @@ pub(crate) fn finish_chain(
     Ok(())
 }
 
+/// Pushes `row` through the nested chain `ops`, then into `tail`.
+pub(crate) fn push_into(
+    ops: &mut [Box<dyn Operator>],
+    ex: &Exec<'_>,
+    row: &mut Slots,
+    tail: &mut Next<'_>,
+) -> R<Flow> {
+    match ops.split_first_mut() {
+        None => tail(row),
+        Some((op, rest)) => op.push(ex, row, &mut |r: &mut Slots| push_into(rest, ex, r, tail)),
+    }
+}
+
+/// Ends the input of the nested chain `ops`, whose rows go on into `tail`.
+pub(crate) fn finish_into(
+    ops: &mut [Box<dyn Operator>],
+    ex: &Exec<'_>,
+    tail: &mut Next<'_>,
+) -> R<Flow> {
+    let mut flow = Flow::Go;
+    for i in 0..ops.len() {
+        let (head, rest) = ops[i..].split_first_mut().expect("in range");
+        if head.finish(ex, &mut |r: &mut Slots| push_into(rest, ex, r, tail))? == Flow::Stop {
+            flow = Flow::Stop;
+        }
+    }
+    Ok(flow)
+}
+
 /// PROFILE's wrapper around an operator: rows it handed on and time inside it (its own
 /// work, the operators after it excluded).
 #[derive(Debug)]
@@ -204,6 +237,10 @@ impl Profiled {
 }
 
 impl Operator for Profiled {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         self.wrap(ex, |op, ex, n| op.push(ex, row, n), next)
     }

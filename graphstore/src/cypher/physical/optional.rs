@@ -3,7 +3,7 @@
 
 use super::super::R;
 use super::super::value::Val;
-use super::{Exec, Flow, Next, Operator, Slots};
+use super::{Exec, Flow, Next, Operator, Slots, push_into};
 
 /// Runs `inner` (streaming operators only) on each row.
 #[derive(Debug)]
@@ -13,20 +13,11 @@ pub(crate) struct Optional {
     pub new_slots: Vec<usize>,
 }
 
-/// Pushes `row` through `ops`, then into `tail`.
-fn push_into(
-    ops: &mut [Box<dyn Operator>],
-    ex: &Exec<'_>,
-    row: &mut Slots,
-    tail: &mut Next<'_>,
-) -> R<Flow> {
-    match ops.split_first_mut() {
-        None => tail(row),
-        Some((op, rest)) => op.push(ex, row, &mut |r: &mut Slots| push_into(rest, ex, r, tail)),
-    }
-}
-
 impl Operator for Optional {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let mut matched = false;
         let mut stop = false;

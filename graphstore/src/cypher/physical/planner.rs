@@ -198,6 +198,7 @@ pub(crate) fn plan(lp: &LogicalPlan, src: &dyn Source) -> Option<Plan> {
         }
     }
     pos.resize(ops.len(), lp.positions.last().copied().flatten());
+    let (ops, pos) = super::fuse::fuse(ops, pos, lp.slots);
     let mut logical = String::new();
     lp.explain(&mut logical);
     Some(Plan {

@@ -16,6 +16,10 @@ pub(crate) struct Produce {
 }
 
 impl Operator for Produce {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let n = {
             let mut rows = self.rows.borrow_mut();

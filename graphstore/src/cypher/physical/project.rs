@@ -14,6 +14,10 @@ pub(crate) struct Project {
 }
 
 impl Operator for Project {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         ex.host.tick()?;
         let mut vals = std::mem::take(&mut self.vals);
@@ -43,6 +47,10 @@ pub(crate) struct SetPath {
 }
 
 impl Operator for SetPath {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, _ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let id = |v: &Val| match v {
             Val::Node(i) | Val::Rel(i) => *i,

@@ -77,6 +77,10 @@ impl NodeScan {
 }
 
 impl Operator for NodeScan {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         match &self.source {
             ScanSource::Argument { name } => match row[self.check.slot] {

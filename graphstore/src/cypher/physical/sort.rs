@@ -31,6 +31,10 @@ impl Sort {
 }
 
 impl Operator for Sort {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, _next: &mut Next<'_>) -> R<Flow> {
         ex.host.tick()?;
         if self.keep.is_none()

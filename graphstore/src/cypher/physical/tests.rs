@@ -124,6 +124,15 @@ impl Source for MemSource {
             .and_then(|(_, _, _, p)| p.get(&(handle as u32)).cloned())
             .unwrap_or(Val::Null))
     }
+    fn node_column(&self, _h: usize, _force: bool) -> Option<Arc<crate::columns::Column>> {
+        None
+    }
+    fn rel_column(&self, _h: usize, _force: bool) -> Option<Arc<crate::columns::Column>> {
+        None
+    }
+    fn adjacency(&self, _force: bool) -> Option<Arc<crate::hot::AdjMem>> {
+        None
+    }
     fn has_index(&self, _label: &str, _key: &str) -> bool {
         false
     }
@@ -138,6 +147,9 @@ impl Source for MemSource {
         _hi: ValueBound,
     ) -> R<Vec<u64>> {
         Ok(Vec::new())
+    }
+    fn node_count(&self) -> u64 {
+        self.nodes.len() as u64
     }
     fn label_count(&self, label: &str) -> u64 {
         self.label_id(label).map_or(0, |l| {

@@ -14,6 +14,10 @@ pub(crate) struct Unwind {
 }
 
 impl Operator for Unwind {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         match self.expr.eval(ex, row, &[])? {
             Val::Null => Ok(Flow::Go),

@@ -1,0 +1,947 @@
+//! A columnar kernel for whole-graph chains: a label scan, expansions over single
+//! relationship types, predicates on properties, ending in an aggregation or a top-k.
+//!
+//! The generic operators pay for a row in dynamic calls, slot writes and value copies (tens
+//! of nanoseconds a row); over 200,000 nodes and a million relationships that is what makes a
+//! scan slow. Once the commit holds the columns, the in-memory adjacency and the label sets
+//! ([`crate::columns`], [`crate::hot`]), this operator runs the same chain as typed loops:
+//! node ids from the label list, neighbours from adjacency slices, label checks as bit tests,
+//! properties as column reads, predicates on borrowed column cells, groups keyed by
+//! dictionary codes, running typed accumulators, and a bounded heap for a top-k. The planner
+//! builds it in place of the operators it fuses and keeps those operators as its fallback:
+//! when the source has no columns (or a property's column holds values the kernel does not
+//! type), the fallback runs, row by row, and gives the same answer. The kernel's answers are
+//! the generic operators' answers: the same rows in the same order, the same sums added in
+//! the same order, the same null and type rules (checked against the interpreter by
+//! `tests/pipeline.rs`).
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+use std::hash::BuildHasher;
+use std::sync::Arc;
+
+use hashbrown::{DefaultHashBuilder, HashTable};
+
+use super::super::R;
+use super::super::ast::{BinOp, Expr};
+use super::super::eval::{arg_err, cmp_op, sort_key_cmp};
+use super::super::source::{Way, cell_val};
+use super::super::value::{Val, order};
+use super::aggregate::AggKind;
+use super::expr::CExpr;
+use super::{Exec, Flow, Next, Operator, Slots, finish_into, push_into};
+use crate::columns::{Cell, Column, LabelMembers};
+use crate::hot::AdjMem;
+
+/// A value of the chain: a node (by position, 0 the scanned one) or a relationship (by hop).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Elem {
+    Node(usize),
+    Rel(usize),
+}
+
+/// A property of a chain element, through a read handle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct ColRef {
+    pub elem: Elem,
+    pub handle: usize,
+}
+
+/// One hop: from node `from`, relationships of type `ty` taken `way`, to a node that carries
+/// `to_label` (if any); relationships of the hops in `unique` may not be taken again.
+#[derive(Debug, Clone)]
+pub(crate) struct Hop {
+    pub from: usize,
+    pub way: Way,
+    pub ty: u32,
+    pub to_label: Option<u32>,
+    pub unique: Vec<usize>,
+}
+
+/// A predicate on one property: a comparison with a value fixed for the statement, or a
+/// null test.
+#[derive(Debug, Clone)]
+pub(crate) enum PredOp {
+    /// `prop OP value` (`flipped`: the value was on the left).
+    Cmp {
+        op: BinOp,
+        value: CExpr,
+        flipped: bool,
+    },
+    /// `prop IS NULL` (true) or `IS NOT NULL` (false).
+    IsNull(bool),
+}
+
+/// A predicate of the chain, checked once its element is bound.
+#[derive(Debug, Clone)]
+pub(crate) struct Pred {
+    pub col: ColRef,
+    pub op: PredOp,
+}
+
+/// What the chain ends in.
+#[derive(Debug, Clone)]
+pub(crate) enum Sink {
+    /// Grouping: keys and aggregate arguments are properties of chain elements; outputs are
+    /// expressions over the aggregates only.
+    Aggregate {
+        keys: Vec<(ColRef, usize)>,
+        aggs: Vec<(AggKind, String, Option<ColRef>)>,
+        outputs: Vec<(CExpr, usize)>,
+    },
+    /// The first `SKIP + LIMIT` rows by one property: only those rows are handed on, in the
+    /// order they came (the sort after this operator orders them).
+    Top {
+        key: ColRef,
+        asc: bool,
+        skip: Option<Expr>,
+        limit: Expr,
+    },
+}
+
+/// The chain's shape, as the planner found it.
+#[derive(Debug, Clone)]
+pub(crate) struct ChainSpec {
+    pub label: u32,
+    /// Slot of each node position and of each hop's relationship.
+    pub node_slots: Vec<usize>,
+    pub rel_slots: Vec<usize>,
+    pub hops: Vec<Hop>,
+    pub preds: Vec<Pred>,
+    pub sink: Sink,
+    /// Row width.
+    pub slots: usize,
+}
+
+/// Which way the operator runs, decided at its first row.
+#[derive(Debug)]
+enum Mode {
+    Kernel(Box<Kernel>),
+    Fallback,
+}
+
+/// What a fallback operator stands for in the kernel, for PROFILE's figures.
+#[derive(Debug, Clone, Copy)]
+enum Role {
+    Scan,
+    Pred(usize),
+    Hop(usize),
+    Sink,
+}
+
+/// Rows the kernel handed from stage to stage: scanned, passing each predicate, found by
+/// each hop, and out of the sink.
+#[derive(Debug, Clone, Default)]
+struct Stats {
+    scanned: u64,
+    passed: Vec<u64>,
+    hopped: Vec<u64>,
+    out: u64,
+}
+
+/// The fused operator.
+#[derive(Debug)]
+pub(crate) struct Columnar {
+    pub spec: ChainSpec,
+    /// The operators it stands for, run when the kernel cannot be.
+    pub fallback: Vec<Box<dyn Operator>>,
+    pub text: String,
+    mode: Option<Mode>,
+    roles: Vec<Role>,
+    /// After the kernel ran: its figures.
+    stats: Option<Stats>,
+}
+
+impl Columnar {
+    /// `fallback`: the scan, then the filters and expansions in the order of the spec's
+    /// predicates and hops, then (for an aggregation) the aggregate.
+    pub(crate) fn new(spec: ChainSpec, fallback: Vec<Box<dyn Operator>>, text: String) -> Self {
+        let (mut p, mut h) = (0, 0);
+        let roles = fallback
+            .iter()
+            .enumerate()
+            .map(|(i, op)| {
+                let any = op.as_any();
+                if i == 0 {
+                    Role::Scan
+                } else if any.is::<super::filter::Filter>() {
+                    p += 1;
+                    Role::Pred(p - 1)
+                } else if any.is::<super::expand::Expand>() {
+                    h += 1;
+                    Role::Hop(h - 1)
+                } else {
+                    Role::Sink
+                }
+            })
+            .collect();
+        Columnar {
+            spec,
+            fallback,
+            text,
+            mode: None,
+            roles,
+            stats: None,
+        }
+    }
+}
+
+/// A column read borrowed for the statement, with what it may hold.
+#[derive(Debug)]
+struct Col {
+    col: Arc<Column>,
+}
+
+impl Col {
+    #[inline]
+    fn get(&self, id: u64) -> Cell<'_> {
+        self.col.get(id)
+    }
+}
+
+/// Grouping values of one row, typed (a string column's dictionary code, an integer, a
+/// float's canonical bits), so a row's key is found without building a value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum KeyPart {
+    Null,
+    Code(u32),
+    Int(i64),
+    Float(u64),
+}
+
+/// A float's grouping identity: -0.0 is 0.0, every NaN is one.
+fn float_key(f: f64) -> u64 {
+    if f.is_nan() {
+        f64::NAN.to_bits()
+    } else if f == 0.0 {
+        0
+    } else {
+        f.to_bits()
+    }
+}
+
+/// A typed running aggregate (the generic [`super::aggregate`] rules on typed inputs).
+#[derive(Debug, Clone)]
+enum TAcc {
+    Count(i64),
+    SumInt(Option<i64>),
+    SumFloat(f64),
+    Avg { sum: f64, n: u64 },
+    BestInt(Option<i64>),
+    BestFloat(Option<f64>),
+    BestStr(Option<u32>),
+}
+
+/// Float order as [`order`] has it: NaN above every number, -0.0 equal to 0.0.
+#[inline]
+fn float_order(a: f64, b: f64) -> Ordering {
+    match (a.is_nan(), b.is_nan()) {
+        (true, true) => Ordering::Equal,
+        (true, false) => Ordering::Greater,
+        (false, true) => Ordering::Less,
+        _ => a.partial_cmp(&b).unwrap_or(Ordering::Equal),
+    }
+}
+
+#[derive(Debug)]
+struct Group {
+    /// The key as typed parts (what rows are matched by) and as values (the first row's).
+    parts: Vec<KeyPart>,
+    keys: Vec<Val>,
+    accs: Vec<TAcc>,
+}
+
+/// A top-k candidate: its key, arrival, and the row it came from.
+#[derive(Debug)]
+struct Cand {
+    key: Val,
+    seq: u64,
+    asc: bool,
+    input: usize,
+    nodes: Vec<u64>,
+    rels: Vec<u64>,
+}
+
+impl PartialEq for Cand {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o) == Ordering::Equal
+    }
+}
+impl Eq for Cand {}
+impl PartialOrd for Cand {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Cand {
+    /// The sort's order, ties by arrival: the heap's top is the worst candidate kept.
+    fn cmp(&self, o: &Self) -> Ordering {
+        sort_key_cmp(
+            std::slice::from_ref(&self.key),
+            std::slice::from_ref(&o.key),
+            &[self.asc],
+        )
+        .then(self.seq.cmp(&o.seq))
+    }
+}
+
+/// The kernel's state for one statement.
+#[derive(Debug)]
+struct Kernel {
+    starts: Arc<LabelMembers>,
+    adj: Option<Arc<AdjMem>>,
+    /// Per hop, its target label's members.
+    to_sets: Vec<Option<Arc<LabelMembers>>>,
+    /// Columns of the predicates, keys, arguments and top key, in `spec` order.
+    pred_cols: Vec<Col>,
+    /// The predicates' values, fixed when the statement starts.
+    pred_vals: Vec<Option<Val>>,
+    /// Per stage (0: the scanned node; h: after hop h), the predicates it checks.
+    pred_stage: Vec<Vec<usize>>,
+    key_cols: Vec<Col>,
+    arg_cols: Vec<Option<Col>>,
+    top_col: Option<Col>,
+    groups: HashTable<usize>,
+    hasher: DefaultHashBuilder,
+    list: Vec<Group>,
+    keybuf: Vec<KeyPart>,
+    /// Only `count(*)`, no keys: a count.
+    count_only: bool,
+    count: i64,
+    heap: BinaryHeap<Cand>,
+    keep: usize,
+    seq: u64,
+    inputs: Vec<Slots>,
+    stats: Stats,
+}
+
+/// How an element's value reaches a stage: nodes at their position, relationships after
+/// their hop.
+fn stage_of(e: Elem) -> usize {
+    match e {
+        Elem::Node(p) => p,
+        Elem::Rel(h) => h + 1,
+    }
+}
+
+impl Columnar {
+    /// The kernel, when the source has everything it reads in columns of types it handles.
+    fn kernel(&self, ex: &Exec<'_>, row: &Slots) -> R<Option<Kernel>> {
+        let s = &self.spec;
+        let starts = ex.src.label_nodes(s.label)?;
+        // the columns and the adjacency are built now when the chain reads a large part of
+        // the graph anyway (a scan of an eighth of the nodes or more); else the kernel runs
+        // only once earlier reads of this commit built them
+        let force = starts.ids.len() as u64 * 8 >= ex.src.node_count();
+        let col = |c: &ColRef| -> Option<Col> {
+            let col = match c.elem {
+                Elem::Node(_) => ex.src.node_column(c.handle, force),
+                Elem::Rel(_) => ex.src.rel_column(c.handle, force),
+            }?;
+            Some(Col { col })
+        };
+        let adj = if s.hops.is_empty() {
+            None
+        } else {
+            match ex.src.adjacency(force) {
+                Some(a) => Some(a),
+                None => return Ok(None),
+            }
+        };
+        let mut pred_cols = Vec::new();
+        let mut pred_vals = Vec::new();
+        let mut pred_stage = vec![Vec::new(); s.hops.len() + 1];
+        for (i, p) in s.preds.iter().enumerate() {
+            let Some(c) = col(&p.col) else {
+                return Ok(None);
+            };
+            pred_cols.push(c);
+            pred_vals.push(match &p.op {
+                PredOp::Cmp { value, .. } => Some(value.eval(ex, row, &[])?),
+                PredOp::IsNull(_) => None,
+            });
+            pred_stage[stage_of(p.col.elem)].push(i);
+        }
+        let (mut key_cols, mut arg_cols, mut top_col) = (Vec::new(), Vec::new(), None);
+        let mut count_only = false;
+        let mut keep = 0;
+        match &s.sink {
+            Sink::Aggregate { keys, aggs, .. } => {
+                for (k, _) in keys {
+                    let Some(c) = col(k) else { return Ok(None) };
+                    if matches!(&*c.col, Column::Any(_)) {
+                        return Ok(None);
+                    }
+                    key_cols.push(c);
+                }
+                for (kind, _, a) in aggs {
+                    match a {
+                        None => arg_cols.push(None),
+                        Some(a) => {
+                            let Some(c) = col(a) else { return Ok(None) };
+                            let typed = matches!(
+                                (&*c.col, kind),
+                                (_, AggKind::Count)
+                                    | (Column::Int { .. } | Column::Float { .. }, _)
+                                    | (Column::Str { .. }, AggKind::Min | AggKind::Max)
+                            );
+                            if !typed {
+                                return Ok(None);
+                            }
+                            arg_cols.push(Some(c));
+                        }
+                    }
+                }
+                count_only =
+                    keys.is_empty() && aggs.iter().all(|(k, _, _)| *k == AggKind::CountStar);
+            }
+            Sink::Top {
+                key, skip, limit, ..
+            } => {
+                let Some(c) = col(key) else { return Ok(None) };
+                top_col = Some(c);
+                let sk = match skip {
+                    Some(e) => ex.host.count_arg(e, "SKIP")?.unwrap_or(0),
+                    None => 0,
+                };
+                let l = ex.host.count_arg(limit, "LIMIT")?.unwrap_or(usize::MAX);
+                keep = sk.saturating_add(l);
+            }
+        }
+        let mut to_sets = Vec::new();
+        for h in &s.hops {
+            to_sets.push(match h.to_label {
+                Some(l) => Some(ex.src.label_nodes(l)?),
+                None => None,
+            });
+        }
+        Ok(Some(Kernel {
+            starts,
+            adj,
+            to_sets,
+            pred_cols,
+            pred_vals,
+            pred_stage,
+            key_cols,
+            arg_cols,
+            top_col,
+            groups: HashTable::new(),
+            hasher: DefaultHashBuilder::default(),
+            list: Vec::new(),
+            keybuf: Vec::new(),
+            count_only,
+            count: 0,
+            heap: BinaryHeap::new(),
+            keep,
+            seq: 0,
+            inputs: Vec::new(),
+            stats: Stats {
+                passed: vec![0; s.preds.len()],
+                hopped: vec![0; s.hops.len()],
+                ..Stats::default()
+            },
+        }))
+    }
+}
+
+/// Whether a predicate holds of a column cell, as `cmp_op` / `IS NULL` decide on its value.
+#[inline]
+fn pred_holds(op: &PredOp, cell: Cell<'_>, value: Option<&Val>) -> bool {
+    match op {
+        PredOp::IsNull(is) => matches!(cell, Cell::Absent) == *is,
+        PredOp::Cmp { op, flipped, .. } => {
+            let Some(v) = value else { return false };
+            let r = match cell {
+                Cell::Absent => return false,
+                Cell::Int(i) => cmp_sided(*op, &Val::Int(i), v, *flipped),
+                Cell::Float(f) => cmp_sided(*op, &Val::Float(f), v, *flipped),
+                Cell::Str(s) => match v {
+                    Val::Str(t) => {
+                        let o = if *flipped {
+                            t.as_str().cmp(s)
+                        } else {
+                            s.cmp(t.as_str())
+                        };
+                        Val::Bool(match op {
+                            BinOp::Eq => o.is_eq(),
+                            BinOp::Ne => o.is_ne(),
+                            BinOp::Lt => o.is_lt(),
+                            BinOp::Le => o.is_le(),
+                            BinOp::Gt => o.is_gt(),
+                            BinOp::Ge => o.is_ge(),
+                            _ => return false,
+                        })
+                    }
+                    // against a value of another type the string's text does not matter
+                    other => cmp_sided(*op, &Val::Str(String::new()), other, *flipped),
+                },
+                Cell::Other(x) => cmp_sided(*op, &Val::from(x.clone()), v, *flipped),
+            };
+            matches!(r, Val::Bool(true))
+        }
+    }
+}
+
+#[inline]
+fn cmp_sided(op: BinOp, prop: &Val, value: &Val, flipped: bool) -> Val {
+    if flipped {
+        cmp_op(op, value, prop)
+    } else {
+        cmp_op(op, prop, value)
+    }
+}
+
+impl Kernel {
+    #[inline]
+    fn preds_ok(&mut self, spec: &ChainSpec, stage: usize, nodes: &[u64], rels: &[u64]) -> bool {
+        for &i in &self.pred_stage[stage] {
+            let p = &spec.preds[i];
+            let id = match p.col.elem {
+                Elem::Node(n) => nodes[n],
+                Elem::Rel(h) => rels[h],
+            };
+            if !pred_holds(&p.op, self.pred_cols[i].get(id), self.pred_vals[i].as_ref()) {
+                return false;
+            }
+            self.stats.passed[i] += 1;
+        }
+        true
+    }
+
+    /// Walks the hops from `stage` (nodes bound up to `stage`), handing each full match to
+    /// `sink`.
+    fn walk(
+        &mut self,
+        spec: &ChainSpec,
+        ex: &Exec<'_>,
+        stage: usize,
+        nodes: &mut [u64],
+        rels: &mut [u64],
+        input: usize,
+    ) -> R<()> {
+        if stage == spec.hops.len() {
+            return self.take(spec, ex, nodes, rels, input);
+        }
+        let hop = &spec.hops[stage];
+        let adj = self.adj.clone().expect("adjacency for hops");
+        let from = nodes[hop.from];
+        let dirs: &[(u8, bool)] = match hop.way {
+            Way::Out => &[(0, false)],
+            Way::In => &[(1, false)],
+            Way::Both => &[(0, false), (1, true)],
+        };
+        let last = stage + 1 == spec.hops.len();
+        let simple_last = last && self.count_only && self.pred_stage[stage + 1].is_empty();
+        for &(d, skip_loops) in dirs {
+            let a = adj.slice(from, d, Some(hop.ty));
+            ex.host.tick()?;
+            if simple_last {
+                // only counted: no slot writes, no calls per match
+                let set = self.to_sets[stage].as_ref().map(|m| &m.set);
+                let mut n = 0i64;
+                'rows: for i in 0..a.rels.len() {
+                    let (r, o) = (a.rels[i], a.others[i]);
+                    if skip_loops && o == from {
+                        continue;
+                    }
+                    if let Some(set) = set
+                        && !set.contains(o)
+                    {
+                        continue;
+                    }
+                    for &u in &hop.unique {
+                        if rels[u] == r {
+                            continue 'rows;
+                        }
+                    }
+                    n += 1;
+                }
+                self.count += n;
+                self.stats.hopped[stage] += n as u64;
+                continue;
+            }
+            for i in 0..a.rels.len() {
+                let (r, o) = (a.rels[i], a.others[i]);
+                if skip_loops && o == from {
+                    continue;
+                }
+                if let Some(m) = &self.to_sets[stage]
+                    && !m.set.contains(o)
+                {
+                    continue;
+                }
+                if hop.unique.iter().any(|&u| rels[u] == r) {
+                    continue;
+                }
+                rels[stage] = r;
+                nodes[stage + 1] = o;
+                self.stats.hopped[stage] += 1;
+                if !self.preds_ok(spec, stage + 1, nodes, rels) {
+                    continue;
+                }
+                self.walk(spec, ex, stage + 1, nodes, rels, input)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// One full match into the sink.
+    fn take(
+        &mut self,
+        spec: &ChainSpec,
+        ex: &Exec<'_>,
+        nodes: &[u64],
+        rels: &[u64],
+        input: usize,
+    ) -> R<()> {
+        let at = |e: Elem| match e {
+            Elem::Node(n) => nodes[n],
+            Elem::Rel(h) => rels[h],
+        };
+        match &spec.sink {
+            Sink::Aggregate { keys, aggs, .. } => {
+                if self.count_only {
+                    self.count += 1;
+                    return Ok(());
+                }
+                let mut kb = std::mem::take(&mut self.keybuf);
+                kb.clear();
+                for ((k, _), c) in keys.iter().zip(&self.key_cols) {
+                    let id = at(k.elem);
+                    kb.push(match c.get(id) {
+                        Cell::Absent | Cell::Other(_) => KeyPart::Null,
+                        Cell::Int(i) => KeyPart::Int(i),
+                        Cell::Float(f) => KeyPart::Float(float_key(f)),
+                        Cell::Str(_) => KeyPart::Code(c.col.code(id).unwrap_or(u32::MAX)),
+                    });
+                }
+                let h = self.hasher.hash_one(&kb);
+                let list = &self.list;
+                let gi = match self.groups.find(h, |&g| list[g].parts == kb) {
+                    Some(&g) => g,
+                    None => {
+                        let vals = keys
+                            .iter()
+                            .zip(&self.key_cols)
+                            .map(|((k, _), c)| cell_val(c.get(at(k.elem))))
+                            .collect();
+                        let accs = aggs
+                            .iter()
+                            .zip(&self.arg_cols)
+                            .map(|((kind, _, _), c)| fresh(*kind, c.as_ref()))
+                            .collect();
+                        self.list.push(Group {
+                            parts: kb.clone(),
+                            keys: vals,
+                            accs,
+                        });
+                        let gi = self.list.len() - 1;
+                        ex.host.room(self.list.len())?;
+                        let (list, hasher) = (&self.list, &self.hasher);
+                        self.groups
+                            .insert_unique(h, gi, |&g| hasher.hash_one(&list[g].parts));
+                        gi
+                    }
+                };
+                self.keybuf = kb;
+                let g = &mut self.list[gi];
+                for (((kind, _, a), c), acc) in aggs.iter().zip(&self.arg_cols).zip(&mut g.accs) {
+                    let cell = match (a, c) {
+                        (Some(a), Some(c)) => c.get(at(a.elem)),
+                        _ => {
+                            // count(*)
+                            if let TAcc::Count(n) = acc {
+                                *n += 1;
+                            }
+                            continue;
+                        }
+                    };
+                    let id = a.map(|a| at(a.elem)).unwrap_or(0);
+                    add(acc, *kind, cell, id, c.as_ref());
+                }
+                Ok(())
+            }
+            Sink::Top { key, asc, .. } => {
+                if self.keep == 0 {
+                    return Ok(());
+                }
+                let c = self.top_col.as_ref().expect("top column");
+                let cell = c.get(at(key.elem));
+                self.seq += 1;
+                // a candidate that cannot beat the worst kept is not built
+                if self.heap.len() >= self.keep
+                    && let Some(worst) = self.heap.peek()
+                {
+                    let o = order_cell(cell, &worst.key);
+                    let o = if *asc { o } else { o.reverse() };
+                    if o.is_ge() {
+                        return Ok(());
+                    }
+                }
+                let cand = Cand {
+                    key: cell_val(cell),
+                    seq: self.seq,
+                    asc: *asc,
+                    input,
+                    nodes: nodes.to_vec(),
+                    rels: rels.to_vec(),
+                };
+                self.heap.push(cand);
+                if self.heap.len() > self.keep {
+                    self.heap.pop();
+                } else {
+                    ex.host.room(self.heap.len())?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+/// [`order`] of a column cell against a value, without building the cell's value where it
+/// is a number or a string.
+fn order_cell(cell: Cell<'_>, v: &Val) -> Ordering {
+    match (cell, v) {
+        (Cell::Float(a), Val::Float(b)) => float_order(a, *b),
+        (Cell::Int(a), Val::Int(b)) => a.cmp(b),
+        (Cell::Str(a), Val::Str(b)) => a.cmp(b.as_str()),
+        (c, v) => order(&cell_val(c), v),
+    }
+}
+
+/// A fresh typed accumulator for an aggregate over a column (`None`: `count(*)`).
+fn fresh(kind: AggKind, col: Option<&Col>) -> TAcc {
+    let c = col.map(|c| &*c.col);
+    match (kind, c) {
+        (AggKind::CountStar | AggKind::Count, _) => TAcc::Count(0),
+        (AggKind::Sum, Some(Column::Int { .. })) => TAcc::SumInt(Some(0)),
+        // a float sum starts from -0.0, as Rust's `Sum` of floats does
+        (AggKind::Sum, _) => TAcc::SumFloat(-0.0),
+        (AggKind::Avg, _) => TAcc::Avg { sum: -0.0, n: 0 },
+        (_, Some(Column::Int { .. })) => TAcc::BestInt(None),
+        (_, Some(Column::Str { .. })) => TAcc::BestStr(None),
+        _ => TAcc::BestFloat(None),
+    }
+}
+
+/// Adds one cell (absent cells are nulls: skipped, as the generic aggregates skip nulls).
+#[inline]
+fn add(acc: &mut TAcc, kind: AggKind, cell: Cell<'_>, id: u64, col: Option<&Col>) {
+    let min = kind == AggKind::Min;
+    match (acc, cell) {
+        (_, Cell::Absent) => {}
+        (TAcc::Count(n), _) => *n += 1,
+        (TAcc::SumInt(s), Cell::Int(i)) => *s = s.and_then(|s| s.checked_add(i)),
+        (TAcc::SumFloat(s), Cell::Float(f)) => *s += f,
+        (TAcc::Avg { sum, n }, Cell::Int(i)) => {
+            *sum += i as f64;
+            *n += 1;
+        }
+        (TAcc::Avg { sum, n }, Cell::Float(f)) => {
+            *sum += f;
+            *n += 1;
+        }
+        (TAcc::BestInt(b), Cell::Int(i)) if b.is_none_or(|b| if min { i < b } else { i > b }) => {
+            *b = Some(i);
+        }
+        // ties keep the first (-0.0 and 0.0 are equal)
+        (TAcc::BestFloat(b), Cell::Float(f))
+            if b.is_none_or(|b| {
+                let o = float_order(f, b);
+                if min { o.is_lt() } else { o.is_gt() }
+            }) =>
+        {
+            *b = Some(f);
+        }
+        (TAcc::BestStr(b), Cell::Str(s)) => {
+            let Some(Column::Str { dict, .. }) = col.map(|c| &*c.col) else {
+                return;
+            };
+            let better = match b {
+                None => true,
+                Some(code) => {
+                    let o = s.cmp(dict[*code as usize].as_str());
+                    if min { o.is_lt() } else { o.is_gt() }
+                }
+            };
+            if better {
+                *b = col.and_then(|c| c.col.code(id));
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The value of a typed accumulator.
+fn value(acc: TAcc, col: Option<&Col>) -> R<Val> {
+    Ok(match acc {
+        TAcc::Count(n) => Val::Int(n),
+        TAcc::SumInt(s) => {
+            Val::Int(s.ok_or_else(|| arg_err("NumberOutOfRange", "sum() overflowed"))?)
+        }
+        TAcc::SumFloat(s) => Val::Float(s),
+        TAcc::Avg { n: 0, .. } => Val::Null,
+        TAcc::Avg { sum, n } => Val::Float(sum / n as f64),
+        TAcc::BestInt(b) => b.map_or(Val::Null, Val::Int),
+        TAcc::BestFloat(b) => b.map_or(Val::Null, Val::Float),
+        TAcc::BestStr(b) => match (b, col.map(|c| &*c.col)) {
+            (Some(code), Some(Column::Str { dict, .. })) => Val::Str(dict[code as usize].clone()),
+            _ => Val::Null,
+        },
+    })
+}
+
+impl Operator for Columnar {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
+        if self.mode.is_none() {
+            self.mode = Some(match self.kernel(ex, row)? {
+                Some(k) => Mode::Kernel(Box::new(k)),
+                None => Mode::Fallback,
+            });
+        }
+        let spec = &self.spec;
+        match self.mode.as_mut() {
+            Some(Mode::Kernel(k)) => {
+                let input = k.inputs.len();
+                if matches!(spec.sink, Sink::Top { .. }) {
+                    k.inputs.push(row.clone());
+                }
+                let starts = k.starts.clone();
+                let mut nodes = vec![0u64; spec.hops.len() + 1];
+                let mut rels = vec![0u64; spec.hops.len()];
+                k.stats.scanned += starts.ids.len() as u64;
+                for &a in &starts.ids {
+                    ex.host.tick()?;
+                    nodes[0] = a;
+                    if !k.preds_ok(spec, 0, &nodes, &rels) {
+                        continue;
+                    }
+                    k.walk(spec, ex, 0, &mut nodes, &mut rels, input)?;
+                }
+                Ok(Flow::Go)
+            }
+            _ => push_into(&mut self.fallback, ex, row, next),
+        }
+    }
+
+    fn finish(&mut self, ex: &Exec<'_>, next: &mut Next<'_>) -> R<Flow> {
+        let k = match self.mode.take() {
+            Some(Mode::Kernel(k)) => k,
+            // no row came, or the fallback ran: the fallback ends the input
+            _ => return finish_into(&mut self.fallback, ex, next),
+        };
+        let spec = &self.spec;
+        let mut k = *k;
+        match &spec.sink {
+            Sink::Aggregate {
+                keys,
+                outputs,
+                aggs,
+            } => {
+                if k.count_only {
+                    k.list.push(Group {
+                        parts: Vec::new(),
+                        keys: Vec::new(),
+                        accs: vec![TAcc::Count(k.count); aggs.len()],
+                    });
+                } else if k.list.is_empty() && keys.is_empty() {
+                    let accs = aggs
+                        .iter()
+                        .zip(&k.arg_cols)
+                        .map(|((kind, _, _), c)| fresh(*kind, c.as_ref()))
+                        .collect();
+                    k.list.push(Group {
+                        parts: Vec::new(),
+                        keys: Vec::new(),
+                        accs,
+                    });
+                }
+                k.stats.out = k.list.len() as u64;
+                self.stats = Some(std::mem::take(&mut k.stats));
+                let nulls = vec![Val::Null; spec.slots];
+                for g in std::mem::take(&mut k.list) {
+                    let vals = g
+                        .accs
+                        .into_iter()
+                        .zip(&k.arg_cols)
+                        .map(|(a, c)| value(a, c.as_ref()))
+                        .collect::<R<Vec<_>>>()?;
+                    let mut out = nulls.clone();
+                    for (v, (_, s)) in g.keys.into_iter().zip(keys) {
+                        out[*s] = v;
+                    }
+                    for (e, s) in outputs {
+                        out[*s] = e.eval(ex, &nulls, &vals)?;
+                    }
+                    if next(&mut out)? == Flow::Stop {
+                        return Ok(Flow::Stop);
+                    }
+                }
+                Ok(Flow::Go)
+            }
+            Sink::Top { .. } => {
+                let mut kept = std::mem::take(&mut k.heap).into_vec();
+                kept.sort_by_key(|c| c.seq);
+                k.stats.out = kept.len() as u64;
+                self.stats = Some(std::mem::take(&mut k.stats));
+                for c in kept {
+                    let mut row = k.inputs[c.input].clone();
+                    for (s, id) in spec.node_slots.iter().zip(&c.nodes) {
+                        row[*s] = Val::Node(*id);
+                    }
+                    for (s, id) in spec.rel_slots.iter().zip(&c.rels) {
+                        row[*s] = Val::Rel(*id);
+                    }
+                    if next(&mut row)? == Flow::Stop {
+                        return Ok(Flow::Stop);
+                    }
+                }
+                Ok(Flow::Go)
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        self.text.clone()
+    }
+
+    fn inner(&self) -> &[Box<dyn Operator>] {
+        &self.fallback
+    }
+
+    fn profile_inner(&mut self) {
+        self.fallback = super::profile_ops(std::mem::take(&mut self.fallback));
+    }
+
+    /// The fused operators' lines: their own figures when they ran as the fallback, the
+    /// kernel's rows per stage (its time is the kernel's own) when it ran.
+    fn inner_profile(&self) -> Vec<(usize, String, u64, f64)> {
+        let Some(st) = &self.stats else {
+            return self
+                .fallback
+                .iter()
+                .map(|op| {
+                    let (rows, ms) = super::profiled_figures(op.as_ref());
+                    (0, op.describe(), rows, ms)
+                })
+                .collect();
+        };
+        self.fallback
+            .iter()
+            .zip(&self.roles)
+            .map(|(op, role)| {
+                let rows = match *role {
+                    Role::Scan => st.scanned,
+                    Role::Pred(i) => st.passed.get(i).copied().unwrap_or(0),
+                    Role::Hop(h) => st.hopped.get(h).copied().unwrap_or(0),
+                    Role::Sink => st.out,
+                };
+                (0, format!("{} (in the kernel)", op.describe()), rows, 0.0)
+            })
+            .collect()
+    }
+}
