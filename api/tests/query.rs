@@ -280,18 +280,33 @@ fn explain_with_json_prints_the_plan_as_json() {
     let plan = v["plan"].as_array().unwrap();
     assert_eq!(
         plan[0],
-        serde_json::json!({"operator": "Match", "depth": 0}),
+        serde_json::json!({"operator": "Physical plan (pipelined operators)", "depth": 0}),
         "{v}"
     );
+    for op in [
+        "NodeByLabelScan n:Note",
+        "Filter n.x > 1",
+        "ProduceResults n",
+    ] {
+        assert!(
+            plan.iter().any(|o| o["operator"] == op && o["depth"] == 1),
+            "{op}: {v}"
+        );
+    }
     assert!(
         plan.iter()
-            .any(|o| o["operator"] == "NodeByLabelScan n:Note" && o["depth"] == 1),
+            .any(|o| o["operator"] == "Logical plan" && o["depth"] == 0),
         "{v}"
     );
     // and without --json, the text plan
     let out = og(&["query", "--db", s(&db), "EXPLAIN MATCH (n:Note) RETURN n"]);
     ok(&out);
-    assert!(String::from_utf8_lossy(&out.stdout).starts_with("Match\n"));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.starts_with("Physical plan (pipelined operators)\n"),
+        "{text}"
+    );
+    assert!(text.contains("\n  NodeByLabelScan n:Note\n"), "{text}");
 }
 
 #[test]

@@ -457,18 +457,22 @@ mod tests {
         );
     }
 
-    /// A tool's statement may not build more than MAX_INTERMEDIATE_ROWS rows in any clause
-    /// (a memory bound for an unauthenticated caller); just under it runs.
+    /// A tool's statement may not hold more than MAX_INTERMEDIATE_ROWS rows at once (a memory
+    /// bound for an unauthenticated caller); just under it runs, and a count that streams over
+    /// more rows than that holds none.
     #[test]
     fn a_runaway_statement_stops_at_the_intermediate_row_limit() {
         let (_dir, store) = demo_store();
         let mut tb = Toolbox::new(store, hash_finder(), false);
-        let q = |n: usize| json!({"query": format!("UNWIND range(1, {n}) AS a UNWIND range(1, 1000) AS b RETURN count(*) AS n")});
+        let q = |n: usize| json!({"query": format!("UNWIND range(1, {n}) AS a UNWIND range(1, 1000) AS b WITH DISTINCT a, b RETURN count(*) AS n")});
         let e = tb.call("read_cypher", &q(1001)).unwrap_err();
         assert_eq!(e.http_status(), 400);
         assert!(e.to_string().contains("1000000 rows"), "{e}");
         let ok = tb.call("read_cypher", &q(999)).unwrap();
         assert_eq!(ok["rows"][0]["n"], 999_000);
+        let streamed = json!({"query": "UNWIND range(1, 1001) AS a UNWIND range(1, 1000) AS b RETURN count(*) AS n"});
+        let ok = tb.call("read_cypher", &streamed).unwrap();
+        assert_eq!(ok["rows"][0]["n"], 1_001_000);
     }
 
     /// Read-only answers come back from the shared cache until a write through any worker;
