@@ -159,6 +159,49 @@ impl Column {
         Column::Any(vals.into_iter().map(|v| v.unwrap_or(Value::Null)).collect())
     }
 
+    /// The column whose entry `i` is this column's entry `ids[i]` (the same kind of column;
+    /// a string column keeps its dictionary): a relationship property in the order of the
+    /// adjacency rows, read sequentially by a traversal instead of by random relationship id.
+    pub(crate) fn gather(&self, ids: &[u64]) -> Column {
+        let present_of = |present: &[u64]| {
+            let mut bits = vec![0u64; ids.len().div_ceil(64)];
+            for (i, &id) in ids.iter().enumerate() {
+                if bit(present, id as usize) {
+                    bits[i / 64] |= 1 << (i % 64);
+                }
+            }
+            bits
+        };
+        match self {
+            Column::Int { vals, present } => Column::Int {
+                vals: ids
+                    .iter()
+                    .map(|&id| vals.get(id as usize).copied().unwrap_or(0))
+                    .collect(),
+                present: present_of(present),
+            },
+            Column::Float { vals, present } => Column::Float {
+                vals: ids
+                    .iter()
+                    .map(|&id| vals.get(id as usize).copied().unwrap_or(0.0))
+                    .collect(),
+                present: present_of(present),
+            },
+            Column::Str { codes, dict } => Column::Str {
+                codes: ids
+                    .iter()
+                    .map(|&id| codes.get(id as usize).copied().unwrap_or(u32::MAX))
+                    .collect(),
+                dict: dict.clone(),
+            },
+            Column::Any(vals) => Column::Any(
+                ids.iter()
+                    .map(|&id| vals.get(id as usize).cloned().unwrap_or(Value::Null))
+                    .collect(),
+            ),
+        }
+    }
+
     /// The dictionary code of `id`'s string in a [`Column::Str`] (None: absent, or not a
     /// string column).
     #[inline]
@@ -229,6 +272,32 @@ mod tests {
     use proptest::prelude::*;
 
     proptest! {
+        /// A gathered column reads at `i` what the column reads at `ids[i]`.
+        #[test]
+        fn a_gathered_column_reads_the_gathered_ids(
+            vals in proptest::collection::vec(proptest::option::of(0i64..5), 0..80),
+            kind in 0u8..4,
+            ids in proptest::collection::vec(0u64..100, 0..120),
+        ) {
+            let vals: Vec<Option<Value>> = vals
+                .into_iter()
+                .map(|v| v.map(|v| match kind {
+                    0 => Value::Int(v),
+                    1 => Value::Float(v as f64 / 2.0),
+                    2 => Value::String(format!("s{v}")),
+                    _ if v % 2 == 0 => Value::Int(v),
+                    _ => Value::String(format!("s{v}")),
+                }))
+                .collect();
+            let col = Column::from_values(vals);
+            let g = col.gather(&ids);
+            for (i, &id) in ids.iter().enumerate() {
+                prop_assert_eq!(g.get(i as u64), col.get(id));
+                prop_assert_eq!(g.code(i as u64), col.code(id));
+            }
+            prop_assert_eq!(g.get(ids.len() as u64), Cell::Absent);
+        }
+
         #[test]
         fn an_id_set_holds_exactly_its_members(
             mut ids in proptest::collection::vec(0u64..5000, 0..300),

@@ -16,6 +16,8 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 
+use crate::columns::Column;
+
 /// Adjacency asks, per commit, answered from redb before the table is copied into memory.
 pub(crate) const ASKS_BEFORE_COPY: u64 = 4096;
 /// Adjacency rows (two per relationship) above which the table is not copied (about 160 MB).
@@ -199,6 +201,31 @@ pub(crate) struct AdjMem {
     tys: Vec<u32>,
     rels: Vec<u64>,
     others: Vec<u64>,
+    /// Per (direction, type): where each node's rows of it lie, made on first use.
+    typed: Derived<(u8, u32), Vec<[u32; 2]>>,
+    /// Per (direction, type, target label, self-loops skipped): each node's count of such
+    /// rows, made on first use.
+    degrees: Derived<(u8, u32, Option<u32>, bool), Vec<u32>>,
+    /// Relationship property columns of this commit and the same columns in row order.
+    aligned: std::sync::Mutex<Vec<(Arc<Column>, Arc<Column>)>>,
+}
+
+/// Tables derived from the adjacency on first use, shared by the commit's readers.
+type Derived<K, V> = std::sync::Mutex<HashMap<K, Arc<V>>>;
+
+/// The derived table `key`, made by `make` if it is not yet (outside the statement's memory
+/// budget: it belongs to the commit).
+fn derived<K: std::hash::Hash + Eq + Copy, V>(
+    table: &Derived<K, V>,
+    key: K,
+    make: impl FnOnce() -> V,
+) -> Arc<V> {
+    let mut m = table
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    m.entry(key)
+        .or_insert_with(|| Arc::new(crate::mem::uncounted(make)))
+        .clone()
 }
 
 impl AdjMem {
@@ -250,7 +277,99 @@ impl AdjMem {
             tys,
             rels,
             others,
+            typed: Default::default(),
+            degrees: Default::default(),
+            aligned: Default::default(),
         }))
+    }
+
+    /// The part of rows `s..e` (one node's, in key order) with direction `dir` and a type in
+    /// `t0..=t1`.
+    fn narrow(&self, s: usize, e: usize, dir: u8, t0: u32, t1: u32) -> (usize, usize) {
+        let key = |i: usize| (self.dirs[s + i], self.tys[s + i]);
+        let n = e - s;
+        let lo = partition(n, |i| key(i) < (dir, t0));
+        let hi = lo + partition(n - lo, |i| key(lo + i) <= (dir, t1));
+        (s + lo, s + hi)
+    }
+
+    /// Per node id, where its rows of direction `dir` and type `ty` lie (for [`AdjMem::rows`];
+    /// a node past the end has none); `None` for sparse node ids. Made once per commit: 8
+    /// bytes per node.
+    pub(crate) fn typed(&self, dir: u8, ty: u32) -> Option<Arc<Vec<[u32; 2]>>> {
+        let Starts::Dense(st) = &self.starts else {
+            return None;
+        };
+        Some(derived(&self.typed, (dir, ty), || {
+            st.windows(2)
+                .map(|w| {
+                    let (s, e) = self.narrow(w[0] as usize, w[1] as usize, dir, ty, ty);
+                    [s as u32, e as u32]
+                })
+                .collect()
+        }))
+    }
+
+    /// `rel_column` (a relationship property column of this commit) in the order of this
+    /// table's rows: entry `i` is the property of row `i`'s relationship, so a traversal that
+    /// knows its row ([`AdjSlice::start`]) reads it sequentially. Made once per commit and
+    /// column: 8 bytes per row.
+    pub(crate) fn aligned(&self, rel_column: &Arc<Column>) -> Arc<Column> {
+        let mut m = self
+            .aligned
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, a)) = m.iter().find(|(c, _)| Arc::ptr_eq(c, rel_column)) {
+            return a.clone();
+        }
+        let a = Arc::new(crate::mem::uncounted(|| rel_column.gather(&self.rels)));
+        m.push((rel_column.clone(), a.clone()));
+        a
+    }
+
+    /// The rows at `at` (an entry of [`AdjMem::typed`]).
+    #[inline]
+    pub(crate) fn rows(&self, at: [u32; 2]) -> AdjSlice<'_> {
+        let r = at[0] as usize..at[1] as usize;
+        AdjSlice {
+            start: r.start,
+            rels: &self.rels[r.clone()],
+            tys: &self.tys[r.clone()],
+            others: &self.others[r],
+        }
+    }
+
+    /// Per node id, how many of its rows of direction `dir` and type `ty` lead to a node in
+    /// `to` (a label id and its members; `None`: any node), leaving out self-loops when
+    /// `skip_loops`; `None` for sparse node ids. Made once per commit: 4 bytes per node.
+    pub(crate) fn degrees(
+        &self,
+        dir: u8,
+        ty: u32,
+        to: Option<(u32, &crate::columns::IdSet)>,
+        skip_loops: bool,
+    ) -> Option<Arc<Vec<u32>>> {
+        let typed = self.typed(dir, ty)?;
+        Some(derived(
+            &self.degrees,
+            (dir, ty, to.map(|t| t.0), skip_loops),
+            || {
+                typed
+                    .iter()
+                    .enumerate()
+                    .map(|(n, &at)| {
+                        let others = self.rows(at).others;
+                        others
+                            .iter()
+                            .filter(|&&o| {
+                                !(skip_loops && o == n as u64)
+                                    && to.is_none_or(|(_, set)| set.contains(o))
+                            })
+                            .count() as u32
+                    })
+                    .collect()
+            },
+        ))
     }
 
     /// Rows of `node` in direction `dir` (0 out, 1 in), of type `ty` or all types, in key
@@ -267,16 +386,8 @@ impl AdjMem {
             },
         };
         let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
-        let key = |i: usize| (self.dirs[s + i], self.tys[s + i]);
-        let n = e - s;
-        let lo = partition(n, |i| key(i) < (dir, t0));
-        let hi = lo + partition(n - lo, |i| key(lo + i) <= (dir, t1));
-        let r = s + lo..s + hi;
-        AdjSlice {
-            rels: &self.rels[r.clone()],
-            tys: &self.tys[r.clone()],
-            others: &self.others[r],
-        }
+        let (lo, hi) = self.narrow(s, e, dir, t0, t1);
+        self.rows([lo as u32, hi as u32])
     }
 
     /// Rows of `node` in direction `dir` (0 out, 1 in), of type `ty` or all types, as
@@ -292,6 +403,8 @@ impl AdjMem {
 /// One node's adjacency rows in one direction, as borrowed columns of equal length.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct AdjSlice<'a> {
+    /// The table row of the first entry.
+    pub(crate) start: usize,
     pub(crate) rels: &'a [u64],
     pub(crate) tys: &'a [u32],
     pub(crate) others: &'a [u64],
@@ -351,6 +464,36 @@ mod tests {
                         let a = m.slice(node, dir, ty);
                         prop_assert_eq!(a.rels.len(), a.others.len());
                         prop_assert_eq!(a.rels.len(), a.tys.len());
+                    }
+                }
+            }
+            // the per-type ranges and degrees agree with the scan (dense ids only)
+            let to = crate::columns::IdSet::new(&[1, 2, 3, 5, 8, 13, 21, 34]);
+            for dir in 0..2 {
+                for ty in [0, 1, 3, 9] {
+                    let Some(typed) = m.typed(dir, ty) else {
+                        prop_assert!(matches!(m.starts, Starts::Sparse(_)));
+                        continue;
+                    };
+                    for skip in [false, true] {
+                        let any = m.degrees(dir, ty, None, skip).unwrap();
+                        let some = m.degrees(dir, ty, Some((7, &to)), skip).unwrap();
+                        for n in 0..42u64 {
+                            let want = reference(&rows, n, dir, Some(ty));
+                            let at = typed.get(n as usize).copied().unwrap_or([0, 0]);
+                            let got = m.rows(at);
+                            let got: Vec<_> = (0..got.rels.len())
+                                .map(|i| (got.rels[i], got.tys[i], got.others[i]))
+                                .collect();
+                            prop_assert_eq!(&got, &want);
+                            let kept = |o: &u64| !(skip && *o == n);
+                            let deg = |d: &[u32]| d.get(n as usize).copied().unwrap_or(0) as usize;
+                            prop_assert_eq!(deg(&any), want.iter().filter(|w| kept(&w.2)).count());
+                            prop_assert_eq!(
+                                deg(&some),
+                                want.iter().filter(|w| kept(&w.2) && to.contains(w.2)).count()
+                            );
+                        }
                     }
                 }
             }

@@ -285,6 +285,18 @@ impl Ord for Cand {
     }
 }
 
+/// Per hop, each direction's rows of the hop's type by node ([`AdjMem::typed`]).
+type HopRows = Vec<Option<Arc<Vec<[u32; 2]>>>>;
+
+/// One partial match: the nodes bound (start, then one per hop), the relationships taken and
+/// their adjacency rows (where the relationship's columns are read).
+#[derive(Debug)]
+struct Bound {
+    nodes: Vec<u64>,
+    rels: Vec<u64>,
+    rows: Vec<u64>,
+}
+
 /// The kernel's state for one statement.
 #[derive(Debug)]
 struct Kernel {
@@ -292,6 +304,14 @@ struct Kernel {
     adj: Option<Arc<AdjMem>>,
     /// Per hop, its target label's members.
     to_sets: Vec<Option<Arc<LabelMembers>>>,
+    /// Per hop and direction taken ([`dirs_of`]), where each node's rows of the hop's type lie.
+    hop_rows: Vec<HopRows>,
+    /// For a last hop only counted, per direction: each node's count of its rows to the
+    /// target label (a count of matches without walking the rows).
+    last_degrees: Vec<Option<Arc<Vec<u32>>>>,
+    /// Per hop, the direction its relationship was found in (0 out of, 1 into the hop's
+    /// `from` node).
+    rdir: Vec<u8>,
     /// Columns of the predicates, keys, arguments and top key, in `spec` order.
     pred_cols: Vec<Col>,
     /// The predicates' values, fixed when the statement starts.
@@ -302,6 +322,9 @@ struct Kernel {
     arg_cols: Vec<Option<Col>>,
     top_col: Option<Col>,
     groups: HashTable<usize>,
+    /// Grouping by one string column: the group of each dictionary code (entry 0: no
+    /// string), `u32::MAX` for none yet, instead of hashing.
+    by_code: Option<Vec<u32>>,
     hasher: DefaultHashBuilder,
     list: Vec<Group>,
     keybuf: Vec<KeyPart>,
@@ -324,6 +347,16 @@ fn stage_of(e: Elem) -> usize {
     }
 }
 
+/// The directions a hop reads its `from` node's rows in, and whether self-loops are left out
+/// of that direction (an undirected hop meets a self-loop in both; it is taken once).
+fn dirs_of(way: Way) -> &'static [(u8, bool)] {
+    match way {
+        Way::Out => &[(0, false)],
+        Way::In => &[(1, false)],
+        Way::Both => &[(0, false), (1, true)],
+    }
+}
+
 impl Columnar {
     /// The kernel, when the source has everything it reads in columns of types it handles.
     fn kernel(&self, ex: &Exec<'_>, row: &Slots) -> R<Option<Kernel>> {
@@ -333,13 +366,6 @@ impl Columnar {
         // the graph anyway (a scan of an eighth of the nodes or more); else the kernel runs
         // only once earlier reads of this commit built them
         let force = starts.ids.len() as u64 * 8 >= ex.src.node_count();
-        let col = |c: &ColRef| -> Option<Col> {
-            let col = match c.elem {
-                Elem::Node(_) => ex.src.node_column(c.handle, force),
-                Elem::Rel(_) => ex.src.rel_column(c.handle, force),
-            }?;
-            Some(Col { col })
-        };
         let adj = if s.hops.is_empty() {
             None
         } else {
@@ -347,6 +373,14 @@ impl Columnar {
                 Some(a) => Some(a),
                 None => return Ok(None),
             }
+        };
+        // relationship properties are read by adjacency row, in the order the hops read them
+        let col = |c: &ColRef| -> Option<Col> {
+            let col = match c.elem {
+                Elem::Node(_) => ex.src.node_column(c.handle, force)?,
+                Elem::Rel(_) => adj.as_ref()?.aligned(&ex.src.rel_column(c.handle, force)?),
+            };
+            Some(Col { col })
         };
         let mut pred_cols = Vec::new();
         let mut pred_vals = Vec::new();
@@ -408,6 +442,15 @@ impl Columnar {
                 keep = sk.saturating_add(l);
             }
         }
+        let by_code = match &key_cols[..] {
+            [c] => match &*c.col {
+                Column::Str { dict, .. } if dict.len() < 1 << 20 => {
+                    Some(vec![u32::MAX; dict.len() + 1])
+                }
+                _ => None,
+            },
+            _ => None,
+        };
         let mut to_sets = Vec::new();
         for h in &s.hops {
             to_sets.push(match h.to_label {
@@ -415,10 +458,33 @@ impl Columnar {
                 None => None,
             });
         }
+        let (mut hop_rows, mut last_degrees) = (Vec::new(), Vec::new());
+        if let Some(adj) = &adj {
+            for h in &s.hops {
+                hop_rows.push(
+                    dirs_of(h.way)
+                        .iter()
+                        .map(|&(d, _)| adj.typed(d, h.ty))
+                        .collect::<Vec<_>>(),
+                );
+            }
+            let last = s.hops.len() - 1;
+            if count_only && !s.preds.iter().any(|p| stage_of(p.col.elem) == s.hops.len()) {
+                let h = &s.hops[last];
+                let to = h.to_label.zip(to_sets[last].as_ref().map(|m| &m.set));
+                last_degrees = dirs_of(h.way)
+                    .iter()
+                    .map(|&(d, skip)| adj.degrees(d, h.ty, to, skip))
+                    .collect();
+            }
+        }
         Ok(Some(Kernel {
             starts,
             adj,
             to_sets,
+            hop_rows,
+            last_degrees,
+            rdir: vec![0; s.hops.len()],
             pred_cols,
             pred_vals,
             pred_stage,
@@ -426,6 +492,7 @@ impl Columnar {
             arg_cols,
             top_col,
             groups: HashTable::new(),
+            by_code,
             hasher: DefaultHashBuilder::default(),
             list: Vec::new(),
             keybuf: Vec::new(),
@@ -493,12 +560,14 @@ fn cmp_sided(op: BinOp, prop: &Val, value: &Val, flipped: bool) -> Val {
 
 impl Kernel {
     #[inline]
-    fn preds_ok(&mut self, spec: &ChainSpec, stage: usize, nodes: &[u64], rels: &[u64]) -> bool {
+    /// Whether the predicates of `stage` hold; `rows`: the adjacency row of each hop's
+    /// relationship (relationship columns are in row order).
+    fn preds_ok(&mut self, spec: &ChainSpec, stage: usize, nodes: &[u64], rows: &[u64]) -> bool {
         for &i in &self.pred_stage[stage] {
             let p = &spec.preds[i];
             let id = match p.col.elem {
                 Elem::Node(n) => nodes[n],
-                Elem::Rel(h) => rels[h],
+                Elem::Rel(h) => rows[h],
             };
             if !pred_holds(&p.op, self.pred_cols[i].get(id), self.pred_vals[i].as_ref()) {
                 return false;
@@ -515,26 +584,46 @@ impl Kernel {
         spec: &ChainSpec,
         ex: &Exec<'_>,
         stage: usize,
-        nodes: &mut [u64],
-        rels: &mut [u64],
+        b: &mut Bound,
         input: usize,
     ) -> R<()> {
         if stage == spec.hops.len() {
-            return self.take(spec, ex, nodes, rels, input);
+            return self.take(spec, ex, b, input);
         }
         let hop = &spec.hops[stage];
         let adj = self.adj.clone().expect("adjacency for hops");
-        let from = nodes[hop.from];
-        let dirs: &[(u8, bool)] = match hop.way {
-            Way::Out => &[(0, false)],
-            Way::In => &[(1, false)],
-            Way::Both => &[(0, false), (1, true)],
-        };
+        let from = b.nodes[hop.from];
         let last = stage + 1 == spec.hops.len();
         let simple_last = last && self.count_only && self.pred_stage[stage + 1].is_empty();
-        for &(d, skip_loops) in dirs {
-            let a = adj.slice(from, d, Some(hop.ty));
+        for (di, &(d, skip_loops)) in dirs_of(hop.way).iter().enumerate() {
             ex.host.tick()?;
+            if simple_last && let Some(Some(deg)) = self.last_degrees.get(di) {
+                // the count of rows to the target label, less the relationships earlier hops
+                // took that are among them
+                let set = self.to_sets[stage].as_ref().map(|m| &m.set);
+                let mut n = i64::from(deg.get(from as usize).copied().unwrap_or(0));
+                for &u in &hop.unique {
+                    if spec.hops[u].ty != hop.ty {
+                        continue;
+                    }
+                    let (x, y) = (b.nodes[spec.hops[u].from], b.nodes[u + 1]);
+                    let (start, end) = if self.rdir[u] == 0 { (x, y) } else { (y, x) };
+                    let (near, far) = if d == 0 { (start, end) } else { (end, start) };
+                    if near != from || (skip_loops && far == from) {
+                        continue;
+                    }
+                    if set.is_none_or(|set| set.contains(far)) {
+                        n -= 1;
+                    }
+                }
+                self.count += n;
+                self.stats.hopped[stage] += n as u64;
+                continue;
+            }
+            let a = match self.hop_rows[stage].get(di) {
+                Some(Some(at)) => adj.rows(at.get(from as usize).copied().unwrap_or([0, 0])),
+                _ => adj.slice(from, d, Some(hop.ty)),
+            };
             if simple_last {
                 // only counted: no slot writes, no calls per match
                 let set = self.to_sets[stage].as_ref().map(|m| &m.set);
@@ -550,7 +639,7 @@ impl Kernel {
                         continue;
                     }
                     for &u in &hop.unique {
-                        if rels[u] == r {
+                        if b.rels[u] == r {
                             continue 'rows;
                         }
                     }
@@ -570,39 +659,76 @@ impl Kernel {
                 {
                     continue;
                 }
-                if hop.unique.iter().any(|&u| rels[u] == r) {
+                if hop.unique.iter().any(|&u| b.rels[u] == r) {
                     continue;
                 }
-                rels[stage] = r;
-                nodes[stage + 1] = o;
+                b.rels[stage] = r;
+                b.rows[stage] = (a.start + i) as u64;
+                b.nodes[stage + 1] = o;
+                self.rdir[stage] = d;
                 self.stats.hopped[stage] += 1;
-                if !self.preds_ok(spec, stage + 1, nodes, rels) {
+                if !self.preds_ok(spec, stage + 1, &b.nodes, &b.rows) {
                     continue;
                 }
-                self.walk(spec, ex, stage + 1, nodes, rels, input)?;
+                self.walk(spec, ex, stage + 1, b, input)?;
             }
         }
         Ok(())
     }
 
-    /// One full match into the sink.
-    fn take(
+    /// Adds one match to group `gi`'s aggregates; `at`: where the match's columns are read.
+    #[inline]
+    fn accumulate(
         &mut self,
-        spec: &ChainSpec,
-        ex: &Exec<'_>,
-        nodes: &[u64],
-        rels: &[u64],
-        input: usize,
+        aggs: &[(AggKind, String, Option<ColRef>)],
+        gi: usize,
+        at: &impl Fn(Elem) -> u64,
     ) -> R<()> {
+        let g = &mut self.list[gi];
+        for (((kind, _, a), c), acc) in aggs.iter().zip(&self.arg_cols).zip(&mut g.accs) {
+            let cell = match (a, c) {
+                (Some(a), Some(c)) => c.get(at(a.elem)),
+                _ => {
+                    // count(*)
+                    if let TAcc::Count(n) = acc {
+                        *n += 1;
+                    }
+                    continue;
+                }
+            };
+            let id = a.map(|a| at(a.elem)).unwrap_or(0);
+            add(acc, *kind, cell, id, c.as_ref());
+        }
+        Ok(())
+    }
+
+    /// One full match into the sink.
+    fn take(&mut self, spec: &ChainSpec, ex: &Exec<'_>, b: &Bound, input: usize) -> R<()> {
+        // where a column is read: a node by id, a relationship by its adjacency row
         let at = |e: Elem| match e {
-            Elem::Node(n) => nodes[n],
-            Elem::Rel(h) => rels[h],
+            Elem::Node(n) => b.nodes[n],
+            Elem::Rel(h) => b.rows[h],
         };
         match &spec.sink {
             Sink::Aggregate { keys, aggs, .. } => {
                 if self.count_only {
                     self.count += 1;
                     return Ok(());
+                }
+                let dense = match (&self.by_code, keys.first()) {
+                    (Some(by), Some((k, _))) => {
+                        let slot = self.key_cols[0]
+                            .col
+                            .code(at(k.elem))
+                            .map_or(0, |c| c as usize + 1);
+                        Some((slot, by[slot]))
+                    }
+                    _ => None,
+                };
+                if let Some((_, g)) = dense
+                    && g != u32::MAX
+                {
+                    return self.accumulate(aggs, g as usize, &at);
                 }
                 let mut kb = std::mem::take(&mut self.keybuf);
                 kb.clear();
@@ -637,29 +763,18 @@ impl Kernel {
                         });
                         let gi = self.list.len() - 1;
                         ex.host.room(self.list.len())?;
-                        let (list, hasher) = (&self.list, &self.hasher);
-                        self.groups
-                            .insert_unique(h, gi, |&g| hasher.hash_one(&list[g].parts));
+                        if let (Some(by), Some((slot, _))) = (&mut self.by_code, dense) {
+                            by[slot] = gi as u32;
+                        } else {
+                            let (list, hasher) = (&self.list, &self.hasher);
+                            self.groups
+                                .insert_unique(h, gi, |&g| hasher.hash_one(&list[g].parts));
+                        }
                         gi
                     }
                 };
                 self.keybuf = kb;
-                let g = &mut self.list[gi];
-                for (((kind, _, a), c), acc) in aggs.iter().zip(&self.arg_cols).zip(&mut g.accs) {
-                    let cell = match (a, c) {
-                        (Some(a), Some(c)) => c.get(at(a.elem)),
-                        _ => {
-                            // count(*)
-                            if let TAcc::Count(n) = acc {
-                                *n += 1;
-                            }
-                            continue;
-                        }
-                    };
-                    let id = a.map(|a| at(a.elem)).unwrap_or(0);
-                    add(acc, *kind, cell, id, c.as_ref());
-                }
-                Ok(())
+                self.accumulate(aggs, gi, &at)
             }
             Sink::Top { key, asc, .. } => {
                 if self.keep == 0 {
@@ -683,8 +798,8 @@ impl Kernel {
                     seq: self.seq,
                     asc: *asc,
                     input,
-                    nodes: nodes.to_vec(),
-                    rels: rels.to_vec(),
+                    nodes: b.nodes.clone(),
+                    rels: b.rels.clone(),
                 };
                 self.heap.push(cand);
                 if self.heap.len() > self.keep {
@@ -811,16 +926,19 @@ impl Operator for Columnar {
                     k.inputs.push(row.clone());
                 }
                 let starts = k.starts.clone();
-                let mut nodes = vec![0u64; spec.hops.len() + 1];
-                let mut rels = vec![0u64; spec.hops.len()];
+                let mut b = Bound {
+                    nodes: vec![0u64; spec.hops.len() + 1],
+                    rels: vec![0u64; spec.hops.len()],
+                    rows: vec![0u64; spec.hops.len()],
+                };
                 k.stats.scanned += starts.ids.len() as u64;
                 for &a in &starts.ids {
                     ex.host.tick()?;
-                    nodes[0] = a;
-                    if !k.preds_ok(spec, 0, &nodes, &rels) {
+                    b.nodes[0] = a;
+                    if !k.preds_ok(spec, 0, &b.nodes, &b.rows) {
                         continue;
                     }
-                    k.walk(spec, ex, 0, &mut nodes, &mut rels, input)?;
+                    k.walk(spec, ex, 0, &mut b, input)?;
                 }
                 Ok(Flow::Go)
             }
