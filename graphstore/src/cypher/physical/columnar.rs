@@ -309,6 +309,8 @@ struct Kernel {
     /// For a last hop only counted, per direction: each node's count of its rows to the
     /// target label (a count of matches without walking the rows).
     last_degrees: Vec<Option<Arc<Vec<u32>>>>,
+    /// Whether `last_degrees` holds a table for every direction of the last hop.
+    degrees_all: bool,
     /// Per hop, the direction its relationship was found in (0 out of, 1 into the hop's
     /// `from` node).
     rdir: Vec<u8>,
@@ -478,12 +480,14 @@ impl Columnar {
                     .collect();
             }
         }
+        let degrees_all = !last_degrees.is_empty() && last_degrees.iter().all(Option::is_some);
         Ok(Some(Kernel {
             starts,
             adj,
             to_sets,
             hop_rows,
             last_degrees,
+            degrees_all,
             rdir: vec![0; s.hops.len()],
             pred_cols,
             pred_vals,
@@ -577,6 +581,46 @@ impl Kernel {
         true
     }
 
+    /// The last hop's matches from `from` in direction `di` of [`dirs_of`] (`d`, `skip_loops`):
+    /// its count of rows to the target label ([`AdjMem::degrees`]), less the relationships
+    /// earlier hops of the same type took that are among them (relationship uniqueness).
+    /// Needs [`Kernel::degrees_all`].
+    #[inline(always)]
+    fn last_count(
+        &self,
+        spec: &ChainSpec,
+        b: &Bound,
+        from: u64,
+        di: usize,
+        d: u8,
+        skip_loops: bool,
+    ) -> i64 {
+        let stage = spec.hops.len() - 1;
+        let hop = &spec.hops[stage];
+        let Some(Some(deg)) = self.last_degrees.get(di) else {
+            return 0;
+        };
+        let mut n = i64::from(deg.get(from as usize).copied().unwrap_or(0));
+        for &u in &hop.unique {
+            if spec.hops[u].ty != hop.ty {
+                continue;
+            }
+            let (x, y) = (b.nodes[spec.hops[u].from], b.nodes[u + 1]);
+            let (start, end) = if self.rdir[u] == 0 { (x, y) } else { (y, x) };
+            let (near, far) = if d == 0 { (start, end) } else { (end, start) };
+            if near != from || (skip_loops && far == from) {
+                continue;
+            }
+            if self.to_sets[stage]
+                .as_ref()
+                .is_none_or(|m| m.set.contains(far))
+            {
+                n -= 1;
+            }
+        }
+        n
+    }
+
     /// Walks the hops from `stage` (nodes bound up to `stage`), handing each full match to
     /// `sink`.
     fn walk(
@@ -595,27 +639,15 @@ impl Kernel {
         let from = b.nodes[hop.from];
         let last = stage + 1 == spec.hops.len();
         let simple_last = last && self.count_only && self.pred_stage[stage + 1].is_empty();
+        let before_last = stage + 2 == spec.hops.len()
+            && self.count_only
+            && self.degrees_all
+            && self.pred_stage[stage + 1].is_empty()
+            && self.pred_stage[stage + 2].is_empty();
         for (di, &(d, skip_loops)) in dirs_of(hop.way).iter().enumerate() {
             ex.host.tick()?;
-            if simple_last && let Some(Some(deg)) = self.last_degrees.get(di) {
-                // the count of rows to the target label, less the relationships earlier hops
-                // took that are among them
-                let set = self.to_sets[stage].as_ref().map(|m| &m.set);
-                let mut n = i64::from(deg.get(from as usize).copied().unwrap_or(0));
-                for &u in &hop.unique {
-                    if spec.hops[u].ty != hop.ty {
-                        continue;
-                    }
-                    let (x, y) = (b.nodes[spec.hops[u].from], b.nodes[u + 1]);
-                    let (start, end) = if self.rdir[u] == 0 { (x, y) } else { (y, x) };
-                    let (near, far) = if d == 0 { (start, end) } else { (end, start) };
-                    if near != from || (skip_loops && far == from) {
-                        continue;
-                    }
-                    if set.is_none_or(|set| set.contains(far)) {
-                        n -= 1;
-                    }
-                }
+            if simple_last && self.degrees_all {
+                let n = self.last_count(spec, b, from, di, d, skip_loops);
                 self.count += n;
                 self.stats.hopped[stage] += n as u64;
                 continue;
@@ -647,6 +679,38 @@ impl Kernel {
                 }
                 self.count += n;
                 self.stats.hopped[stage] += n as u64;
+                continue;
+            }
+            if before_last {
+                // the next hop is only counted from degrees: count it here, row by row,
+                // without a call per row
+                let next = &spec.hops[stage + 1];
+                let (mut n, mut rows_taken) = (0i64, 0u64);
+                for i in 0..a.rels.len() {
+                    let (r, o) = (a.rels[i], a.others[i]);
+                    if skip_loops && o == from {
+                        continue;
+                    }
+                    if let Some(m) = &self.to_sets[stage]
+                        && !m.set.contains(o)
+                    {
+                        continue;
+                    }
+                    if hop.unique.iter().any(|&u| b.rels[u] == r) {
+                        continue;
+                    }
+                    b.rels[stage] = r;
+                    b.nodes[stage + 1] = o;
+                    self.rdir[stage] = d;
+                    rows_taken += 1;
+                    let nfrom = b.nodes[next.from];
+                    for (ni, &(nd, nskip)) in dirs_of(next.way).iter().enumerate() {
+                        n += self.last_count(spec, b, nfrom, ni, nd, nskip);
+                    }
+                }
+                self.stats.hopped[stage] += rows_taken;
+                self.stats.hopped[stage + 1] += n as u64;
+                self.count += n;
                 continue;
             }
             for i in 0..a.rels.len() {
