@@ -172,33 +172,30 @@ impl Column {
             }
             bits
         };
+        // entry `ids[i]` of `vals` at `i`, `absent` past its end
+        fn pick<T: Clone>(vals: &[T], ids: &[u64], absent: T) -> Vec<T> {
+            ids.iter()
+                .map(|&id| {
+                    vals.get(id as usize)
+                        .cloned()
+                        .unwrap_or_else(|| absent.clone())
+                })
+                .collect()
+        }
         match self {
             Column::Int { vals, present } => Column::Int {
-                vals: ids
-                    .iter()
-                    .map(|&id| vals.get(id as usize).copied().unwrap_or(0))
-                    .collect(),
+                vals: pick(vals, ids, 0),
                 present: present_of(present),
             },
             Column::Float { vals, present } => Column::Float {
-                vals: ids
-                    .iter()
-                    .map(|&id| vals.get(id as usize).copied().unwrap_or(0.0))
-                    .collect(),
+                vals: pick(vals, ids, 0.0),
                 present: present_of(present),
             },
             Column::Str { codes, dict } => Column::Str {
-                codes: ids
-                    .iter()
-                    .map(|&id| codes.get(id as usize).copied().unwrap_or(u32::MAX))
-                    .collect(),
+                codes: pick(codes, ids, u32::MAX),
                 dict: dict.clone(),
             },
-            Column::Any(vals) => Column::Any(
-                ids.iter()
-                    .map(|&id| vals.get(id as usize).cloned().unwrap_or(Value::Null))
-                    .collect(),
-            ),
+            Column::Any(vals) => Column::Any(pick(vals, ids, Value::Null)),
         }
     }
 

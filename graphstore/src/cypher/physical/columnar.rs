@@ -349,6 +349,24 @@ fn stage_of(e: Elem) -> usize {
     }
 }
 
+/// Whether a hop may take row (`rel`, `other`) from `from`: not a self-loop where loops are
+/// left out, to a node of the target label (`to`), and not a relationship an earlier hop of
+/// `unique` took (`taken`: the relationship of each hop bound so far).
+#[inline(always)]
+fn admits(
+    rel: u64,
+    other: u64,
+    from: u64,
+    skip_loops: bool,
+    to: Option<&crate::columns::IdSet>,
+    unique: &[usize],
+    taken: &[u64],
+) -> bool {
+    !(skip_loops && other == from)
+        && to.is_none_or(|set| set.contains(other))
+        && !unique.iter().any(|&u| taken[u] == rel)
+}
+
 /// The directions a hop reads its `from` node's rows in, and whether self-loops are left out
 /// of that direction (an undirected hop meets a self-loop in both; it is taken once).
 fn dirs_of(way: Way) -> &'static [(u8, bool)] {
@@ -471,7 +489,7 @@ impl Columnar {
                 );
             }
             let last = s.hops.len() - 1;
-            if count_only && !s.preds.iter().any(|p| stage_of(p.col.elem) == s.hops.len()) {
+            if count_only && pred_stage[s.hops.len()].is_empty() {
                 let h = &s.hops[last];
                 let to = h.to_label.zip(to_sets[last].as_ref().map(|m| &m.set));
                 last_degrees = dirs_of(h.way)
@@ -656,86 +674,67 @@ impl Kernel {
                 Some(Some(at)) => adj.rows(at.get(from as usize).copied().unwrap_or([0, 0])),
                 _ => adj.slice(from, d, Some(hop.ty)),
             };
-            if simple_last {
-                // only counted: no slot writes, no calls per match
-                let set = self.to_sets[stage].as_ref().map(|m| &m.set);
-                let mut n = 0i64;
-                'rows: for i in 0..a.rels.len() {
-                    let (r, o) = (a.rels[i], a.others[i]);
-                    if skip_loops && o == from {
-                        continue;
-                    }
-                    if let Some(set) = set
-                        && !set.contains(o)
-                    {
-                        continue;
-                    }
-                    for &u in &hop.unique {
-                        if b.rels[u] == r {
-                            continue 'rows;
-                        }
-                    }
-                    n += 1;
-                }
-                self.count += n;
-                self.stats.hopped[stage] += n as u64;
-                continue;
-            }
+            let mut n = 0i64;
             if before_last {
-                // the next hop is only counted from degrees: count it here, row by row,
-                // without a call per row
+                // the next hop is only counted from degrees: its count is summed here, row by
+                // row, in a loop without a call per row
                 let next = &spec.hops[stage + 1];
-                let (mut n, mut rows_taken) = (0i64, 0u64);
                 for i in 0..a.rels.len() {
                     let (r, o) = (a.rels[i], a.others[i]);
-                    if skip_loops && o == from {
+                    if !admits(
+                        r,
+                        o,
+                        from,
+                        skip_loops,
+                        self.to_sets[stage].as_ref().map(|m| &m.set),
+                        &hop.unique,
+                        &b.rels,
+                    ) {
                         continue;
                     }
-                    if let Some(m) = &self.to_sets[stage]
-                        && !m.set.contains(o)
-                    {
-                        continue;
-                    }
-                    if hop.unique.iter().any(|&u| b.rels[u] == r) {
-                        continue;
-                    }
+                    self.stats.hopped[stage] += 1;
                     b.rels[stage] = r;
                     b.nodes[stage + 1] = o;
                     self.rdir[stage] = d;
-                    rows_taken += 1;
                     let nfrom = b.nodes[next.from];
                     for (ni, &(nd, nskip)) in dirs_of(next.way).iter().enumerate() {
-                        n += self.last_count(spec, b, nfrom, ni, nd, nskip);
+                        let k = self.last_count(spec, b, nfrom, ni, nd, nskip);
+                        self.stats.hopped[stage + 1] += k as u64;
+                        n += k;
                     }
                 }
-                self.stats.hopped[stage] += rows_taken;
-                self.stats.hopped[stage + 1] += n as u64;
                 self.count += n;
                 continue;
             }
             for i in 0..a.rels.len() {
                 let (r, o) = (a.rels[i], a.others[i]);
-                if skip_loops && o == from {
+                if !admits(
+                    r,
+                    o,
+                    from,
+                    skip_loops,
+                    self.to_sets[stage].as_ref().map(|m| &m.set),
+                    &hop.unique,
+                    &b.rels,
+                ) {
                     continue;
                 }
-                if let Some(m) = &self.to_sets[stage]
-                    && !m.set.contains(o)
-                {
-                    continue;
-                }
-                if hop.unique.iter().any(|&u| b.rels[u] == r) {
+                self.stats.hopped[stage] += 1;
+                if simple_last {
+                    // a last hop only counted: rows counted, not bound
+                    n += 1;
                     continue;
                 }
                 b.rels[stage] = r;
                 b.rows[stage] = (a.start + i) as u64;
                 b.nodes[stage + 1] = o;
                 self.rdir[stage] = d;
-                self.stats.hopped[stage] += 1;
                 if !self.preds_ok(spec, stage + 1, &b.nodes, &b.rows) {
                     continue;
                 }
                 self.walk(spec, ex, stage + 1, b, input)?;
             }
+            self.count += n;
         }
         Ok(())
     }
