@@ -167,7 +167,7 @@ fn main() -> anyhow::Result<()> {
         &a0,
         &url,
         "/api/cypher",
-        &json!({"query": "MATCH (i:Instance) WHERE NOT i.class IN ['road','sidewalk','parking','terrain','other-ground'] \
+        &json!({"query": "MATCH (i:Instance) WHERE NOT i.semantic_class IN ['road','sidewalk','parking','terrain','other-ground'] \
                  WITH i.caption AS c, collect(id(i)) AS ids WHERE size(ids) = 1 RETURN c ORDER BY c LIMIT 40"}),
         None,
     );
@@ -213,7 +213,7 @@ fn main() -> anyhow::Result<()> {
     ];
     let reads = [
         "MATCH (s:Segment) RETURN s.kind AS kind, count(*) AS n ORDER BY kind",
-        "MATCH (i:Instance)-[:IN_SEGMENT]->(s:Segment {kind: 't_intersection'}) RETURN i.class AS c, count(*) AS n ORDER BY n DESC LIMIT 5",
+        "MATCH (i:Instance)-[:IN_SEGMENT]->(s:Segment {kind: 't_intersection'}) RETURN i.semantic_class AS c, count(*) AS n ORDER BY n DESC LIMIT 5",
         "MATCH (a:Instance)-[r:RELATED]->(b:Instance) WHERE r.relation = 'next_to' RETURN count(*) AS n",
     ];
     let unique = env_or("OPENGRAPH_LOAD_UNIQUE", 0u8) == 1;

@@ -52,7 +52,7 @@ fn cli_http_and_mcp_give_the_same_answers() {
         ),
         (
             "read_cypher",
-            json!({"query": "MATCH (i:Instance) WHERE i.class = $c RETURN count(i) AS n", "params": {"c": "car"}}),
+            json!({"query": "MATCH (i:Instance) WHERE i.semantic_class = $c RETURN count(i) AS n", "params": {"c": "car"}}),
         ),
         (
             "find_objects",
@@ -60,7 +60,7 @@ fn cli_http_and_mcp_give_the_same_answers() {
         ),
         (
             "find_objects",
-            json!({"text": "somewhere to post a letter", "k": 2, "class": "pole"}),
+            json!({"text": "somewhere to post a letter", "k": 2, "semantic_class": "pole"}),
         ),
         (
             "locate",
@@ -253,7 +253,7 @@ fn cli_http_and_mcp_write_alike() {
     );
     let v = read_query(
         &db,
-        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+        "MATCH (i:Instance) WHERE NOT i.semantic_class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
          WITH i.caption AS c, collect(id(i)) AS ids WHERE size(ids) = 1 RETURN c ORDER BY c LIMIT 1",
     );
     let caption = v[0]["c"].as_str().unwrap().to_string();

@@ -125,7 +125,7 @@ fn stop(mut child: Child, log: &Path) {
 fn summary(db: &Path) -> Json {
     let q = |c: &str| read_query(db, c);
     json!({
-        "classes": q("MATCH (i:Instance) RETURN i.class AS class, count(*) AS n ORDER BY class"),
+        "classes": q("MATCH (i:Instance) RETURN i.semantic_class AS class, count(*) AS n ORDER BY class"),
         "frames": q("MATCH (f:Frame) RETURN count(*) AS n")[0]["n"],
         "lane_nodes": q("MATCH (l:LaneNode) RETURN count(*) AS n")[0]["n"],
         "lanes": q("MATCH (:LaneNode)-[r:LANE]->(:LaneNode) RETURN count(r) AS n")[0]["n"],

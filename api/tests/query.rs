@@ -13,7 +13,7 @@ fn query_prints_tables_and_json_and_takes_parameters() {
         "query",
         "--db",
         s(&db),
-        "MATCH (i:Instance) RETURN i.instance_id AS id, i.class AS class ORDER BY id LIMIT 2",
+        "MATCH (i:Instance) RETURN i.instance_id AS id, i.semantic_class AS class ORDER BY id LIMIT 2",
     ]);
     ok(&out);
     let text = String::from_utf8_lossy(&out.stdout);
@@ -42,7 +42,7 @@ fn query_prints_tables_and_json_and_takes_parameters() {
         "cls=\"car\"",
         "--param",
         "k=5",
-        "MATCH (i:Instance) WHERE i.class = $cls RETURN i.caption AS caption, i.centroid AS c LIMIT $k",
+        "MATCH (i:Instance) WHERE i.semantic_class = $cls RETURN i.caption AS caption, i.centroid AS c LIMIT $k",
     ]));
     let rows = rows.as_array().unwrap();
     assert_eq!(rows.len(), 1);
@@ -57,11 +57,11 @@ fn query_prints_tables_and_json_and_takes_parameters() {
         "--json",
         "--param",
         "name=bench",
-        "MATCH (i:Instance {class: $name}) RETURN i",
+        "MATCH (i:Instance {semantic_class: $name}) RETURN i",
     ]));
     let node = &rows[0]["i"];
     assert_eq!(node["_labels"], serde_json::json!(["Instance"]));
-    assert_eq!(node["class"], "bench");
+    assert_eq!(node["semantic_class"], "bench");
 
     let out = og(&[
         "query",

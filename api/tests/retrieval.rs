@@ -109,12 +109,15 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
     // surfaces only when asked for
     let surfaces = ["road", "sidewalk", "parking", "terrain", "other-ground"];
     for h in find("who could I ask for directions") {
-        assert!(!surfaces.contains(&h["class"].as_str().unwrap()), "{h}");
+        assert!(
+            !surfaces.contains(&h["semantic_class"].as_str().unwrap()),
+            "{h}"
+        );
     }
     assert!(
         find("the asphalt road")
             .iter()
-            .all(|h| surfaces.contains(&h["class"].as_str().unwrap())),
+            .all(|h| surfaces.contains(&h["semantic_class"].as_str().unwrap())),
     );
     // a segment constraint is reported on each result, and the best answer stands at (or
     // within 10 m of) a T-junction's 12 m disc

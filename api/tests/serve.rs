@@ -300,7 +300,7 @@ fn every_route_answers_as_its_openapi_document_says() {
         (
             "/api/cypher",
             "read_cypher",
-            json!({"query": "MATCH (i:Instance) RETURN i.class AS c, count(*) AS n ORDER BY c"}),
+            json!({"query": "MATCH (i:Instance) RETURN i.semantic_class AS c, count(*) AS n ORDER BY c"}),
         ),
     ] {
         let (st, mut http) = post(&format!("{}{route}", srv.url), &args, None);
@@ -405,7 +405,7 @@ fn map_updates_over_http_need_the_token_and_undo_exactly() {
     // an instance with a caption no other has
     let v = common::read_query(
         &db,
-        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+        "MATCH (i:Instance) WHERE NOT i.semantic_class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
          WITH i.caption AS c, collect(id(i)) AS ids WHERE size(ids) = 1 RETURN ids[0] AS id, c ORDER BY id LIMIT 1",
     );
     let (id, caption) = (

@@ -58,7 +58,7 @@ fn sim_build_find_plan_eval() {
     let hits = hits.as_array().unwrap();
     assert_eq!(hits.len(), 3);
     for h in hits {
-        for k in ["id", "caption", "class", "score", "centroid"] {
+        for k in ["id", "caption", "semantic_class", "score", "centroid"] {
             assert!(h.get(k).is_some(), "{h}");
         }
     }

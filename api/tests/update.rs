@@ -34,7 +34,7 @@ fn map() -> (tempfile::TempDir, std::path::PathBuf) {
 fn unique_instance(db: &Path) -> (u64, String) {
     let v = read_query(
         db,
-        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+        "MATCH (i:Instance) WHERE NOT i.semantic_class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
          WITH i.caption AS c, collect(id(i)) AS ids WHERE size(ids) = 1 \
          RETURN ids[0] AS id, c ORDER BY id LIMIT 1",
     );
@@ -195,7 +195,7 @@ fn change_add_and_move_then_undo_in_reverse() {
     // its box overlaps no other object's footprint (ground x, z)
     let boxes = read_query(
         &db,
-        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+        "MATCH (i:Instance) WHERE NOT i.semantic_class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
          RETURN id(i) AS id, i.bbox AS b",
     );
     let ground = |b: &serde_json::Value| {
@@ -266,8 +266,8 @@ fn an_ambiguous_description_changes_nothing() {
     // tells it apart), and a second object of its class that reads the same
     let all = read_query(
         &db,
-        "MATCH (i:Instance) WHERE NOT i.class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
-         RETURN id(i) AS id, i.caption AS c, i.class AS k ORDER BY id LIMIT 60",
+        "MATCH (i:Instance) WHERE NOT i.semantic_class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground'] \
+         RETURN id(i) AS id, i.caption AS c, i.semantic_class AS k ORDER BY id LIMIT 60",
     );
     let (a, caption, class) = all
         .as_array()
@@ -292,7 +292,7 @@ fn an_ambiguous_description_changes_nothing() {
         .expect("an object with a plain caption");
     let b = read_query(
         &db,
-        &format!("MATCH (i:Instance) WHERE i.class = '{class}' AND id(i) <> {a} RETURN id(i) AS id ORDER BY id LIMIT 1"),
+        &format!("MATCH (i:Instance) WHERE i.semantic_class = '{class}' AND id(i) <> {a} RETURN id(i) AS id ORDER BY id LIMIT 1"),
     )[0]["id"]
         .as_u64()
         .unwrap();

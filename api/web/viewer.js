@@ -112,7 +112,7 @@ function draw() {
   for (const pass of [true, false]) {
     for (const inst of v.instances) {
       if (inst.surface !== pass) continue;
-      ctx.fillStyle = v.colours[inst.class] || "#808080";
+      ctx.fillStyle = v.colours[inst.semantic_class] || "#808080";
       ctx.globalAlpha = pass ? 0.25 : 0.9;
       const p = inst.points;
       for (let i = 0; i + 1 < p.length; i += 2) {
@@ -237,7 +237,7 @@ async function select(id) {
       `<li>${esc(r.outgoing ? r.relation : "(" + r.relation + ")")} ${esc(r.caption || "")} <span class="small">#${r.id}, ${r.distance_m === null ? "" : Number(r.distance_m).toFixed(1) + " m"}</span></li>`).join("");
     detailsEl.innerHTML = `<h3>#${d.id} ${esc(p.label || p.caption || "")}</h3>
       ${p.label ? `<div>${esc(p.caption || "")}</div>` : ""}
-      <div class="small">${p.colour ? `${esc(p.colour)} · ` : ""}${p.material ? `${esc(p.material)} · ` : ""}<span class="swatch" style="background:${state.view.colours[p.class] || "#808080"}"></span>${esc(p.class || "")}
+      <div class="small">${p.colour ? `${esc(p.colour)} · ` : ""}${p.material ? `${esc(p.material)} · ` : ""}<span class="swatch" style="background:${state.view.colours[p.semantic_class] || "#808080"}"></span>${esc(p.semantic_class || "")}
       ${d.segment ? ` · segment #${d.segment.id} (${esc(d.segment.kind || "")})` : ""}
       ${p.point_count !== undefined ? ` · ${p.point_count} points` : ""}</div>
       ${rels ? `<div class="small" style="margin-top:6px">relations</div><ul>${rels}</ul>` : ""}`;
@@ -285,7 +285,7 @@ async function run() {
       showResults(`${a.results.length} found`, a.results.map((r, i) => {
         const ev = (r.evidence || []).map((e) => `${e.relation.replace("_", " ")} ${e.anchor_caption} (${e.distance_m} m)`).join("; ");
         return `<div class="result" data-id="${r.id}"><b>${i + 1}.</b> ${r.label ? `<b>${esc(r.label)}</b>: ` : ""}${esc(r.caption)}
-          <div class="meta"><span class="swatch" style="background:${state.view.colours[r.class] || "#808080"}"></span>${esc(r.class)} · #${r.id} · score ${r.score.toFixed(2)}${r.segment ? " · " + esc(r.segment[1]) : ""}</div>
+          <div class="meta"><span class="swatch" style="background:${state.view.colours[r.semantic_class] || "#808080"}"></span>${esc(r.semantic_class)} · #${r.id} · score ${r.score.toFixed(2)}${r.segment ? " · " + esc(r.segment[1]) : ""}</div>
           ${ev ? `<div class="meta">${esc(ev)}</div>` : ""}</div>`;
       }));
       focusOn(state.highlighted.map((id) => state.centres.get(id)).filter(Boolean));
@@ -353,7 +353,7 @@ async function main() {
     for (let i = 0; i + 1 < p.length; i += 2) { x += p[i]; y += p[i + 1]; }
     state.centres.set(inst.id, [x / (p.length / 2), y / (p.length / 2)]);
   }
-  const classes = [...new Set(v.instances.map((i) => i.class))].sort();
+  const classes = [...new Set(v.instances.map((i) => i.semantic_class))].sort();
   legendEl.innerHTML = classes.map((c) => `<span style="white-space:nowrap;margin-right:8px"><span class="swatch" style="background:${v.colours[c] || "#808080"}"></span>${esc(c)}</span>`).join(" ");
   resize();
   fit(v.bounds[0], v.bounds[1], v.bounds[2], v.bounds[3], 1.05);

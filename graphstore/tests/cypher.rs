@@ -49,7 +49,7 @@ fn city() -> (tempfile::TempDir, Store) {
                 &[
                     ("instance_id", Value::Int(i)),
                     ("caption", Value::from(format!("a {class} number {i}"))),
-                    ("class", Value::from(class)),
+                    ("semantic_class", Value::from(class)),
                     ("centroid", Value::Point3D([x, y, 0.5])),
                     (
                         "bbox",
@@ -432,7 +432,7 @@ fn procedures_query_the_vector_spatial_and_text_indexes() {
     assert_eq!(r.rows, vec![vec![Val::Int(2)]]);
     let r = q(
         &s,
-        "CALL db.index.fulltext.queryNodes('instance_caption', 'shelter', 3) YIELD node RETURN node.class AS c",
+        "CALL db.index.fulltext.queryNodes('instance_caption', 'shelter', 3) YIELD node RETURN node.semantic_class AS c",
     );
     assert_eq!(r.rows.len(), 3);
     assert!(
@@ -489,12 +489,12 @@ fn variable_length_paths_union_and_optional_match() {
     assert_eq!(r.rows, vec![vec![Val::Int(19), Val::Null]]);
     let r = q(
         &s,
-        "MATCH (i:Instance) RETURN i.class AS c UNION MATCH (i:Instance) RETURN i.class AS c",
+        "MATCH (i:Instance) RETURN i.semantic_class AS c UNION MATCH (i:Instance) RETURN i.semantic_class AS c",
     );
     assert_eq!(r.rows.len(), 5);
     let r = q(
         &s,
-        "MATCH (i:Instance) RETURN i.class AS c, count(*) AS n ORDER BY n DESC, c LIMIT 2",
+        "MATCH (i:Instance) RETURN i.semantic_class AS c, count(*) AS n ORDER BY n DESC, c LIMIT 2",
     );
     assert_eq!(
         r.rows,

@@ -152,7 +152,7 @@ pub fn is_object(r: &impl GraphRead, id: u64) -> Result<bool> {
 /// Whether an instance read through its record is an object: neither a surface class nor a
 /// background tile (`tile` set).
 pub fn is_object_record(inst: &InstanceRecord) -> bool {
-    !SURFACE_CLASSES.contains(&inst.class.as_str()) && inst.tile.is_none()
+    !SURFACE_CLASSES.contains(&inst.semantic_class.as_str()) && inst.tile.is_none()
 }
 
 /// Options of a pass.

@@ -467,7 +467,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 let k = tx.prop_key_id(key::CAPTIONS)?;
                 tx.set_node_prop(*id, k, Value::List(vec![Value::String(caption.clone())]))?;
                 if let Some(c) = class {
-                    let k = tx.prop_key_id(key::CLASS)?;
+                    let k = tx.prop_key_id(key::SEMANTIC_CLASS)?;
                     tx.set_node_prop(*id, k, Value::String(c.clone()))?;
                 }
                 // the label and attributes follow the new caption
@@ -516,7 +516,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 let id = InstanceRecord {
                     instance_id: next,
                     caption: caption.clone(),
-                    class: class.clone(),
+                    semantic_class: class.clone(),
                     label: Some(label),
                     colour,
                     material,
@@ -538,7 +538,7 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
                 diff.touched.push(id);
                 relink(tx, id, frame, &segments, &cfg, &mut diff)?;
                 summary.insert("caption".into(), serde_json::json!(caption));
-                summary.insert("class".into(), serde_json::json!(class));
+                summary.insert("semantic_class".into(), serde_json::json!(class));
                 summary.insert("centroid".into(), serde_json::json!(centroid));
             }
         }

@@ -35,7 +35,7 @@ fn object(
                         .collect(),
                 ),
             ),
-            ("class", class.into()),
+            ("semantic_class", class.into()),
             ("centroid", Value::Point3D(c)),
             ("bbox", Value::box3d(min, max)),
         ],

@@ -89,7 +89,7 @@ fn small_map() -> (tempfile::TempDir, Store, Vec<u64>) {
                     &[
                         ("instance_id", Value::Int(i as i64)),
                         ("caption", caption.into()),
-                        ("class", class.into()),
+                        ("semantic_class", class.into()),
                         ("centroid", Value::Point3D(c)),
                         ("bbox", bx(c, 0.5)),
                         ("feature", Value::Vector(feat(i))),

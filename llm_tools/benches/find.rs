@@ -93,7 +93,7 @@ fn main() -> anyhow::Result<()> {
                     &[
                         ("instance_id", Value::Int(*i as i64)),
                         ("caption", Value::from(format!("a {class} number {i}"))),
-                        ("class", Value::from(class)),
+                        ("semantic_class", Value::from(class)),
                         ("centroid", Value::Point3D([x, -1.0, z])),
                         (
                             "bbox",

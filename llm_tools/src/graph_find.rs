@@ -173,8 +173,8 @@ pub struct GraphFound {
     pub label: String,
     /// Caption.
     pub caption: String,
-    /// Its SemanticKITTI class (or `other-object`).
-    pub class: String,
+    /// Its SemanticKITTI class (`Instance.semantic_class`, or `other-object`).
+    pub semantic_class: String,
     /// The combined score (see the module docs).
     pub score: f64,
     /// The target gate (times the attribute factor): relative to the best candidate, so the
@@ -502,7 +502,7 @@ pub fn find_graph_normed(
     let ground = scene.ground;
     let t_sims = similarities(scene, embedder, &target_phrases, |o| {
         o.surface == wants_surface
-            && opts.class.as_ref().is_none_or(|c| *c == o.class)
+            && opts.class.as_ref().is_none_or(|c| *c == o.semantic_class)
             && opts.near.is_none_or(|(g, radius_m)| {
                 let p = ground.ground(o.centroid);
                 (p[0] - g[0]).hypot(p[1] - g[1]) <= radius_m
@@ -659,7 +659,7 @@ pub fn find_graph_normed(
             id: t.id,
             label: t.label.clone(),
             caption: t.caption.clone(),
-            class: t.class.clone(),
+            semantic_class: t.semantic_class.clone(),
             // the raw cosine orders results the gate and support leave tied
             score: s_t * (1.0 + mean_support) * seg + opts.cosine_weight * cos_t / t_best.max(1e-9),
             similarity: s_t,
@@ -724,7 +724,7 @@ pub fn rerank_llm(
             i + 1,
             g.label,
             g.caption,
-            g.class,
+            g.semantic_class,
             seg,
             if ev.is_empty() {
                 String::new()
@@ -871,7 +871,7 @@ mod tests {
     fn obj(id: u64, lo: [f64; 2], hi: [f64; 2], h: (f64, f64)) -> SceneObject {
         SceneObject {
             id,
-            class: "x".into(),
+            semantic_class: "x".into(),
             label: String::new(),
             caption: String::new(),
             centroid: [0.0; 3],

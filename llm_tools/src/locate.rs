@@ -582,7 +582,7 @@ mod tests {
             .zip(features)
             .map(|(&(id, caption, p), feature)| SceneObject {
                 id,
-                class: "x".into(),
+                semantic_class: "x".into(),
                 label: String::new(),
                 caption: caption.into(),
                 centroid: [p[0], p[1], 0.5],

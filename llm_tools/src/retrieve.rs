@@ -38,8 +38,8 @@ pub struct Found {
     pub label: String,
     /// Fused caption.
     pub caption: String,
-    /// Class.
-    pub class: String,
+    /// Its SemanticKITTI class (`Instance.semantic_class`).
+    pub semantic_class: String,
     /// Cosine similarity to the query.
     pub score: f64,
     /// Centroid in the world frame.
@@ -119,7 +119,7 @@ pub fn find<R: GraphRead>(
             id,
             label: text(scene::key::LABEL),
             caption: text(scene::key::CAPTION),
-            class: text(scene::key::CLASS),
+            semantic_class: text(scene::key::SEMANTIC_CLASS),
             score,
             centroid: get(scene::key::CENTROID)
                 .and_then(Value::as_point3)
@@ -159,7 +159,7 @@ fn passes<R: GraphRead>(r: &R, id: u64, opts: &FindOptions) -> Result<bool> {
     };
     let get = |k: &str| r.prop_key(k).and_then(|k| node.get(k));
     Ok(fits(
-        get(scene::key::CLASS),
+        get(scene::key::SEMANTIC_CLASS),
         get(scene::key::CENTROID),
         opts,
     ))
@@ -202,7 +202,7 @@ fn ranked_by_index<R: GraphRead>(
 fn scan<R: GraphRead>(r: &R, q: &[f32], opts: &FindOptions) -> Result<Vec<(f64, u64)>> {
     let (k_feature, k_class, k_centroid) = (
         r.prop_key(scene::key::FEATURE),
-        r.prop_key(scene::key::CLASS),
+        r.prop_key(scene::key::SEMANTIC_CLASS),
         r.prop_key(scene::key::CENTROID),
     );
     // only the scores are kept while scanning; the k winners are read again afterwards
@@ -249,7 +249,7 @@ mod tests {
                         &[scene::label::INSTANCE],
                         &[
                             ("caption", Value::String(cap.to_string())),
-                            ("class", Value::String(class.to_string())),
+                            ("semantic_class", Value::String(class.to_string())),
                             ("centroid", Value::Point3D(*c)),
                             ("feature", Value::Vector(f)),
                         ],
@@ -280,9 +280,9 @@ mod tests {
         let mut e = HashEmbedder::new(64);
         let (hits, _) = find(&r, &mut e, "a bench", &FindOptions::default()).unwrap();
         assert_eq!(hits.len(), 3);
-        assert_eq!(hits[0].class, "bench");
+        assert_eq!(hits[0].semantic_class, "bench");
         assert!(hits[0].score >= hits[1].score && hits[1].score >= hits[2].score);
-        assert_eq!(hits[2].class, "car");
+        assert_eq!(hits[2].semantic_class, "car");
         let near = FindOptions {
             near: Some(([0.0, 0.0], 10.0)),
             ..FindOptions::default()
@@ -327,7 +327,7 @@ mod tests {
                         &[
                             ("instance_id", Value::Int(i)),
                             ("caption", Value::String(caption)),
-                            ("class", Value::from(words[(i % 8) as usize])),
+                            ("semantic_class", Value::from(words[(i % 8) as usize])),
                             ("centroid", Value::Point3D([x, 0.0, z])),
                             ("bbox", Value::box3d([x, 0.0, z], [x + 1.0, 1.0, z + 1.0])),
                             ("feature", Value::Vector(f)),

@@ -478,7 +478,7 @@ pub fn blocking_instances(
         };
         // ground surfaces are driven over, not around; background classes fused per ground
         // tile (`tile` set) have the box of a 20 m tile's worth of points, not an obstacle's
-        if GROUND_CLASSES.contains(&inst.class.as_str()) || inst.tile.is_some() {
+        if GROUND_CLASSES.contains(&inst.semantic_class.as_str()) || inst.tile.is_some() {
             continue;
         }
         let (lo, hi) = inst.bbox;

@@ -40,7 +40,7 @@ pub fn instance_footprints(
         let Some(inst) = InstanceRecord::read(r, id)? else {
             continue;
         };
-        let class = inst.class;
+        let class = inst.semantic_class;
         let surface = crate::motion::GROUND_CLASSES.contains(&class.as_str());
         let (lo, hi) = inst.bbox;
         let (a, b) = (ground.ground(lo), ground.ground(hi));

@@ -38,7 +38,7 @@ fn instance(
         &[
             ("instance_id", Value::Int(id)),
             ("caption", format!("a {class}").into()),
-            ("class", class.into()),
+            ("semantic_class", class.into()),
             ("centroid", Value::Point3D(c)),
             ("bbox", Value::box3d(min, max)),
         ],

@@ -13,7 +13,10 @@ fn instance(i: i64, x: f64) -> Vec<(&'static str, Value)> {
     vec![
         ("instance_id", Value::Int(i)),
         ("caption", format!("object number {i} near the road").into()),
-        ("class", if i % 2 == 0 { "car" } else { "bench" }.into()),
+        (
+            "semantic_class",
+            if i % 2 == 0 { "car" } else { "bench" }.into(),
+        ),
         ("centroid", Value::Point3D([x, 0.0, 0.0])),
         (
             "bbox",
@@ -68,7 +71,7 @@ fn readers_see_consistent_snapshots_while_a_writer_commits() {
                     // the same snapshot answers the same after the writer moved on
                     assert_eq!(r.nodes_with_label("Instance").unwrap().len(), n);
                     assert_eq!(
-                        r.find_nodes("Instance", "class", &"car".into())
+                        r.find_nodes("Instance", "semantic_class", &"car".into())
                             .unwrap()
                             .len(),
                         n / 2

@@ -44,7 +44,7 @@ def test_info_schema_and_query(m):
     assert info["nodes"]["Instance"] == n
     s = m.schema()
     assert s["nodes"]["Instance"] == n
-    rows = m.query("MATCH (n:Instance) WHERE n.class = $c RETURN id(n) AS id LIMIT 3", {"c": "car"})
+    rows = m.query("MATCH (n:Instance) WHERE n.semantic_class = $c RETURN id(n) AS id LIMIT 3", {"c": "car"})
     assert all(isinstance(r["id"], int) for r in rows)
     a = m.query_answer("MATCH (n:Segment) RETURN n.kind AS kind ORDER BY kind")
     assert a["columns"] == ["kind"] and a["row_count"] == len(a["rows"])
@@ -52,7 +52,7 @@ def test_info_schema_and_query(m):
 
 def test_query_df(m):
     pd = pytest.importorskip("pandas")
-    df = m.query_df("MATCH (n:Instance) RETURN n.class AS class, n.point_count AS points LIMIT 20")
+    df = m.query_df("MATCH (n:Instance) RETURN n.semantic_class AS class, n.point_count AS points LIMIT 20")
     assert isinstance(df, pd.DataFrame)
     assert list(df.columns) == ["class", "points"]
 
@@ -61,10 +61,10 @@ def test_find_locate_navigate_describe(m):
     f = m.find("a parked car", k=3)
     assert 1 <= len(f["results"]) <= 3
     best = f["results"][0]
-    assert set(best) >= {"id", "caption", "class", "score", "centroid", "evidence"}
+    assert set(best) >= {"id", "caption", "semantic_class", "score", "centroid", "evidence"}
     assert len(best["centroid"]) == 3
-    only = m.find("a parked car", k=5, class_="car")
-    assert all(r["class"] == "car" for r in only["results"])
+    only = m.find("a parked car", k=5, semantic_class="car")
+    assert all(r["semantic_class"] == "car" for r in only["results"])
     loc = m.locate("I'm at a T-junction", k=2)
     assert 1 <= len(loc["results"]) <= 2
     seg = loc["results"][0]["segment"]

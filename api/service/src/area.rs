@@ -10,7 +10,7 @@ use serde_json::Value as Json;
 
 use crate::error::{ToolError, ToolResult, failed};
 use crate::ops::{
-    AreaAnswer, ClassCount, EnvironmentOverview, EnvironmentRef, InstanceAnswer, LabelSchema,
+    AreaAnswer, EnvironmentOverview, EnvironmentRef, InstanceAnswer, LabelCount, LabelSchema,
     Notable, PropertySchema, RelatedRef, RelationshipTypeSchema, SchemaAnswer, SegmentDetail,
     SegmentRef, SegmentSummary,
 };
@@ -161,32 +161,37 @@ impl Toolbox {
             });
             Ok(v)
         };
-        let class_of = |id: u64| -> ToolResult<String> {
-            Ok(str_prop(&r, id, key::CLASS)?.unwrap_or_default())
+        // (SemanticKITTI class, label): surfaces are told by the class, kinds by the label
+        let kind_of = |id: u64| -> ToolResult<(String, String)> {
+            let class = str_prop(&r, id, key::SEMANTIC_CLASS)?.unwrap_or_default();
+            let label = str_prop(&r, id, key::LABEL)?
+                .filter(|l| !l.is_empty() && !surfaces.contains(&class.as_str()))
+                .unwrap_or_else(|| class.clone());
+            Ok((class, label))
         };
         match segment {
             None => {
                 let env = r.nodes_with_label(label::ENVIRONMENT).map_err(failed)?;
                 let mut segments = Vec::new();
                 for s in r.nodes_with_label(label::SEGMENT).map_err(failed)? {
-                    let mut by_class: BTreeMap<String, u64> = BTreeMap::new();
+                    let mut by_label: BTreeMap<String, u64> = BTreeMap::new();
                     let ids = members(s)?;
                     for id in &ids {
-                        let c = class_of(*id)?;
+                        let (c, l) = kind_of(*id)?;
                         if !surfaces.contains(&c.as_str()) {
-                            *by_class.entry(c).or_insert(0) += 1;
+                            *by_label.entry(l).or_insert(0) += 1;
                         }
                     }
-                    let mut common: Vec<(String, u64)> = by_class.into_iter().collect();
+                    let mut common: Vec<(String, u64)> = by_label.into_iter().collect();
                     common.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
                     common.truncate(4);
                     segments.push(SegmentSummary {
                         id: s,
                         kind: str_prop(&r, s, key::KIND)?,
                         objects: ids.len() as u64,
-                        common_classes: common
+                        common_labels: common
                             .into_iter()
-                            .map(|(class, count)| ClassCount { class, count })
+                            .map(|(label, count)| LabelCount { label, count })
                             .collect(),
                     });
                 }
@@ -208,15 +213,16 @@ impl Toolbox {
                     )));
                 };
                 let ids = members(seg)?;
-                let mut objects_by_class: BTreeMap<String, u64> = BTreeMap::new();
+                let mut objects_by_label: BTreeMap<String, u64> = BTreeMap::new();
                 let mut notable = Vec::new();
                 for id in &ids {
-                    let class = class_of(*id)?;
-                    *objects_by_class.entry(class.clone()).or_insert(0) += 1;
+                    let (class, label) = kind_of(*id)?;
+                    *objects_by_label.entry(label.clone()).or_insert(0) += 1;
                     if !surfaces.contains(&class.as_str()) && notable.len() < MAX_NOTABLE {
                         notable.push(Notable {
                             id: *id,
-                            class,
+                            label,
+                            semantic_class: class,
                             caption: str_prop(&r, *id, key::CAPTION)?.unwrap_or_default(),
                         });
                     }
@@ -224,7 +230,7 @@ impl Toolbox {
                 Ok(AreaAnswer::Segment(SegmentDetail {
                     id: seg,
                     kind,
-                    objects_by_class,
+                    objects_by_label,
                     notable,
                 }))
             }

@@ -122,7 +122,7 @@ pub fn build(store: &Store) -> graphstore::Result<()> {
             let n = InstanceRecord {
                 instance_id: i,
                 caption: caption.into(),
-                class: class.into(),
+                semantic_class: class.into(),
                 label: Some(label),
                 colour,
                 material,

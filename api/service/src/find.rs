@@ -443,7 +443,7 @@ impl Finder {
                         id: h.id,
                         label: h.label,
                         caption: h.caption,
-                        class: h.class,
+                        semantic_class: h.semantic_class,
                         score: h.score,
                         similarity: h.score,
                         cosine: h.score,

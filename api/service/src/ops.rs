@@ -73,10 +73,11 @@ pub struct FindObjectsRequest {
     #[serde(default = "five")]
     #[schemars(range(min = 1, max = 50))]
     pub k: u64,
-    /// Only this SemanticKITTI class.
-    #[schemars(description = "only this SemanticKITTI class")]
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub class: Option<String>,
+    /// Only objects of this SemanticKITTI class (`Instance.semantic_class`; `class` is
+    /// read too, as earlier versions named it).
+    #[schemars(description = "only objects of this SemanticKITTI class (semantic_class)")]
+    #[serde(default, alias = "class", skip_serializing_if = "Option::is_none")]
+    pub semantic_class: Option<String>,
 }
 
 /// `locate`: road segments for a description of the surroundings.
@@ -332,7 +333,7 @@ pub struct SchemaAnswer {
     pub nodes: BTreeMap<String, u64>,
     /// Relationships per type.
     pub relationships: BTreeMap<String, u64>,
-    /// The indexes, one line each (`property Instance.class`, `spatial instance_space (...)`).
+    /// The indexes, one line each (`property Instance.semantic_class`, `spatial instance_space (...)`).
     pub indexes: Vec<String>,
 }
 
@@ -424,11 +425,12 @@ pub struct EnvironmentRef {
     pub name: String,
 }
 
-/// How many objects of one class.
+/// How many objects of one kind.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-pub struct ClassCount {
-    /// The SemanticKITTI class.
-    pub class: String,
+pub struct LabelCount {
+    /// The kind: the objects' label (`Instance.label`; their SemanticKITTI class on maps
+    /// built without labels).
+    pub label: String,
     /// How many.
     pub count: u64,
 }
@@ -443,8 +445,8 @@ pub struct SegmentSummary {
     pub kind: Option<String>,
     /// Instances in it.
     pub objects: u64,
-    /// The four most common object classes (ground surfaces left out).
-    pub common_classes: Vec<ClassCount>,
+    /// The four most common kinds of object, by label (ground surfaces left out).
+    pub common_labels: Vec<LabelCount>,
 }
 
 /// A notable object of a segment.
@@ -452,8 +454,10 @@ pub struct SegmentSummary {
 pub struct Notable {
     /// The Instance node id.
     pub id: u64,
-    /// Its class.
-    pub class: String,
+    /// What it is: its label (`Instance.label`).
+    pub label: String,
+    /// Its SemanticKITTI class (`Instance.semantic_class`).
+    pub semantic_class: String,
     /// Its caption.
     pub caption: String,
 }
@@ -475,8 +479,8 @@ pub struct SegmentDetail {
     pub id: u64,
     /// Its kind.
     pub kind: String,
-    /// Its instances per class.
-    pub objects_by_class: BTreeMap<String, u64>,
+    /// Its instances per label (ground surfaces by their SemanticKITTI class).
+    pub objects_by_label: BTreeMap<String, u64>,
     /// Up to 25 objects that are not ground surfaces, with captions.
     pub notable: Vec<Notable>,
 }
@@ -728,7 +732,7 @@ mod tests {
     #[test]
     fn request_schemas_say_bounds_defaults_and_no_extra_keys() {
         let s = request_schema_of::<FindObjectsRequest>();
-        assert_eq!(s["properties"]["class"]["type"], "string");
+        assert_eq!(s["properties"]["semantic_class"]["type"], "string");
         assert_eq!(s["type"], "object");
         assert_eq!(s["additionalProperties"], false);
         assert_eq!(s["required"], serde_json::json!(["text"]));
@@ -739,7 +743,7 @@ mod tests {
         assert!(s.get("$schema").is_none());
         let area = answer_schema_of::<AreaAnswer>().to_string();
         assert!(
-            !area.contains("$ref") && area.contains("common_classes"),
+            !area.contains("$ref") && area.contains("common_labels"),
             "{area}"
         );
     }
@@ -760,7 +764,10 @@ mod tests {
             GetInstanceRequest { id: 7 }
         );
         let r: FindObjectsRequest = parse(&serde_json::json!({"text": "a bench"})).unwrap();
-        assert_eq!((r.k, r.class), (5, None));
+        assert_eq!((r.k, r.semantic_class), (5, None));
+        let r: FindObjectsRequest =
+            parse(&serde_json::json!({"text": "a bench", "class": "car"})).unwrap();
+        assert_eq!(r.semantic_class.as_deref(), Some("car"));
         assert!(parse::<AskRequest>(&serde_json::json!({"question": "q", "x": 1})).is_err());
         let e = check_ask(&serde_json::json!({"question": "q", "max_steps": 21})).unwrap_err();
         assert!(e.to_string().contains("/max_steps"), "{e}");

@@ -91,8 +91,8 @@ pub struct ObjectAt {
     pub how: Option<KindMatch>,
     /// Its caption.
     pub caption: String,
-    /// Its SemanticKITTI class.
-    pub class: String,
+    /// Its SemanticKITTI class (`Instance.semantic_class`).
+    pub semantic_class: String,
     /// Its centroid on the ground plane, metres.
     pub ground_xy: [f64; 2],
     /// The distance the answer's `measure` says, metres.
@@ -284,7 +284,7 @@ fn object_at(view: &MapView, o: &SceneObject, how: Option<KindMatch>, d: f64) ->
         label: label_of(o),
         how,
         caption: o.caption.clone(),
-        class: o.class.clone(),
+        semantic_class: o.semantic_class.clone(),
         ground_xy: view.ground.ground(o.centroid),
         distance_m: d,
         segment: segment_ref(o),
@@ -335,7 +335,7 @@ fn kind_matches(
     let labels: Vec<String> = view.objects.iter().map(label_of).collect();
     for (o, l) in view.objects.iter().zip(&labels) {
         *count.entry(l.clone()).or_default() += 1;
-        if scene::classes::PEOPLE_CLASSES.contains(&o.class.as_str()) {
+        if scene::classes::PEOPLE_CLASSES.contains(&o.semantic_class.as_str()) {
             *people.entry(l.clone()).or_default() += 1;
         }
     }

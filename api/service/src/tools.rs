@@ -13,7 +13,7 @@
 //! | `locate` | [`LocateToolRequest`] | road segments for a description of the surroundings |
 //! | `plan_route` | [`PlanRouteRequest`] | a route between two ends given in words or as specs (`navigate`) |
 //! | `describe_area` | [`DescribeAreaRequest`] | top-down: the environment's segments, or one segment's objects |
-//! | `get_instance` | [`GetInstanceRequest`] | one instance: caption, class, box, segment (and how far outside it), relations |
+//! | `get_instance` | [`GetInstanceRequest`] | one instance: label, caption, semantic class, box, segment (and how far outside it), relations |
 //! | `nearest_objects` | [`NearestObjectsRequest`] | the objects of a kind nearest a place, with distances |
 //! | `count_objects` | [`CountObjectsRequest`] | the objects of a kind in a segment, a circle or the map |
 //! | `measure_distance` | [`DistanceRequest`] | the ground-plane distance between two places |
@@ -62,7 +62,7 @@ bend, straight_roadway), a lane graph along the driven path, and mapped objects 
    - find_objects: objects from a request in words ('somewhere I can post a letter');
    - locate: where someone is from what they see ('a T-junction with a bus stop on my left');
    - describe_area and get_instance: the map top-down, one segment, one object.
-3. What an object is: its label ('post box', 'fire hydrant', 'bus stop shelter'), not its class (the \
+3. What an object is: its label ('post box', 'fire hydrant', 'bus stop shelter'), not its semantic_class (the \
 SemanticKITTI class used for segmentation; street furniture is often other-object).
 4. Places are words ('the start of the drive', 'the T-junction with two bus shelters', 'the post box \
 by the crossroads') or specs with node ids: instance:ID, segment:ID, lane:ID, node:ID, or 'x,z' \
@@ -112,17 +112,17 @@ pub fn tools(writes: bool) -> Vec<Tool> {
     let mut v = vec![
         tool::<DescribeAreaRequest, AreaAnswer>(
             "describe_area",
-            "Describe the map top-down. Without segment_id: the environment and every road segment (id, kind, how many objects, the most common classes). With segment_id: that segment's objects by class and its notable objects with their captions.",
+            "Describe the map top-down. Without segment_id: the environment and every road segment (id, kind, how many objects, the most common labels). With segment_id: that segment's objects by label and its notable objects with their labels and captions.",
             false,
         ),
         tool::<FindObjectsRequest, FindObjectsAnswer>(
             "find_objects",
-            "Find objects in the map from a request in words, e.g. 'the bench near the bus stop', 'somewhere I can post a letter', 'a red car at the T-junction'. Returns instances (node id, caption, class, centroid, segment) best first, each with its evidence (anchors found near it).",
+            "Find objects in the map from a request in words, e.g. 'the bench near the bus stop', 'somewhere I can post a letter', 'a red car at the T-junction'. Returns instances (node id, label, caption, semantic_class, centroid, segment) best first, each with its evidence (anchors found near it).",
             false,
         ),
         tool::<GetInstanceRequest, InstanceAnswer>(
             "get_instance",
-            "One instance by node id: caption, label, class, centroid, box, its segment (the nearest; segment_distance_m says how far outside its area the object lies, 0 inside), and its RELATED neighbours.",
+            "One instance by node id: label, caption, semantic_class, centroid, box, its segment (the nearest; segment_distance_m says how far outside its area the object lies, 0 inside), and its RELATED neighbours.",
             false,
         ),
         tool::<SchemaRequest, SchemaAnswer>(
@@ -339,7 +339,7 @@ fn find_request(args: &Json) -> ToolResult<FindRequest> {
     Ok(FindRequest {
         text: req.text,
         k: req.k as usize,
-        class: req.class,
+        class: req.semantic_class,
         near: None,
         ranking: Ranking::Graph {
             parser: ParserKind::Rules,

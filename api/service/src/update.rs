@@ -293,7 +293,13 @@ pub fn update(finder: &mut Finder, store: &Store, req: &UpdateRequest) -> ToolRe
                 Change::Remove { id: t.id },
                 format!(
                     "remove instance {} ({}: \"{}\") with its points and relationships",
-                    t.id, t.class, t.caption
+                    t.id,
+                    if t.label.is_empty() {
+                        &t.semantic_class
+                    } else {
+                        &t.label
+                    },
+                    t.caption
                 ),
             )
         }
@@ -554,7 +560,7 @@ mod tests {
                         &[
                             ("instance_id", Value::Int(i)),
                             ("caption", caption.into()),
-                            ("class", "fence".into()),
+                            ("semantic_class", "fence".into()),
                             ("centroid", Value::Point3D(c)),
                             (
                                 "bbox",

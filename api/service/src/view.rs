@@ -47,7 +47,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
     let err = |e: graphstore::Error| e.to_string();
     let mut instances = Vec::new();
     for (&id, inst) in &layers.instances {
-        let surface = surfaces.contains(&inst.class.as_str());
+        let surface = surfaces.contains(&inst.semantic_class.as_str());
         let mut pts: Vec<[f64; 2]> = match r.point_cloud(id, scene::payload::POINTS).map_err(err)? {
             Some(pc) if !pc.xyz.is_empty() => subsample(
                 &pc.xyz,
@@ -72,7 +72,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
         instances.push(json!({
             "id": id,
             "label": inst.label,
-            "class": inst.class,
+            "semantic_class": inst.semantic_class,
             "caption": inst.caption,
             "surface": surface,
             "points": pts.iter().flat_map(|p| [r2(p[0]), r2(p[1])]).collect::<Vec<f64>>(),
@@ -106,7 +106,7 @@ pub fn view(store: &Store) -> Result<Json, String> {
         .collect();
     let mut colours = serde_json::Map::new();
     for i in &instances {
-        let c = i["class"].as_str().unwrap_or_default();
+        let c = i["semantic_class"].as_str().unwrap_or_default();
         let (r8, g8, b8) = scene::classes::class_colour(c);
         colours.insert(c.to_string(), json!(format!("#{r8:02x}{g8:02x}{b8:02x}")));
     }

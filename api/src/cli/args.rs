@@ -360,7 +360,7 @@ pub(crate) enum Command {
         rank: RankArgs,
         #[command(flatten)]
         llm: LlmArgs,
-        /// Print a JSON array of results: {"id", "caption", "class", "score", "centroid",
+        /// Print a JSON array of results: {"id", "label", "caption", "semantic_class", "score", "centroid",
         /// "similarity", "segment", "segment_match", "evidence"}; the parsed request goes to
         /// stderr.
         #[arg(long)]

@@ -55,7 +55,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
             "id",
             "score",
             "label",
-            "class",
+            "semantic class",
             "centroid [x, y, z] m"
         );
         for h in &a.results {
@@ -64,7 +64,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
                 h.id,
                 h.score,
                 h.label,
-                h.class,
+                h.semantic_class,
                 format!(
                     "[{:.1}, {:.1}, {:.1}]",
                     h.centroid[0], h.centroid[1], h.centroid[2]

@@ -90,7 +90,11 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
                         "  {:>6}  {:.2}  {:<14} {}",
                         c["id"],
                         c["score"].as_f64().unwrap_or_default(),
-                        c["class"].as_str().unwrap_or_default(),
+                        c["label"]
+                            .as_str()
+                            .filter(|l| !l.is_empty())
+                            .or(c["semantic_class"].as_str())
+                            .unwrap_or_default(),
                         c["caption"].as_str().unwrap_or_default()
                     );
                 }

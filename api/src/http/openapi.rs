@@ -206,7 +206,7 @@ pub fn openapi(service: &Service) -> JsonValue {
                "properties": {
                    "bounds": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4},
                    "instances": {"type": "array", "items": {"type": "object",
-                       "required": ["id", "class", "caption", "surface", "points"],
+                       "required": ["id", "semantic_class", "caption", "surface", "points"],
                        "properties": {"points": {"type": "array", "items": {"type": "number"}}}}},
                    "lanes": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
                    "segments": {"type": "array", "items": {"type": "object", "required": ["id", "kind", "outline"]}},

@@ -147,6 +147,9 @@ for n in by_label["Instance"]:
     c = n["centroid"]
     want = (*ground(c), height(c))
     worst = max(worst, max(abs(float(p[i]) - want[i]) for i in range(3)))
+    # an object's name is what it is: its label, else its SemanticKITTI class
+    check(node.attributes.name == (n.get("label") or n["semantic_class"]),
+          f"Spark-DSG object {n['id']} is named {node.attributes.name!r}, not its label")
 check(worst < 1e-6, f"Spark-DSG object positions off by {worst}")
 # IN_SEGMENT makes the segment an instance's parent
 segs_of = {r["source"]: r["target"] for r in rels if r["type"] == "IN_SEGMENT"}
@@ -199,6 +202,9 @@ foot = {f["properties"]["id"]: shape(f["geometry"]) for f in feats["instance"]}
 check(len(foot) == len(by_label["Instance"]), "a footprint per instance")
 for n in by_label["Instance"]:
     check(foot[n["id"]].buffer(1e-6).contains(Point(*ground(n["centroid"]))), f"instance {n['id']}'s footprint holds its centroid")
+props_of = {f["properties"]["id"]: f["properties"] for f in feats["instance"]}
+check(all(props_of[n["id"]]["label"] == n.get("label") and props_of[n["id"]]["semantic_class"] == n["semantic_class"]
+          for n in by_label["Instance"]), "GeoJSON instances carry label and semantic_class")
 out["geojson"] = {k: len(v) for k, v in sorted(feats.items())}
 out["geojson"]["instances_in_their_segment"] = inside
 
@@ -228,7 +234,7 @@ for colouring in ("class", "instance"):
     if colouring == "class":
         by_class = {}
         for nid, col in colour_of.items():
-            by_class.setdefault(nodes[nid]["class"], set()).add(col)
+            by_class.setdefault(nodes[nid]["semantic_class"], set()).add(col)
         check(all(len(c) == 1 for c in by_class.values()), "one colour per class")
         firsts = [next(iter(c)) for c in by_class.values()]
         check(len(set(firsts)) == len(firsts), "different classes, different colours")

@@ -14,7 +14,7 @@ from mcp.client.stdio import stdio_client
 
 CALLS = {
     "get_schema": {},
-    "read_cypher": {"query": "MATCH (i:Instance) WHERE i.class = 'car' RETURN count(i) AS n"},
+    "read_cypher": {"query": "MATCH (i:Instance) WHERE i.semantic_class = 'car' RETURN count(i) AS n"},
     "find_objects": {"text": "the bench near the bus stop", "k": 5},
     "locate": {"text": "I'm at a T-junction, there's a traffic light nearby"},
     "plan_route": {"from": "the bus stop by the crossroads", "to": "somewhere I can post a letter"},

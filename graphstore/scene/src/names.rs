@@ -74,9 +74,12 @@ pub mod key {
     pub const INSTANCE_ID: &str = "instance_id";
     /// `Instance.caption`.
     pub const CAPTION: &str = "caption";
-    /// `Instance.class`: a SemanticKITTI class name, or `other-object` when none of the 19
-    /// fits the object's label.
-    pub const CLASS: &str = "class";
+    /// `Instance.semantic_class`: a SemanticKITTI class name (the segmentation vocabulary),
+    /// or `other-object` when none of the 19 fits the object's label.
+    pub const SEMANTIC_CLASS: &str = "semantic_class";
+    /// `Instance.class`: where maps built before 2026-12-04 kept the SemanticKITTI class;
+    /// read when a node has no [`SEMANTIC_CLASS`].
+    pub const LEGACY_CLASS: &str = "class";
     /// `Instance.label`: the open-vocabulary label, the noun phrase its captions name it by,
     /// one per kind of object across the map ("post box", "fire hydrant").
     pub const LABEL: &str = "label";

@@ -569,8 +569,8 @@ pub struct InstanceRecord {
     pub instance_id: i64,
     /// Its caption.
     pub caption: String,
-    /// Its SemanticKITTI class, or `other-object`.
-    pub class: String,
+    /// Its SemanticKITTI class ([`key::SEMANTIC_CLASS`]), or `other-object`.
+    pub semantic_class: String,
     /// Its open-vocabulary label ([`key::LABEL`]), when the build gave it one.
     pub label: Option<String>,
     /// The colour its captions agree on.
@@ -610,7 +610,7 @@ impl InstanceRecord {
         let mut p = vec![
             (key::INSTANCE_ID, Value::Int(self.instance_id)),
             (key::CAPTION, self.caption.as_str().into()),
-            (key::CLASS, self.class.as_str().into()),
+            (key::SEMANTIC_CLASS, self.semantic_class.as_str().into()),
             (key::CENTROID, Value::Point3D(self.centroid)),
             (key::BBOX, Value::box3d(lo, hi)),
         ];
@@ -677,7 +677,10 @@ impl InstanceRecord {
         Ok(Some(InstanceRecord {
             instance_id: p.need(key::INSTANCE_ID, p.int(key::INSTANCE_ID))?,
             caption: p.str(key::CAPTION).unwrap_or_default(),
-            class: p.str(key::CLASS).unwrap_or_default(),
+            semantic_class: p
+                .str(key::SEMANTIC_CLASS)
+                .or_else(|| p.str(key::LEGACY_CLASS))
+                .unwrap_or_default(),
             label: p.str(key::LABEL),
             colour: p.str(key::COLOUR),
             material: p.str(key::MATERIAL),
@@ -912,7 +915,7 @@ mod tests {
                     InstanceRecord {
                         instance_id,
                         caption,
-                        class,
+                        semantic_class: class,
                         label: None,
                         colour: None,
                         material: None,

@@ -94,7 +94,7 @@ pub fn opengraph_schema() -> Schema {
             properties: vec![
                 req(key::INSTANCE_ID, T::Int),
                 req(key::CAPTION, T::String),
-                req(key::CLASS, T::String),
+                req(key::SEMANTIC_CLASS, T::String),
                 req(key::CENTROID, T::Point3D),
                 req(key::BBOX, T::Box3D),
                 opt(key::LABEL, T::String),
@@ -112,7 +112,7 @@ pub fn opengraph_schema() -> Schema {
                 opt(key::OBB, T::List),
             ],
             unique: vec![key::INSTANCE_ID.into()],
-            description: "A mapped object with label (what it is, in words: one label per kind of object across the map), caption, feature, class (the SemanticKITTI class, or other-object), colour and material when its captions agree, box and points; obb is its oriented box on the ground plane: [center_0, center_1, half_length_m, half_width_m, yaw_rad, bottom_m, top_m] in the environment's ground frame.".into(),
+            description: "A mapped object with label (what it is, in words: one label per kind of object across the map), caption, feature, semantic_class (the SemanticKITTI class for segmentation, or other-object), colour and material when its captions agree, box and points; obb is its oriented box on the ground plane: [center_0, center_1, half_length_m, half_width_m, yaw_rad, bottom_m, top_m] in the environment's ground frame.".into(),
         },
     );
     s.labels.insert(
@@ -232,7 +232,7 @@ pub fn opengraph_schema() -> Schema {
         PropertyIndexSpec {
             name: None,
             label: label::INSTANCE.into(),
-            key: key::CLASS.into(),
+            key: key::SEMANTIC_CLASS.into(),
         },
         PropertyIndexSpec {
             name: None,
@@ -334,7 +334,7 @@ pub fn property_meaning(owner: &str, property: &str) -> Option<&'static str> {
         (label::INSTANCE, key::CAPTION) => {
             "a sentence describing the object (the medoid of its captions)"
         }
-        (label::INSTANCE, key::CLASS) => {
+        (label::INSTANCE, key::SEMANTIC_CLASS) => {
             "the SemanticKITTI class for segmentation (car, pole, vegetation, ...; other-object when none fits); use label for what the object is"
         }
         (label::INSTANCE, key::LABEL) => {
@@ -422,7 +422,7 @@ mod tests {
         assert!(idx.iter().any(|i| i.label == "Frame" && i.key == "index"));
         assert!(
             idx.iter()
-                .any(|i| i.label == "Instance" && i.key == "class")
+                .any(|i| i.label == "Instance" && i.key == "semantic_class")
         );
     }
 

@@ -18,8 +18,8 @@ use crate::records::InstanceRecord;
 pub struct SceneObject {
     /// Node id.
     pub id: u64,
-    /// Class name.
-    pub class: String,
+    /// Its SemanticKITTI class (`Instance.semantic_class`).
+    pub semantic_class: String,
     /// Open-vocabulary label (`Instance.label`; empty on maps built without labels).
     pub label: String,
     /// Caption.
@@ -129,8 +129,9 @@ impl MapView {
             };
             objects.push(SceneObject {
                 id,
-                surface: SURFACE_CLASSES.contains(&inst.class.as_str()) || inst.tile.is_some(),
-                class: inst.class,
+                surface: SURFACE_CLASSES.contains(&inst.semantic_class.as_str())
+                    || inst.tile.is_some(),
+                semantic_class: inst.semantic_class,
                 label: inst.label.unwrap_or_default(),
                 caption: inst.caption,
                 centroid: inst.centroid,

@@ -138,7 +138,11 @@ pub fn eval_instance_points(
             }
         }
         inst_size.push(voxels.len());
-        inst_label.push(inst.label.clone().unwrap_or_else(|| inst.class.clone()));
+        inst_label.push(
+            inst.label
+                .clone()
+                .unwrap_or_else(|| inst.semantic_class.clone()),
+        );
     }
     out.instances = inst_size.len();
     for l in &inst_label {

@@ -187,7 +187,7 @@ pub fn eval_instances(r: &impl GraphRead, sim_dir: &Path) -> Result<InstanceEval
         }
         feet.push(instance_footprint(&inst, frame));
         labels.push(inst.label.clone().unwrap_or_default());
-        classes.push(inst.class);
+        classes.push(inst.semantic_class);
     }
     out.instances = feet.len();
     let matches = match_greedy(&feet, &truth);

@@ -115,7 +115,7 @@ impl MapIndex {
         let mut cells: HashMap<[i32; 3], Vec<([f32; 3], u8)>> = HashMap::new();
         for id in r.nodes_with_label(scene::label::INSTANCE)? {
             let class = scene::records::InstanceRecord::read(r, id)?
-                .map_or(0, |i| classes::class_id(&i.class).unwrap_or(0));
+                .map_or(0, |i| classes::class_id(&i.semantic_class).unwrap_or(0));
             if class == 0 {
                 continue;
             }

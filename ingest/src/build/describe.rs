@@ -200,7 +200,7 @@ pub(super) fn instance_record(
     InstanceRecord {
         instance_id: o.instance_id as i64,
         caption: d.caption.clone(),
-        class: classes::class_name(d.class)
+        semantic_class: classes::class_name(d.class)
             .unwrap_or(classes::OTHER_OBJECT)
             .into(),
         label: d.label.clone(),

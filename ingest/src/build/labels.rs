@@ -72,7 +72,7 @@ pub(super) fn label_instances(
         let Some(rec) = InstanceRecord::read(&r, id)? else {
             continue;
         };
-        if rec.tile.is_some() || classes::SURFACE_CLASSES.contains(&rec.class.as_str()) {
+        if rec.tile.is_some() || classes::SURFACE_CLASSES.contains(&rec.semantic_class.as_str()) {
             continue;
         }
         let captions = rec

@@ -826,7 +826,7 @@ pub fn build(
     }
     let r = store.read()?;
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        if let Some(Value::String(c)) = r.node_prop(id, key::CLASS)? {
+        if let Some(Value::String(c)) = r.node_prop(id, key::SEMANTIC_CLASS)? {
             *report.instances_per_class.entry(c).or_insert(0) += 1;
         }
     }

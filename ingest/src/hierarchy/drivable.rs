@@ -61,7 +61,7 @@ pub fn drivable_points(
 ) -> Result<Vec<[f64; 2]>> {
     let mut cells: BTreeMap<(i64, i64), ([f64; 2], u32)> = BTreeMap::new();
     for id in r.nodes_with_label(scene::label::INSTANCE)? {
-        let class = match r.node_prop(id, scene::key::CLASS)? {
+        let class = match r.node_prop(id, scene::key::SEMANTIC_CLASS)? {
             Some(Value::String(c)) => c,
             _ => continue,
         };

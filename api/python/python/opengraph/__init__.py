@@ -174,21 +174,24 @@ class Map:
         a = self.query_answer(cypher, params, full_properties)
         return pd.DataFrame(a["rows"], columns=a["columns"])
 
-    def find(self, text: str, k: int = 5, class_: Optional[str] = None) -> dict:
+    def find(self, text: str, k: int = 5, semantic_class: Optional[str] = None,
+             class_: Optional[str] = None) -> dict:
         """Finds objects from a request in words ("the bench near the bus stop", "somewhere
         I can post a letter"), graph-aware: target, anchors and relations, segments.
 
         Args:
             text: the request, 1 to 2000 characters.
             k: how many objects, 1 to 50.
-            class_: only objects of this SemanticKITTI class.
+            semantic_class: only objects of this SemanticKITTI class (``class_`` is the
+                same, as earlier versions named it).
 
         Returns:
             ``{"request": the parsed request, "results": [...]}``, best first; each result
-            has ``id`` (node id), ``caption``, ``class``, ``score``, ``cosine``, ``centroid``
+            has ``id`` (node id), ``label`` (what it is, in words), ``caption``,
+            ``semantic_class`` (its SemanticKITTI class), ``score``, ``cosine``, ``centroid``
             ``[x, y, z]`` (world frame, metres), ``segment`` ``[id, kind]`` and ``evidence``.
         """
-        return self._call("find_objects", text=text, k=k, **({"class": class_} if class_ else {}))
+        return self._call("find_objects", text=text, k=k, **({"semantic_class": semantic_class or class_} if semantic_class or class_ else {}))
 
     def locate(self, text: str, k: int = 3) -> dict:
         """Where is someone who describes their surroundings ("I'm at a T-junction, there's

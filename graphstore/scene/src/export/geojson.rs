@@ -179,7 +179,8 @@ pub fn feature_collection(m: &MapLayers) -> Json {
             "type": "Feature",
             "geometry": geometry,
             "properties": {"layer": "instance", "id": id, "instance_id": i.instance_id,
-                           "class": i.class, "caption": i.caption,
+                           "label": i.label, "semantic_class": i.semantic_class,
+                           "caption": i.caption,
                            "height_m": footprint.height_m}
         }));
     }

@@ -70,7 +70,7 @@ pub fn write(
             crate::Error::Invalid(format!("node id {id} does not fit the PLY's uint node"))
         })?;
         let rgb = match colour {
-            PlyColour::Class => class_colour(&i.class),
+            PlyColour::Class => class_colour(&i.semantic_class),
             PlyColour::Instance => instance_colour(*id),
         };
         n += pc.xyz.len() as u64;

@@ -3,7 +3,7 @@
 //!
 //! | layer | id | nodes | attributes |
 //! |---|---|---|---|
-//! | `OBJECTS` | 2 | instances, `O(node id)` | `ObjectNodeAttributes`: `name` the class, `semantic_label` its SemanticKITTI learning id (1..=19), `color` its colour, `bounding_box` the oriented box (`OBB`; `AABB` when it has none), `metadata.caption` |
+//! | `OBJECTS` | 2 | instances, `O(node id)` | `ObjectNodeAttributes`: `name` the label (the SemanticKITTI class when it has none), `metadata.semantic_class`, `semantic_label` its SemanticKITTI learning id (1..=19), `color` its colour, `bounding_box` the oriented box (`OBB`; `AABB` when it has none), `metadata.caption` |
 //! | `PLACES` (`LANES`) | 3 | lane-graph nodes, `P(node id)` | `PlaceNodeAttributes`: `name` the kind, `metadata.lane_id` |
 //! | `ROOMS` (`ROAD_SEGMENTS`) | 4 | road segments, `R(node id)` | `RoomNodeAttributes`: `name` the kind, `metadata.segment_id` |
 //! | `BUILDINGS` (`ENVIRONMENT`) | 5 | the environment root, `B(node id)` | `SemanticNodeAttributes`: `name` |
@@ -75,7 +75,7 @@ pub fn to_json(m: &MapLayers) -> crate::Result<Json> {
     }
     let mut nodes = Vec::new();
     for (id, i) in &m.instances {
-        let (r, gr, b) = class_colour(&i.class);
+        let (r, gr, b) = class_colour(&i.semantic_class);
         let bbox = match i.obb {
             Some(o) => {
                 let c = o.center;
@@ -96,12 +96,12 @@ pub fn to_json(m: &MapLayers) -> crate::Result<Json> {
         let mut attrs = json!({
             "type": "ObjectNodeAttributes",
             "position": zup(g, i.centroid),
-            "name": i.class,
+            "name": i.label.as_deref().unwrap_or(&i.semantic_class),
             "color": {"r": r, "g": gr, "b": b, "a": 255},
             "bounding_box": bbox,
-            "metadata": {"caption": i.caption, "instance_id": i.instance_id, "node_id": id},
+            "metadata": {"caption": i.caption, "semantic_class": i.semantic_class, "instance_id": i.instance_id, "node_id": id},
         });
-        if let Some(l) = class_id(&i.class) {
+        if let Some(l) = class_id(&i.semantic_class) {
             attrs["semantic_label"] = json!(l);
         }
         nodes.push(
