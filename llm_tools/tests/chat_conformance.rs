@@ -276,3 +276,63 @@ fn local_backend_errors_are_clear() {
     let e = LocalGguf::open(&trunc, 1).unwrap_err().to_string();
     assert!(e.contains("trunc.gguf"), "{e}");
 }
+
+/// A request whose system prompt is long enough to be kept as a decoded state.
+fn long_system_request(question: &str) -> ChatRequest {
+    ChatRequest::new(vec![
+        Message::system(
+            "You extract facts from the user's text. Read the whole text before you answer. \
+             A colour is one of red, green or blue; a count is how many things of that colour \
+             the text names, from 0 to 10. When the text names no colour, answer the colour \
+             it names most often. Never explain; give the JSON object only.",
+        ),
+        Message::user(question),
+    ])
+    .with_schema(colour_schema())
+    .with_max_tokens(32)
+}
+
+#[test]
+fn local_backend_reuses_a_system_prompts_state_and_answers_the_same() {
+    let Some(mut m) = local(SMALLEST_LOCAL_MODEL) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    m.set_state_dir(Some(dir.path().to_path_buf()));
+    let q1 = long_system_request("Three red cars are parked outside.");
+    let q2 = long_system_request("Two blue bikes lean on a green fence.");
+    let a1 = m.chat(&q1).unwrap();
+    let a2 = m.chat(&q2).unwrap();
+    let files: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "state"))
+        .collect();
+    assert_eq!(
+        files.len(),
+        1,
+        "one state file for one system prompt: {files:?}"
+    );
+    // a fresh process: the state comes from the file; without a state dir it is decoded
+    let mut from_file = local(SMALLEST_LOCAL_MODEL).unwrap();
+    from_file.set_state_dir(Some(dir.path().to_path_buf()));
+    assert_eq!(from_file.chat(&q2).unwrap().text, a2.text);
+    let mut fresh = local(SMALLEST_LOCAL_MODEL).unwrap();
+    fresh.set_state_dir(None);
+    assert_eq!(fresh.chat(&q1).unwrap().text, a1.text);
+    assert_eq!(fresh.chat(&q2).unwrap().text, a2.text);
+    // a damaged state file (llama.cpp would abort on it) is decoded anew and rewritten,
+    // with the same answer
+    for damage in [b"not a llama.cpp state file".to_vec(), {
+        let b = std::fs::read(&files[0]).unwrap();
+        b[..b.len() / 2].to_vec()
+    }] {
+        std::fs::write(&files[0], damage).unwrap();
+        let mut m = local(SMALLEST_LOCAL_MODEL).unwrap();
+        m.set_state_dir(Some(dir.path().to_path_buf()));
+        assert_eq!(m.chat(&q1).unwrap().text, a1.text);
+    }
+    let mut again = local(SMALLEST_LOCAL_MODEL).unwrap();
+    again.set_state_dir(Some(dir.path().to_path_buf()));
+    assert_eq!(again.chat(&q2).unwrap().text, a2.text);
+}

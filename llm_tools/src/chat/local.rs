@@ -11,12 +11,15 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::Instant;
 
+use llama_cpp_2::context::LlamaContext;
 use llama_cpp_2::context::params::LlamaContextParams;
+use llama_cpp_2::context::session::{LlamaStateSeqFlags, SeqState};
 use llama_cpp_2::llama_backend::LlamaBackend;
 use llama_cpp_2::llama_batch::LlamaBatch;
 use llama_cpp_2::model::params::LlamaModelParams;
 use llama_cpp_2::model::{LlamaChatMessage, LlamaChatTemplate, LlamaModel};
 use llama_cpp_2::sampling::LlamaSampler;
+use llama_cpp_2::token::LlamaToken;
 use serde_json::{Value, json};
 use sha2::{Digest, Sha256};
 
@@ -40,13 +43,35 @@ fn backend() -> Result<&'static LlamaBackend> {
         .map_err(|e| Error::Llm(format!("llama.cpp backend: {e}")))
 }
 
+/// System prompts whose decoded state (the KV cache after them) a [`LocalGguf`] keeps in
+/// memory, most recently used last.
+const PREFIX_STATES: usize = 4;
+
+/// A system prompt shorter than this many tokens is decoded with the rest, not kept.
+const MIN_PREFIX_TOKENS: usize = 32;
+
+/// The decoded state of one system prompt: its tokens and sequence 0's KV cache after them.
+struct PrefixState {
+    tokens: Vec<LlamaToken>,
+    state: SeqState,
+}
+
 /// A GGUF model on llama.cpp.
+///
+/// Every prompt is decoded in two batches: the first message (the system prompt, its
+/// examples and the answer's schema) and the rest. The first one's state is kept in
+/// memory ([`PREFIX_STATES`]) and on disk ([`LocalGguf::state_dir`]), so a prompt that
+/// starts with a system prompt seen before decodes only the question. Since the split is
+/// the same whether the state is reused or decoded anew, the answer does not depend on
+/// what was asked before.
 pub struct LocalGguf {
     path: PathBuf,
     id: String,
     name: String,
     threads: u32,
     model: LlamaModel,
+    prefixes: Vec<PrefixState>,
+    state_dir: Option<PathBuf>,
 }
 
 impl std::fmt::Debug for LocalGguf {
@@ -123,15 +148,48 @@ impl LocalGguf {
             name,
             threads: threads.max(1),
             model,
+            prefixes: Vec::new(),
+            state_dir: default_state_dir(),
         })
     }
 
+    /// Where system-prompt states are kept between processes: `OPENGRAPH_LLM_STATE`
+    /// (`off` keeps none), else `$XDG_CACHE_HOME/opengraph/llm_state` or
+    /// `~/.cache/opengraph/llm_state`. One file per model and system prompt, named by
+    /// their hash (about 12 KB a token for Qwen2.5 0.5B); a file that fails to load or
+    /// holds other tokens is decoded anew and rewritten.
+    pub fn state_dir(&self) -> Option<&Path> {
+        self.state_dir.as_deref()
+    }
+
+    /// Sets (or, with `None`, turns off) the directory of [`LocalGguf::state_dir`].
+    pub fn set_state_dir(&mut self, dir: Option<PathBuf>) {
+        self.state_dir = dir;
+    }
+
+    /// The file that holds the state after `prefix` for this model.
+    fn state_file(&self, prefix: &[LlamaToken]) -> Option<PathBuf> {
+        let dir = self.state_dir.as_ref()?;
+        let mut h = Sha256::new();
+        h.update(self.id.as_bytes());
+        h.update(N_CTX.to_le_bytes());
+        for t in prefix {
+            h.update(t.0.to_le_bytes());
+        }
+        Some(dir.join(format!("{}.state", hex(&h.finalize()[..12]))))
+    }
     /// The model's `general.name` from its GGUF metadata.
     pub fn general_name(&self) -> &str {
         &self.name
     }
 
-    fn prompt(&self, req: &ChatRequest, tool_schema: Option<&Value>) -> Result<String> {
+    /// The prompt's text, and the text of its system prompt alone when the prompt starts
+    /// with it (see [`LocalGguf`] on why).
+    fn prompt(
+        &self,
+        req: &ChatRequest,
+        tool_schema: Option<&Value>,
+    ) -> Result<(String, Option<String>)> {
         let mut msgs = Vec::new();
         let mut system = String::new();
         if let Some(schema) = tool_schema {
@@ -184,6 +242,8 @@ impl LocalGguf {
                     .map_err(|e| Error::Invalid(format!("a message has a NUL byte: {e}")))?,
             );
         }
+        let has_system =
+            req.messages.first().is_some_and(|m| m.role == Role::System) || !system.is_empty();
         if first_system && !system.is_empty() {
             msgs.insert(
                 0,
@@ -191,22 +251,37 @@ impl LocalGguf {
                     .map_err(|e| Error::Invalid(format!("a message has a NUL byte: {e}")))?,
             );
         }
+        let text = self.apply_template(&msgs, true)?;
+        // the system prompt alone, when the whole prompt starts with it
+        let system_only = if has_system {
+            Some(self.apply_template(&msgs[..1], false)?)
+        } else {
+            None
+        };
+        let prefix = system_only.filter(|p| p.len() < text.len() && text.starts_with(p.as_str()));
+        Ok((text, prefix))
+    }
+
+    /// `msgs` in the model's chat template (ChatML when it has none it can apply).
+    fn apply_template(&self, msgs: &[LlamaChatMessage], add_assistant: bool) -> Result<String> {
         let chatml = LlamaChatTemplate::new("chatml")
             .map_err(|e| Error::Llm(format!("chat template: {e}")))?;
         let text = match self.model.chat_template(None) {
             Ok(t) => self
                 .model
-                .apply_chat_template(&t, &msgs, true)
-                .or_else(|_| self.model.apply_chat_template(&chatml, &msgs, true)),
-            Err(_) => self.model.apply_chat_template(&chatml, &msgs, true),
+                .apply_chat_template(&t, msgs, add_assistant)
+                .or_else(|_| self.model.apply_chat_template(&chatml, msgs, add_assistant)),
+            Err(_) => self.model.apply_chat_template(&chatml, msgs, add_assistant),
         };
         text.map_err(|e| Error::Llm(format!("applying the chat template: {e}")))
     }
 
-    /// Generates greedily from `prompt`, constrained by `schema` when given.
+    /// Generates greedily from `prompt`, constrained by `grammar` when given; `prefix` is
+    /// the prompt's system prompt, decoded (or restored) as a batch of its own.
     fn generate(
-        &self,
+        &mut self,
         prompt: &str,
+        prefix: Option<&str>,
         grammar: Option<&str>,
         max_tokens: u32,
     ) -> Result<(String, Usage)> {
@@ -232,15 +307,24 @@ impl LocalGguf {
                 tokens.len()
             )));
         }
+        let split = prefix
+            .map(|p| vocab.tokenize(p.as_bytes(), true, true))
+            .filter(|p| {
+                p.len() >= MIN_PREFIX_TOKENS && p.len() < tokens.len() && tokens.starts_with(p)
+            })
+            .map_or(0, |p| p.len());
         let t0 = Instant::now();
-        let mut batch = LlamaBatch::new(tokens.len().max(1), 1);
-        let last = tokens.len() - 1;
-        for (i, &t) in tokens.iter().enumerate() {
-            batch
-                .add(t, i as i32, &[0], i == last)
-                .map_err(|e| llm(&e))?;
+        if split > 0 {
+            let file = self.state_file(&tokens[..split]);
+            restore_prefix(
+                &mut self.prefixes,
+                file,
+                &self.id,
+                &mut ctx,
+                &tokens[..split],
+            )?;
         }
-        ctx.decode(&mut batch).map_err(|e| llm(&e))?;
+        let mut batch = decode(&mut ctx, &tokens[split..], split, true).map_err(|e| llm(&e))?;
         let prompt_ms = t0.elapsed().as_secs_f64() * 1e3;
         let mut chain = Vec::new();
         if let Some(gbnf) = grammar {
@@ -275,6 +359,122 @@ impl LocalGguf {
                 completion_ms: t1.elapsed().as_secs_f64() * 1e3,
             },
         ))
+    }
+}
+
+/// Puts sequence 0 of `ctx` in the state after `prefix`: from `prefixes` (memory), from
+/// `file`, or by decoding it (then kept in both); `id` names the model in errors.
+fn restore_prefix(
+    prefixes: &mut Vec<PrefixState>,
+    file: Option<PathBuf>,
+    id: &str,
+    ctx: &mut LlamaContext<'_>,
+    prefix: &[LlamaToken],
+) -> Result<()> {
+    let llm = |e: &dyn std::fmt::Display| Error::Llm(format!("{id}: {e}"));
+    if let Some(i) = prefixes.iter().position(|p| p.tokens == prefix) {
+        let p = prefixes.remove(i);
+        let set = ctx.state_seq_set(&p.state, 0);
+        prefixes.push(p);
+        if set.is_ok() {
+            return Ok(());
+        }
+        ctx.clear_kv_cache();
+    }
+    // llama.cpp aborts on a damaged state file, so only a file whose digest is the one
+    // written beside it when it was saved is given to it
+    let loaded = file.as_ref().is_some_and(|f| {
+        intact(f)
+            && ctx
+                .state_seq_load_file(f, 0, prefix.len())
+                .is_ok_and(|(tokens, _)| tokens == prefix)
+    });
+    if !loaded {
+        ctx.clear_kv_cache();
+        decode(ctx, prefix, 0, false).map_err(|e| llm(&e))?;
+        if let Some(f) = &file {
+            // a state that cannot be written is decoded again next time
+            let _ = save_state(ctx, f, prefix);
+        }
+    }
+    let state = ctx
+        .state_seq_get(0, LlamaStateSeqFlags::empty())
+        .map_err(|e| llm(&e))?;
+    if prefixes.len() == PREFIX_STATES {
+        prefixes.remove(0);
+    }
+    prefixes.push(PrefixState {
+        tokens: prefix.to_vec(),
+        state,
+    });
+    Ok(())
+}
+
+/// Decodes `tokens` into sequence 0 of `ctx` at positions from `start`, with the logits
+/// of the last one when `logits`; returns the batch (the sampler reads its last entry).
+fn decode(
+    ctx: &mut LlamaContext<'_>,
+    tokens: &[LlamaToken],
+    start: usize,
+    logits: bool,
+) -> std::result::Result<LlamaBatch<'static>, String> {
+    let mut batch = LlamaBatch::new(tokens.len().max(1), 1);
+    let last = tokens.len().saturating_sub(1);
+    for (i, &t) in tokens.iter().enumerate() {
+        batch
+            .add(t, (start + i) as i32, &[0], logits && i == last)
+            .map_err(|e| e.to_string())?;
+    }
+    ctx.decode(&mut batch).map_err(|e| e.to_string())?;
+    Ok(batch)
+}
+
+/// Writes the state after `prefix` to `file` through a temporary file beside it, and its
+/// SHA-256 to `file` + `.sha256` (see [`intact`]).
+fn save_state(ctx: &LlamaContext<'_>, file: &Path, prefix: &[LlamaToken]) -> std::io::Result<()> {
+    let dir = file.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)?;
+    let tmp = dir.join(format!(".{}.tmp", std::process::id()));
+    ctx.state_seq_save_file(&tmp, 0, prefix)
+        .map_err(|e| std::io::Error::other(e.to_string()))?;
+    let digest = hex(&Sha256::digest(std::fs::read(&tmp)?));
+    let tmp_digest = dir.join(format!(".{}.sha256.tmp", std::process::id()));
+    std::fs::write(&tmp_digest, digest)?;
+    std::fs::rename(&tmp_digest, digest_file(file))?;
+    std::fs::rename(&tmp, file)
+}
+
+/// Whether `file` is there and its SHA-256 is the one [`save_state`] wrote beside it.
+fn intact(file: &Path) -> bool {
+    let (Ok(bytes), Ok(want)) = (
+        std::fs::read(file),
+        std::fs::read_to_string(digest_file(file)),
+    ) else {
+        return false;
+    };
+    hex(&Sha256::digest(bytes)) == want.trim()
+}
+
+fn digest_file(file: &Path) -> PathBuf {
+    let mut name = file.as_os_str().to_owned();
+    name.push(".sha256");
+    PathBuf::from(name)
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// [`LocalGguf::state_dir`]'s default.
+fn default_state_dir() -> Option<PathBuf> {
+    match std::env::var_os("OPENGRAPH_LLM_STATE") {
+        Some(v) if v == "off" => None,
+        Some(v) if !v.is_empty() => Some(PathBuf::from(v)),
+        _ => std::env::var_os("XDG_CACHE_HOME")
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+            .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cache")))
+            .map(|c| c.join("opengraph").join("llm_state")),
     }
 }
 
@@ -337,12 +537,17 @@ impl ChatModel for LocalGguf {
 
     fn chat(&mut self, req: &ChatRequest) -> Result<ChatResponse> {
         if req.tools.is_empty() {
-            let prompt = self.prompt(req, None)?;
+            let (prompt, prefix) = self.prompt(req, None)?;
             let grammar = match &req.schema {
                 Some(s) => Some(grammar_of(s)?),
                 None => None,
             };
-            let (text, usage) = self.generate(&prompt, grammar.as_deref(), req.max_tokens)?;
+            let (text, usage) = self.generate(
+                &prompt,
+                prefix.as_deref(),
+                grammar.as_deref(),
+                req.max_tokens,
+            )?;
             let json = match &req.schema {
                 Some(s) => Some(parse_structured(&text, s).map_err(|e| {
                     Error::LlmAnswer(format!(
@@ -361,9 +566,10 @@ impl ChatModel for LocalGguf {
             });
         }
         let schema = tool_choice_schema(req);
-        let prompt = self.prompt(req, Some(&schema))?;
+        let (prompt, prefix) = self.prompt(req, Some(&schema))?;
         let grammar = tool_grammar(&schema)?;
-        let (text, usage) = self.generate(&prompt, Some(&grammar), req.max_tokens)?;
+        let (text, usage) =
+            self.generate(&prompt, prefix.as_deref(), Some(&grammar), req.max_tokens)?;
         let json_text = text
             .trim()
             .trim_start_matches("<tool_call>")
