@@ -230,6 +230,18 @@ fn smallest_model_merges_captions_and_labels_relations() {
         ],
         &["needs a language model"],
     );
+    expect_usage_error(
+        &[
+            "ask",
+            "--db",
+            s(&db),
+            "How many?",
+            "--llm",
+            "none",
+            "--blind",
+        ],
+        &["--blind needs a language model"],
+    );
     // ask: the model fills the task form (grammar-constrained), every call is one of the
     // registry's tools, and the transcript records the model and prompt
     let a = json(&og(&[
@@ -270,4 +282,21 @@ fn smallest_model_merges_captions_and_labels_relations() {
         );
     }
     assert!(a["answer"].is_string() || a["stopped"].is_string(), "{a}");
+    // the blind baseline: the same model without tools, a value and no steps
+    let b = json(&og(&[
+        "ask",
+        "--db",
+        s(&db),
+        "How many post boxes are there?",
+        "--llm-model",
+        s(&smol),
+        "--blind",
+        "--json",
+    ]));
+    assert!(
+        b["model"].as_str().unwrap().contains("ask_blind@v1")
+            && b["steps"] == serde_json::json!([]),
+        "{b}"
+    );
+    assert!(b["value"].is_number() || b["value"].is_string(), "{b}");
 }

@@ -87,6 +87,15 @@ pub const ASK_TASK: Prompt = Prompt {
     text: include_str!("../prompts/ask_task.v2.txt"),
 };
 
+/// The blind baseline of `opengraph ask --blind`: the model answers a question about the map
+/// without its tools (it cannot see the map), with a short answer and a checkable value, so
+/// that what the tools add can be measured.
+pub const ASK_BLIND: Prompt = Prompt {
+    task: "ask_blind",
+    version: 1,
+    text: include_str!("../prompts/ask_blind.v1.txt"),
+};
+
 /// The JSON Schema of a merged caption.
 pub fn merge_captions_schema() -> serde_json::Value {
     serde_json::json!({"type": "object",

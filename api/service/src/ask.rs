@@ -322,6 +322,54 @@ pub fn ask(
     })
 }
 
+/// The blind baseline: `model` answers `question` without the map's tools (prompt
+/// [`llm_tools::prompts::ASK_BLIND`]), a short answer and a value, so an evaluation can
+/// measure what the tools add. No task, no steps; `timings_ms` is `[answering, 0]`.
+///
+/// # Errors
+/// An empty question; the model fails or gives no structured answer.
+pub fn ask_blind(model: &mut dyn ChatModel, question: &str) -> llm_tools::Result<AskAnswer> {
+    if question.trim().is_empty() {
+        return Err(llm_tools::Error::Invalid("the question is empty".into()));
+    }
+    let t0 = Instant::now();
+    let prompt = &llm_tools::prompts::ASK_BLIND;
+    let messages = vec![
+        Message::system(prompt.text),
+        Message::user(format!("Question: {}", question.trim())),
+    ];
+    let schema = json!({"type": "object",
+        "properties": {"answer": {"type": "string", "maxLength": 200},
+                       "value": {"type": ["number", "string"]}},
+        "required": ["answer", "value"], "additionalProperties": false});
+    let req = ChatRequest::new(messages.clone())
+        .with_schema(schema)
+        .with_max_tokens(96);
+    let a = model.chat(&req)?;
+    let mut transcript = messages;
+    transcript.push(Message::new(Role::Assistant, a.text.clone()));
+    let form = a.json.unwrap_or(Json::Null);
+    // a whole number given as 3.0 is the count 3
+    let value = form.get("value").cloned().map(|v| match v.as_f64() {
+        Some(x) if x.fract() == 0.0 && x.abs() < 1e15 => json!(x as i64),
+        _ => v,
+    });
+    Ok(AskAnswer {
+        question: question.to_string(),
+        model: format!("{} ({}), blind: no tools", model.model_id(), prompt.id()),
+        steps: Vec::new(),
+        answer: form
+            .get("answer")
+            .and_then(Json::as_str)
+            .map(str::to_string),
+        stopped: None,
+        transcript,
+        task: None,
+        value,
+        timings_ms: Some([t0.elapsed().as_secs_f64() * 1e3, 0.0]),
+    })
+}
+
 /// Calls one tool and records the step; an error is the step's and the message returned.
 fn call(
     toolbox: &mut Toolbox,
@@ -728,5 +776,30 @@ mod tests {
         assert_eq!((a.steps.len(), a.answer.is_none()), (3, true));
         assert!(a.stopped.unwrap().contains("step limit"));
         assert!(agent_loop(&mut m, &mut tb, "  ", 3).is_err());
+    }
+
+    #[test]
+    fn the_blind_baseline_answers_without_tools() {
+        let mut m = Scripted::new(
+            "script",
+            vec![Reply::Text(
+                r#"{"answer": "About 12.", "value": 12.0}"#.into(),
+            )],
+        );
+        let a = ask_blind(&mut m, "How many benches are there?").unwrap();
+        assert_eq!(a.value, Some(json!(12)));
+        assert_eq!(a.answer.as_deref(), Some("About 12."));
+        assert!(a.steps.is_empty() && a.task.is_none());
+        assert!(
+            a.model.contains("ask_blind@v1") && a.model.contains("no tools"),
+            "{}",
+            a.model
+        );
+        let mut m = Scripted::new("script", vec![Reply::Text(r#"{"answer": "x"}"#.into())]);
+        assert!(
+            ask_blind(&mut m, "How many?").is_err(),
+            "no value: not the schema"
+        );
+        assert!(ask_blind(&mut m, "  ").is_err());
     }
 }

@@ -599,6 +599,10 @@ pub(crate) enum Command {
         max_steps: u64,
         #[command(flatten)]
         llm: LlmArgs,
+        /// The blind baseline for evaluations: the model answers without the map's tools
+        /// (it cannot see the map). Needs --llm local or openai.
+        #[arg(long)]
+        blind: bool,
         /// Print {"question", "model", "steps", "answer", "stopped", "transcript"} as JSON.
         #[arg(long)]
         json: bool,

@@ -10,6 +10,7 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         question,
         max_steps,
         llm,
+        blind,
         json,
     } = cmd
     else {
@@ -23,15 +24,24 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
     if let Some(m) = &model {
         errln!("language model: {}", m.model_id());
     }
-    let mut tb = open_toolbox(&db, false)?;
-    let a = api::ask::ask(
-        model
-            .as_mut()
-            .map(|m| &mut **m as &mut dyn llm_tools::ChatModel),
-        &mut tb,
-        &req.question,
-        req.max_steps as usize,
-    )?;
+    let a = if blind {
+        let Some(m) = model.as_mut() else {
+            return Err(
+                UsageError("--blind needs a language model: --llm local or openai".into()).into(),
+            );
+        };
+        api::ask::ask_blind(&mut **m, &req.question)?
+    } else {
+        let mut tb = open_toolbox(&db, false)?;
+        api::ask::ask(
+            model
+                .as_mut()
+                .map(|m| &mut **m as &mut dyn llm_tools::ChatModel),
+            &mut tb,
+            &req.question,
+            req.max_steps as usize,
+        )?
+    };
     if json {
         outln!("{}", serde_json::to_string_pretty(&a)?);
     } else {
