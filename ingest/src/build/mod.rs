@@ -471,11 +471,21 @@ impl Run<'_> {
     /// committed as the finished state, with the checkpoint's next frame `next_frame`.
     fn finish_objects(&mut self, cfg: &BuildConfig, next_frame: i64) -> Result<PostReport> {
         let mut post = self.mapper.post_process();
-        // buildings, fences and vegetation: objects that touch are one object
+        // buildings, fences and vegetation: objects that touch are one object. The class is
+        // the one the object's label gets (other-object when none of the 19 fits: a bench
+        // captioned near "fence" is not joined to the railing behind it), else its captions'
         let mut by_class: BTreeMap<u8, Vec<u64>> = BTreeMap::new();
         for (id, o) in self.mapper.objects() {
             if o.tile.is_none() {
-                let c = object_class(o, &cfg.mapping, &mut self.emb, &self.prompts)?;
+                let c = match llm_tools::labels::object_phrase(&o.captions, &self.lexicon) {
+                    Some(p) => thing_class(
+                        &p,
+                        &mut self.emb,
+                        &self.prompts,
+                        cfg.mapping.other_object_below,
+                    )?,
+                    None => object_class(o, &cfg.mapping, &mut self.emb, &self.prompts)?,
+                };
                 by_class.entry(c).or_default().push(*id);
             }
         }
@@ -495,6 +505,29 @@ impl Run<'_> {
             let joined = self.mapper.join_touching(ids, cfg.mapping.join_eps_m);
             post.merged.extend(joined);
         }
+        // parts of one thing farther apart (a shelter's two ends seen from either side, its
+        // middle never in view): joined when together they are no larger than a whole one;
+        // stuff (buildings, fences, vegetation) has no such size
+        let stuff: BTreeSet<u64> = JOINED_CLASSES
+            .iter()
+            .filter_map(|c| by_class.get(c))
+            .flatten()
+            .copied()
+            .collect();
+        for ids in by_kind.values() {
+            let things: Vec<u64> = ids
+                .iter()
+                .copied()
+                .filter(|id| !stuff.contains(id))
+                .collect();
+            let joined = self.mapper.join_parts(
+                &things,
+                JOIN_PARTS_QUANTILE,
+                JOIN_PARTS_SLACK,
+                JOIN_PARTS_MIN_OBJECTS,
+            );
+            post.merged.extend(joined);
+        }
         let removed: Vec<u64> = post
             .dropped
             .iter()
@@ -507,6 +540,14 @@ impl Run<'_> {
         Ok(post)
     }
 }
+
+/// Parts of a thing are joined when their pooled box is no larger than this quantile of the
+/// kind's boxes (each side) ...
+const JOIN_PARTS_QUANTILE: f64 = 0.9;
+/// ... times this ...
+const JOIN_PARTS_SLACK: f64 = 1.1;
+/// ... for kinds with at least this many objects.
+const JOIN_PARTS_MIN_OBJECTS: usize = 5;
 
 /// The kind a map label names, for joining parts: the shortest of `labels` with two or more
 /// words that opens `label` ("bus stop" for "bus stop shelter"), else `label` itself. A

@@ -6,8 +6,10 @@ use std::time::Instant;
 
 use super::MappingConfig;
 use super::associate::{TfIdf, Weights, cosine, greedy_assign, phi, words};
-use super::geometry::{Aabb, VoxelKey, clusters, foreground_cluster, voxel_downsample, voxel_key};
-use super::project::{Camera, points_in_mask};
+use super::geometry::{
+    Aabb, VoxelKey, clusters, object_points, voxel_downsample_flagged, voxel_key,
+};
+use super::project::{Camera, Projected, core_of_mask, points_in_mask, projected_in_mask};
 use crate::sources::detections::DetectionFrame;
 use crate::sources::kitti::Rigid3;
 use scene::GroundFrame;
@@ -428,11 +430,11 @@ impl Mapper {
         let t = Instant::now();
         let mut projected = f.camera.project_all(f.points);
         projected.sort_unstable_by_key(|p| (p.pixel, p.point));
-        let in_mask: Vec<Vec<u32>> = f
+        let in_mask: Vec<Vec<Projected>> = f
             .detections
             .detections
             .iter()
-            .map(|d| points_in_mask(&projected, &d.mask.counts))
+            .map(|d| projected_in_mask(&projected, &d.mask.counts))
             .collect();
         // detections of moving things: their masks are largely what the filter removed
         let mut moving = vec![false; n];
@@ -450,29 +452,46 @@ impl Mapper {
             }
         }
         st.times.project_ms += elapsed_ms(t);
-        // per detection: voxel down-sample, DBSCAN (objects only), world transform; a moving
-        // thing's detection keeps no points (it is neither associated nor fused)
+        // per detection: voxel down-sample, DBSCAN (objects only: the clusters on the object,
+        // by range and the mask's core), world transform; a moving thing's detection keeps no
+        // points (it is neither associated nor fused)
+        let focal_px = f.camera.focal_px();
         let mut det_points: Vec<Vec<[f32; 3]>> = Vec::with_capacity(n);
-        for (i, idx) in in_mask.iter().enumerate() {
+        for (i, inside) in in_mask.iter().enumerate() {
             if moving[i] {
                 det_points.push(Vec::new());
                 continue;
             }
             let t = Instant::now();
-            let pts: Vec<[f32; 3]> = idx
+            let d = &f.detections.detections[i];
+            let pts: Vec<[f32; 3]> = inside
                 .iter()
-                .map(|&j| {
-                    let p = f.points[j as usize];
+                .map(|q| {
+                    let p = f.points[q.point as usize];
                     [p[0], p[1], p[2]]
                 })
                 .collect();
-            let mut pts = voxel_downsample(&pts, cfg.voxel_m);
-            if !classes::is_surface(f.classes[i]) {
-                pts = foreground_cluster(
+            let surface = classes::is_surface(f.classes[i]);
+            let core = if surface {
+                Vec::new()
+            } else {
+                core_of_mask(inside, &d.mask.counts, d.mask.height, cfg.mask_core_px)
+            };
+            let (mut pts, core) = voxel_downsample_flagged(&pts, &core, cfg.voxel_m);
+            if !surface {
+                let side_px = d.bbox[2].max(d.bbox[3]);
+                let angular_width_rad = if focal_px > 0.0 && side_px.is_finite() {
+                    side_px.max(0.0) / focal_px
+                } else {
+                    0.0
+                };
+                pts = object_points(
                     &pts,
+                    &core,
                     cfg.dbscan_eps_m,
                     cfg.dbscan_min_points,
                     cfg.foreground_min_share,
+                    angular_width_rad,
                 );
             }
             st.times.denoise_ms += elapsed_ms(t);
@@ -985,6 +1004,61 @@ mod tests {
         let a = object_with(&mut m, &block(0.0, 20), "a brick building");
         let b = object_with(&mut m, &block(2.5, 20), "a brick building");
         assert!(m.join_touching(&[a, b], 0.5).is_empty());
+    }
+
+    /// A wall of `len_m` along KITTI x at `(x0, z0)`, 1.6 m deep in z with its two ends only
+    /// (the ends of a shelter; `ends_only`) or whole, 0.1 m grid.
+    fn shelter(x0: f32, z0: f32, len_m: f32, ends_only: bool) -> Vec<[f32; 3]> {
+        let mut v = Vec::new();
+        let n = (len_m / 0.1) as usize;
+        for i in 0..n {
+            let x = x0 + i as f32 * 0.1;
+            if ends_only && i > 5 && i + 6 < n {
+                continue;
+            }
+            for k in 0..16 {
+                v.push([x, -1.0, z0 + k as f32 * 0.1]);
+            }
+        }
+        v
+    }
+
+    /// Two ends of one shelter 3 m apart are one object when the kind's whole ones are that
+    /// long; two shelters end to end, or one shelter beside another, make a box larger than
+    /// one and stay two; too few of a kind and nothing is joined.
+    #[test]
+    fn the_parts_of_a_thing_are_joined_up_to_the_size_of_a_whole_one() {
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        let mut whole = Vec::new();
+        for k in 0..5 {
+            whole.push(object_with(
+                &mut m,
+                &shelter(100.0 + 10.0 * k as f32, 0.0, 4.2, false),
+                "a bus shelter",
+            ));
+        }
+        // the two ends of one 4.2 m shelter: 0.6 m each, 3 m apart
+        let ends = shelter(0.0, 0.0, 4.2, true);
+        let (left, right): (Vec<[f32; 3]>, Vec<[f32; 3]>) = ends.iter().partition(|p| p[0] < 2.0);
+        let a = object_with(&mut m, &left, "a bus shelter");
+        let b = object_with(&mut m, &right, "a bus shelter");
+        // two whole shelters end to end 1.5 m apart, and two side by side 0.5 m apart
+        let c = object_with(&mut m, &shelter(20.0, 0.0, 4.2, false), "a bus shelter");
+        let d = object_with(&mut m, &shelter(25.7, 0.0, 4.2, false), "a bus shelter");
+        let e = object_with(&mut m, &shelter(40.0, 0.0, 4.2, false), "a bus shelter");
+        let f = object_with(&mut m, &shelter(40.0, 2.1, 4.2, false), "a bus shelter");
+        let mut ids = whole.clone();
+        ids.extend([a, b, c, d, e, f]);
+        let merged = m.join_parts(&ids, 0.9, 1.1, 5);
+        assert_eq!(merged, vec![(a, b)]);
+        assert_eq!(m.objects()[&a].points.len(), left.len() + right.len());
+        // the kind's size is unknown with fewer objects than asked for
+        let mut m = Mapper::new(MappingConfig::default(), GroundFrame::KittiCam);
+        let a = object_with(&mut m, &left, "a bus shelter");
+        let b = object_with(&mut m, &right, "a bus shelter");
+        let c = object_with(&mut m, &shelter(20.0, 0.0, 4.2, false), "a bus shelter");
+        assert!(m.join_parts(&[a, b, c], 0.9, 1.1, 5).is_empty());
+        assert!(m.join_parts(&[a, b, c], 0.9, 1.1, 3).len() == 1);
     }
 
     #[test]

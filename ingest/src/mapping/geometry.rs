@@ -13,20 +13,33 @@ pub fn voxel_key(p: [f32; 3], voxel_m: f32) -> VoxelKey {
 /// Voxel down-sampling: one point per occupied voxel, the mean of the points in it (Open3D's
 /// `voxel_down_sample`). Output is ordered by voxel key, so it does not depend on input order.
 pub fn voxel_downsample(points: &[[f32; 3]], voxel_m: f32) -> Vec<[f32; 3]> {
-    let mut acc: HashMap<VoxelKey, ([f64; 3], u32)> = HashMap::with_capacity(points.len() / 2);
-    for p in points {
-        let e = acc.entry(voxel_key(*p, voxel_m)).or_insert(([0.0; 3], 0));
+    voxel_downsample_flagged(points, &[], voxel_m).0
+}
+
+/// [`voxel_downsample`] of points that each carry a flag (`flags[i]` for `points[i]`; a
+/// missing flag is false): a voxel's flag is set when at least half of its points have it.
+pub fn voxel_downsample_flagged(
+    points: &[[f32; 3]],
+    flags: &[bool],
+    voxel_m: f32,
+) -> (Vec<[f32; 3]>, Vec<bool>) {
+    let mut acc: HashMap<VoxelKey, ([f64; 3], u32, u32)> = HashMap::with_capacity(points.len() / 2);
+    for (i, p) in points.iter().enumerate() {
+        let e = acc
+            .entry(voxel_key(*p, voxel_m))
+            .or_insert(([0.0; 3], 0, 0));
         for (s, c) in e.0.iter_mut().zip(p) {
             *s += f64::from(*c);
         }
         e.1 += 1;
+        e.2 += u32::from(flags.get(i).copied().unwrap_or(false));
     }
-    let mut cells: Vec<(VoxelKey, [f32; 3])> = acc
+    let mut cells: Vec<(VoxelKey, [f32; 3], bool)> = acc
         .into_iter()
-        .map(|(k, (s, n))| (k, s.map(|c| (c / f64::from(n)) as f32)))
+        .map(|(k, (s, n, f))| (k, s.map(|c| (c / f64::from(n)) as f32), 2 * f >= n))
         .collect();
     cells.sort_unstable_by_key(|c| c.0);
-    cells.into_iter().map(|c| c.1).collect()
+    cells.into_iter().map(|c| (c.1, c.2)).unzip()
 }
 
 /// DBSCAN over 3D points (`min_samples` counts the point itself, as scikit-learn does).
@@ -105,26 +118,84 @@ pub fn foreground_cluster(
     min_samples: usize,
     min_share: f64,
 ) -> Vec<[f32; 3]> {
-    let parts = clusters(points, eps_m, min_samples);
+    object_points(points, &[], eps_m, min_samples, min_share, 0.0)
+}
+
+/// The points of a detection that lie on its object, given in the sensor's frame: the
+/// foreground cluster ([`foreground_cluster`]) and every other DBSCAN cluster that
+/// 1. holds at least `min_share` of the largest cluster's points,
+/// 2. lies mostly in the mask's core (`core[i]` for `points[i]`, from
+///    [`super::project::core_of_mask`]): what stands behind an object shows in its mask only
+///    where the mask overshoots the object's outline, at the mask's edge, while the object's
+///    own parts fill the mask, and
+/// 3. lies no farther behind the foreground cluster than the object is wide:
+///    `angular_width_rad` (the mask's larger side over the focal length) times the
+///    foreground's median range.
+///
+/// So a many-parted object keeps its parts (a bus shelter's near wall, seen end-on, and the
+/// back wall and bench seen past it; a billboard's two legs), and a wall behind a pole stays
+/// out. Without core flags (an empty `core`) only the foreground cluster is kept.
+pub fn object_points(
+    points: &[[f32; 3]],
+    core: &[bool],
+    eps_m: f32,
+    min_samples: usize,
+    min_share: f64,
+    angular_width_rad: f64,
+) -> Vec<[f32; 3]> {
+    let labels = dbscan3(points, eps_m, min_samples);
+    let n = labels.iter().flatten().map(|c| c + 1).max().unwrap_or(0);
+    let mut parts: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (i, l) in labels.iter().enumerate() {
+        if let Some(c) = l {
+            parts[*c].push(i);
+        }
+    }
+    // largest first; ties keep the cluster found first
+    parts.sort_by_key(|c| std::cmp::Reverse(c.len()));
     let Some(largest) = parts.first().map(Vec::len) else {
         return Vec::new();
     };
-    let median_range = |c: &Vec<[f32; 3]>| {
+    let median_range = |c: &[usize]| {
         let mut r: Vec<f32> = c
             .iter()
-            .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+            .map(|&i| {
+                let p = points[i];
+                (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()
+            })
             .collect();
         r.sort_by(f32::total_cmp);
         r[r.len() / 2]
     };
-    parts
-        .into_iter()
+    let big: Vec<(f32, &Vec<usize>)> = parts
+        .iter()
         .filter(|c| c.len() as f64 >= min_share * largest as f64)
-        .map(|c| (median_range(&c), c))
-        // ties keep the larger cluster, which comes first
-        .reduce(|a, b| if b.0 < a.0 { b } else { a })
-        .map(|(_, c)| c)
-        .unwrap_or_default()
+        .map(|c| (median_range(c), c))
+        .collect();
+    // the nearest; ties keep the larger cluster, which comes first
+    let Some(fg) = big
+        .iter()
+        .enumerate()
+        .reduce(|a, b| if b.1.0 < a.1.0 { b } else { a })
+        .map(|(k, _)| k)
+    else {
+        return Vec::new();
+    };
+    let behind_max = angular_width_rad.max(0.0) * f64::from(big[fg].0);
+    let mut keep: Vec<usize> = big[fg].1.clone();
+    if !core.is_empty() {
+        for (k, (range, c)) in big.iter().enumerate() {
+            let in_core = c
+                .iter()
+                .filter(|&&i| core.get(i).copied().unwrap_or(false))
+                .count();
+            if k != fg && 2 * in_core >= c.len() && f64::from(*range - big[fg].0) <= behind_max {
+                keep.extend_from_slice(c);
+            }
+        }
+        keep.sort_unstable();
+    }
+    keep.into_iter().map(|i| points[i]).collect()
 }
 
 /// The DBSCAN clusters of `points` ([`dbscan3`]), largest first (ties: the cluster found
@@ -263,6 +334,58 @@ mod tests {
         assert_eq!(foreground_cluster(&pts, 0.5, 5, 0.2).len(), 200);
         assert_eq!(foreground_cluster(&pts, 0.5, 5, 1.0).len(), 200);
         assert!(foreground_cluster(&pts[..3], 0.5, 5, 0.3).is_empty());
+    }
+
+    /// A bus shelter seen end-on: its near wall, and 2.5 m behind it the back wall seen past
+    /// it, both in the mask's core, are one object; a wall 10 m behind, or one only at the
+    /// mask's edge, is not.
+    #[test]
+    fn an_object_keeps_its_parts_in_the_mask_core() {
+        let mut pts = Vec::new();
+        let mut core = Vec::new();
+        // near wall at 15 m: 40 points, all in the core
+        for j in 0..40 {
+            pts.push([15.0, 2.0, j as f32 * 0.06]);
+            core.push(true);
+        }
+        // the rest of the shelter 2.5 m behind: 100 points, 80 in the core
+        for i in 0..20 {
+            for j in 0..5 {
+                pts.push([17.5, 2.0 - i as f32 * 0.1, j as f32 * 0.1]);
+                core.push(i >= 4);
+            }
+        }
+        // a 4.4 m wide mask at 15 m: 0.29 rad
+        let kept = object_points(&pts, &core, 0.5, 5, 0.3, 0.29);
+        assert_eq!(kept.len(), 140);
+        // the old rule keeps the near wall alone
+        assert_eq!(foreground_cluster(&pts, 0.5, 5, 0.3).len(), 40);
+        // a narrow mask (a pole, 0.02 rad): 2.5 m behind is too far
+        assert_eq!(object_points(&pts, &core, 0.5, 5, 0.3, 0.02).len(), 40);
+        // the part behind only at the mask's edge: a thing behind the object
+        let edge: Vec<bool> = (0..pts.len()).map(|i| i < 40).collect();
+        assert_eq!(object_points(&pts, &edge, 0.5, 5, 0.3, 0.29).len(), 40);
+        // no core flags: the foreground cluster
+        assert_eq!(object_points(&pts, &[], 0.5, 5, 0.3, 0.29).len(), 40);
+    }
+
+    #[test]
+    fn flags_follow_their_voxels() {
+        let pts = [
+            [0.01, 0.0, 0.0],
+            [0.02, 0.0, 0.0],
+            [0.03, 0.0, 0.0],
+            [0.5, 0.0, 0.0],
+        ];
+        let (v, f) = voxel_downsample_flagged(&pts, &[true, true, false, false], 0.1);
+        assert_eq!(v.len(), 2);
+        assert_eq!(f, vec![true, false]);
+        let (_, f) = voxel_downsample_flagged(&pts, &[true, false, false, true], 0.1);
+        assert_eq!(f, vec![false, true]);
+        assert_eq!(
+            voxel_downsample_flagged(&pts, &[], 0.1).0,
+            voxel_downsample(&pts, 0.1)
+        );
     }
 
     #[test]

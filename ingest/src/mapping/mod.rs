@@ -28,6 +28,12 @@ pub struct MappingConfig {
     /// nearest among the clusters with at least this share of the largest one's points
     /// ([`geometry::foreground_cluster`]; 1 keeps the largest).
     pub foreground_min_share: f64,
+    /// A point lies in its mask's core when every pixel within this many pixels of its own is
+    /// in the mask. Besides the foreground cluster, a detection keeps each other large
+    /// cluster that lies mostly in the core and no farther behind than the object is wide
+    /// ([`geometry::object_points`]): the parts of a many-parted object, not what stands
+    /// behind it. 0 puts every point in the core.
+    pub mask_core_px: u32,
     /// Weight of the 3D IoU in φ.
     pub w_geo: f64,
     /// The 3D IoU of φ is that of the detection's and the object's oriented boxes, each
@@ -86,6 +92,7 @@ impl Default for MappingConfig {
             dbscan_eps_m: 0.5,
             dbscan_min_points: 5,
             foreground_min_share: 0.3,
+            mask_core_px: 3,
             w_geo: 1.0,
             iou_min_side_m: 0.5,
             w_cap: 0.2,
@@ -155,6 +162,9 @@ impl MappingConfig {
             && (0.0..=1.0).contains(&self.foreground_min_share))
         {
             return bad("foreground_min_share must be a number in [0, 1]");
+        }
+        if self.mask_core_px > 1_000 {
+            return bad("mask_core_px must be at most 1000 pixels");
         }
         if !self.merge_feature_cos.is_finite() {
             return bad("merge_feature_cos must be finite");

@@ -17,6 +17,24 @@ pub struct PostReport {
     pub split: Vec<(u64, u64)>,
 }
 
+/// A length that orders totally (lengths here are finite).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct OrderedLong(f64);
+
+impl Eq for OrderedLong {}
+
+impl PartialOrd for OrderedLong {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+impl Ord for OrderedLong {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+
 impl Mapper {
     /// Joins objects of one class by the geometry of their points: the points of `ids`
     /// are pooled and clustered (DBSCAN, `eps_m`, `dbscan_min_points`); objects whose points
@@ -84,6 +102,148 @@ impl Mapper {
                 let grown = self.objects[&ids[r]].bbox;
                 self.grid.update(ids[r], &grown);
             }
+        }
+        merged
+    }
+
+    /// Joins the parts of one thing seen apart: among `ids` (objects of one kind of thing,
+    /// such as the map's bus shelters; not stuff like buildings, fences or vegetation, whose
+    /// size says nothing), two objects become one when the oriented box of their pooled
+    /// points is no larger than a whole one of the kind: each side at most `slack` times the
+    /// `quantile` of that side over the kind's objects. A shelter seen end-on from one side
+    /// and then the other gives its two ends as two objects with the occluded middle between
+    /// them, more than [`Mapper::join_touching`]'s gap apart; two benches, bikes or cars side
+    /// by side make a box wider or longer than one. Kinds with fewer than `min_objects`
+    /// objects are left alone (their size is not known). Closest pairs first (the smallest
+    /// joined box), the lower id surviving; returns the merges (kept, absorbed).
+    pub fn join_parts(
+        &mut self,
+        ids: &[u64],
+        quantile: f64,
+        slack: f64,
+        min_objects: usize,
+    ) -> Vec<(u64, u64)> {
+        let ground = self.ground;
+        let mut ids: Vec<u64> = ids
+            .iter()
+            .copied()
+            .filter(|id| {
+                self.objects
+                    .get(id)
+                    .is_some_and(|o| o.tile.is_none() && !o.points.is_empty())
+            })
+            .collect();
+        ids.sort_unstable();
+        ids.dedup();
+        if ids.len() < min_objects.max(2) {
+            return Vec::new();
+        }
+        // the sides of a whole one: the quantile of each side (long, short) over the kind
+        let sides: Vec<[f64; 2]> = ids
+            .iter()
+            .filter_map(|id| self.objects[id].obb(ground))
+            .map(|b| {
+                let [a, c] = b.half_extents;
+                [2.0 * a.max(c), 2.0 * a.min(c)]
+            })
+            .collect();
+        let q = |k: usize| {
+            let mut v: Vec<f64> = sides.iter().map(|s| s[k]).collect();
+            v.sort_by(f64::total_cmp);
+            v.get(((v.len() as f64 - 1.0) * quantile.clamp(0.0, 1.0)).round() as usize)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        let (long_max, short_max) = (q(0) * slack, q(1) * slack);
+        if long_max <= 0.0 {
+            return Vec::new();
+        }
+        // the joined box of two objects when it is no larger than a whole one
+        let fits = |m: &Mapper, a: u64, b: u64| -> Option<f64> {
+            let (oa, ob) = (&m.objects[&a], &m.objects[&b]);
+            let (ba, bb) = (oa.obb(ground)?, ob.obb(ground)?);
+            let d = (ba.center[0] - bb.center[0]).hypot(ba.center[1] - bb.center[1]);
+            if d > long_max {
+                return None;
+            }
+            let mut pooled = oa.points.clone();
+            pooled.extend_from_slice(&ob.points);
+            let j = OrientedBox::fit(ground, &pooled)?;
+            let [x, y] = j.half_extents;
+            let (long, short) = (2.0 * x.max(y), 2.0 * x.min(y));
+            (long <= long_max && short <= short_max).then_some(long)
+        };
+        // candidate pairs by their joined box's long side, smallest first; a pair whose
+        // objects grew since it was measured is measured again
+        let centre = |m: &Mapper, id: u64| m.objects[&id].obb(ground).map(|b| b.center);
+        let mut version: BTreeMap<u64, u32> = ids.iter().map(|id| (*id, 0)).collect();
+        type Pair = std::cmp::Reverse<(OrderedLong, u64, u64, u32, u32)>;
+        let mut heap: std::collections::BinaryHeap<Pair> = std::collections::BinaryHeap::new();
+        let push_pairs = |m: &Mapper,
+                          heap: &mut std::collections::BinaryHeap<Pair>,
+                          version: &BTreeMap<u64, u32>,
+                          a: u64,
+                          others: &mut dyn Iterator<Item = u64>| {
+            let Some(ca) = centre(m, a) else { return };
+            for b in others {
+                if b == a {
+                    continue;
+                }
+                let Some(cb) = centre(m, b) else { continue };
+                if (ca[0] - cb[0]).hypot(ca[1] - cb[1]) > long_max {
+                    continue;
+                }
+                if let Some(long) = fits(m, a, b) {
+                    let (lo, hi) = (a.min(b), a.max(b));
+                    heap.push(std::cmp::Reverse((
+                        OrderedLong(long),
+                        lo,
+                        hi,
+                        version[&lo],
+                        version[&hi],
+                    )));
+                }
+            }
+        };
+        // every pair once: by ground x, only those within long_max of each other
+        let mut by_x: Vec<(f64, u64)> = ids
+            .iter()
+            .filter_map(|id| centre(self, *id).map(|c| (c[0], *id)))
+            .collect();
+        by_x.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+        for (i, &(x, a)) in by_x.iter().enumerate() {
+            let mut near = by_x[i + 1..]
+                .iter()
+                .take_while(|(xb, _)| xb - x <= long_max)
+                .map(|(_, b)| *b);
+            push_pairs(self, &mut heap, &version, a, &mut near);
+        }
+        let mut merged = Vec::new();
+        // an absorbed object's pairs are its absorber's now
+        let mut into: BTreeMap<u64, u64> = BTreeMap::new();
+        let root = |into: &BTreeMap<u64, u64>, mut id: u64| {
+            while let Some(&next) = into.get(&id) {
+                id = next;
+            }
+            id
+        };
+        while let Some(std::cmp::Reverse((_, a0, b0, va, vb))) = heap.pop() {
+            let (a, b) = (root(&into, a0), root(&into, b0));
+            if a == b {
+                continue;
+            }
+            if (a, b) != (a0, b0) || (version[&a], version[&b]) != (va, vb) {
+                // one of them grew or was absorbed: measure the pair again
+                push_pairs(self, &mut heap, &version, a, &mut std::iter::once(b));
+                continue;
+            }
+            self.absorb(a, b);
+            let grown = self.objects[&a].bbox;
+            self.grid.update(a, &grown);
+            version.remove(&b);
+            *version.get_mut(&a).expect("alive") += 1;
+            into.insert(b, a);
+            merged.push((a, b));
         }
         merged
     }
