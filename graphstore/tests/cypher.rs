@@ -1425,3 +1425,35 @@ fn repeated_statements_take_new_parameters_and_data() {
         assert!(e.to_string().contains("q"), "{e}");
     }
 }
+
+/// `round(x)` sends a half towards positive infinity and just under a half down;
+/// `round(x, precision[, mode])` rounds the decimal the float prints as (Neo4j's).
+#[test]
+fn round_of_one_two_and_three_arguments() {
+    let (_d, s) = store();
+    for (text, want) in [
+        ("RETURN round(2.5) = 3.0", true),
+        ("RETURN round(-2.5) = -2.0", true),
+        ("RETURN round(-0.5) = 0.0", true),
+        ("RETURN round(0.49999999999999994) = 0.0", true),
+        ("RETURN round(-1.7) = -2.0", true),
+        ("RETURN round(2.675, 2) = 2.68", true),
+        ("RETURN round(-2.5, 0) = -3.0", true),
+        ("RETURN round(2.5, 0, 'HALF_EVEN') = 2.0", true),
+        ("RETURN round(1234.5, -2) = 1200.0", true),
+        ("RETURN round(-0.0004, 2, 'floor') = -0.01", true),
+        ("RETURN round(null, 2) IS NULL", true),
+        ("RETURN round(1.5, null) IS NULL", true),
+    ] {
+        let r = q(&s, text);
+        assert_eq!(r.rows, vec![vec![Val::Bool(want)]], "{text}");
+    }
+    let e = qerr(
+        &s,
+        "RETURN round(1.5, 1, 'SIDEWAYS')",
+        &QueryOptions::default(),
+    );
+    assert!(e.message.contains("HALF_EVEN"), "{}", e.message);
+    let e = qerr(&s, "RETURN round(1.5, 1.5)", &QueryOptions::default());
+    assert_eq!(e.kind, ErrorKind::Type);
+}

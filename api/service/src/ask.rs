@@ -21,7 +21,9 @@ use std::time::Instant;
 
 use llm_tools::chat::{ChatModel, ChatRequest, Message, Role, ToolSpec};
 use llm_tools::request::SegmentConstraint;
-use llm_tools::request::question::{Task, TaskForm, parse_question, task_form_schema};
+use llm_tools::request::question::{
+    Task, TaskForm, check_grounded, parse_question, task_form_schema,
+};
 use serde_json::{Value as Json, json};
 
 use crate::tools::Toolbox;
@@ -191,6 +193,13 @@ fn read_question(
         let form: TaskForm = serde_json::from_value(a.json.ok_or("no structured answer")?)
             .map_err(|e| format!("not a task form: {e}"))?;
         form.into_task(question)
+    });
+    // a reading that is not the question's (a task without its cue, words the question does
+    // not say) gives way to the rules' reading
+    let read = read.and_then(|t| match check_grounded(&t, question) {
+        Ok(()) => Ok(t),
+        Err(why) if rules().is_some() => Err(format!("not grounded in the question: {why}")),
+        Err(_) => Ok(t),
     });
     match read {
         Ok(t) => (Some(fill_from_rules(t, rules())), id, transcript),
@@ -402,12 +411,44 @@ fn segment_words(kind: &str) -> &str {
     }
 }
 
-/// The best object `find_objects` gives for words, as (id, label, caption, segment).
+/// The object words name, as `find_objects` gives its results (`id`, `label`, `caption`,
+/// `segment` as `[id, kind]`): by its node id when the words give one ("object #86",
+/// "instance 12": `get_instance`), the best match in a segment when they give its id ("the
+/// post box in segment 12"), else `find_objects`' best.
 fn best_object(
     toolbox: &mut Toolbox,
     steps: &mut Vec<AskStep>,
     text: &str,
 ) -> Result<Json, String> {
+    if let Some(spec) = llm_tools::request::spec_in_words(text)
+        && let Some(id) = spec
+            .strip_prefix("instance:")
+            .or_else(|| spec.strip_prefix("node:"))
+            .and_then(|n| n.parse::<u64>().ok())
+    {
+        let i = call(toolbox, steps, "get_instance", json!({ "id": id }))?;
+        let p = &i["properties"];
+        return Ok(json!({
+            "id": id,
+            "label": p["label"],
+            "caption": p["caption"],
+            "centroid": p["centroid"],
+            "segment": [i["segment"]["id"], i["segment"]["kind"]],
+        }));
+    }
+    if let Some((object, segment)) = llm_tools::request::object_in_segment(text) {
+        let a = call(
+            toolbox,
+            steps,
+            "find_objects",
+            json!({"text": object, "k": 50}),
+        )?;
+        return a["results"]
+            .as_array()
+            .and_then(|v| v.iter().find(|o| o["segment"][0].as_u64() == Some(segment)))
+            .cloned()
+            .ok_or_else(|| format!("nothing in segment {segment} matches {object:?}"));
+    }
     let a = call(
         toolbox,
         steps,

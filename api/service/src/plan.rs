@@ -240,31 +240,6 @@ pub enum Resolved {
     },
 }
 
-/// Which end of the drive `text` names, when it names only that: "the start of the drive",
-/// "where the drive ended", "the beginning of the trajectory" → `Some("start" | "end")`.
-pub fn drive_end_of(text: &str) -> Option<&'static str> {
-    let t = text.trim().trim_end_matches(['.', '?', '!']).to_lowercase();
-    let words: Vec<&str> = t
-        .split_whitespace()
-        .filter(|w| {
-            !matches!(
-                *w,
-                "the" | "a" | "at" | "from" | "to" | "of" | "where" | "our" | "my"
-            )
-        })
-        .collect();
-    let path = ["drive", "trajectory", "route", "recording", "run", "map"];
-    let (start, end) = (
-        ["start", "starts", "started", "beginning", "begins", "began"],
-        ["end", "ends", "ended", "finish", "finished"],
-    );
-    match words.as_slice() {
-        [a, b] | [b, a] if path.contains(b) && start.contains(a) => Some("start"),
-        [a, b] | [b, a] if path.contains(b) && end.contains(a) => Some("end"),
-        _ => None,
-    }
-}
-
 /// A navigation answer: both ends with how they were resolved, and the plan.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct NavigateAnswer {
@@ -351,9 +326,15 @@ fn is_place(text: &str) -> bool {
     seg.is_some() && matches!(rest, "" | "the" | "a" | "an")
 }
 
-/// Resolves one end: a spec as given, an end of the drive ([`drive_end_of`]) as its frame's
-/// position, a place or description by `locate`, anything else by graph-aware `find` (its
-/// best instance).
+/// How many of `find`'s best candidates an object said with its segment ("the post box in
+/// segment 12") is looked for among.
+const IN_SEGMENT_CANDIDATES: usize = 200;
+
+/// Resolves one end: a spec as given or in words ("segment 12", "lane node 7", "object #86":
+/// [`llm_tools::request::spec_in_words`]), an end of the drive
+/// ([`llm_tools::request::drive_end_of`]) as its frame's position, an object with its segment
+/// by id ("the post box in segment 12": `find`'s best in that segment), a place or
+/// description by `locate`, anything else by graph-aware `find` (its best instance).
 ///
 /// # Errors
 /// Nothing found, or the operations fail.
@@ -371,7 +352,12 @@ pub fn resolve_end(
             },
         ));
     }
-    if let Some(end) = drive_end_of(text) {
+    if let Some(words) = llm_tools::request::spec_in_words(text)
+        && let Ok(spec) = words.parse::<Spec>()
+    {
+        return Ok((spec, Resolved::Spec { spec: words }));
+    }
+    if let Some(end) = llm_tools::request::drive_end_of(text) {
         let (first, last) = scene::records::drive_ends(r)?.ok_or_else(|| {
             llm_tools::Error::Invalid(format!(
                 "{text:?} names an end of the drive, but the map has no frames with poses"
@@ -385,6 +371,41 @@ pub fn resolve_end(
                 text: text.to_string(),
                 end: end.to_string(),
                 position,
+            },
+        ));
+    }
+    // "the post box in segment 12": the best match among the segment's objects
+    if let Some((object, segment)) = llm_tools::request::object_in_segment(text) {
+        let a = finder.find(
+            r,
+            &FindRequest {
+                text: object.clone(),
+                k: IN_SEGMENT_CANDIDATES,
+                class: None,
+                near: None,
+                ranking: Ranking::Graph {
+                    parser,
+                    rerank: false,
+                },
+                rerank_n: 10,
+            },
+        )?;
+        let weak = finder.weak_match_cosine();
+        let best = a
+            .results
+            .into_iter()
+            .filter(|f| f.cosine >= weak)
+            .find(|f| f.segment.as_ref().is_some_and(|s| s.0 == segment))
+            .ok_or_else(|| {
+                llm_tools::Error::Invalid(format!(
+                    "nothing in segment {segment} matches {object:?} well"
+                ))
+            })?;
+        return Ok((
+            Spec::Instance(best.id),
+            Resolved::Find {
+                text: text.to_string(),
+                result: Box::new(best),
             },
         ));
     }

@@ -16,6 +16,117 @@ pub(crate) fn arg_err(code: &'static str, msg: impl Into<String>) -> QueryError 
     QueryError::new(super::ErrorKind::Argument, code, msg, None)
 }
 
+/// A rounding mode of `round(value, precision, mode)` (Neo4j's, after Java's
+/// `java.math.RoundingMode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum RoundMode {
+    /// Away from zero when anything is dropped.
+    Up,
+    /// Towards zero.
+    Down,
+    /// Towards positive infinity.
+    Ceiling,
+    /// Towards negative infinity.
+    Floor,
+    /// To the nearest, a half away from zero (the default).
+    HalfUp,
+    /// To the nearest, a half towards zero.
+    HalfDown,
+    /// To the nearest, a half to the even neighbour.
+    HalfEven,
+}
+
+impl RoundMode {
+    fn parse(m: &str) -> Option<Self> {
+        Some(match m.to_ascii_uppercase().as_str() {
+            "UP" => Self::Up,
+            "DOWN" => Self::Down,
+            "CEILING" => Self::Ceiling,
+            "FLOOR" => Self::Floor,
+            "HALF_UP" => Self::HalfUp,
+            "HALF_DOWN" => Self::HalfDown,
+            "HALF_EVEN" => Self::HalfEven,
+            _ => return None,
+        })
+    }
+}
+
+/// `x` rounded to `precision` decimal places (negative: to tens, hundreds, ...), on the
+/// decimal the float prints as, as Neo4j does (`BigDecimal.valueOf(x).setScale(precision,
+/// mode)`): `round(2.675, 2)` is 2.68, though the float nearest 2.675 lies below it. NaN and
+/// infinities are returned as they are.
+pub(crate) fn round_decimal(x: f64, precision: i64, mode: RoundMode) -> f64 {
+    if !x.is_finite() || x == 0.0 {
+        return x;
+    }
+    // the shortest decimal that reads back as x: digits d0.d1d2... times 10^exp
+    let sci = format!("{:e}", x.abs());
+    let Some((mantissa, exp)) = sci.split_once('e') else {
+        return x;
+    };
+    let Ok(exp) = exp.parse::<i64>() else {
+        return x;
+    };
+    let digits: Vec<u8> = mantissa
+        .bytes()
+        .filter(u8::is_ascii_digit)
+        .map(|b| b - b'0')
+        .collect();
+    // how many leading digits have a place of 10^-precision or more
+    let keep = i128::from(exp) + i128::from(precision) + 1;
+    if keep >= digits.len() as i128 {
+        return x;
+    }
+    let negative = x < 0.0;
+    let (kept, dropped): (&[u8], Vec<u8>) = if keep <= 0 {
+        // every digit lies below the place kept; a half needs the first to be that place's
+        let zeros = usize::try_from(-keep).unwrap_or(usize::MAX).min(400);
+        let mut d = vec![0u8; zeros];
+        d.extend_from_slice(&digits);
+        (&[], d)
+    } else {
+        let k = usize::try_from(keep).unwrap_or(digits.len());
+        (&digits[..k], digits[k..].to_vec())
+    };
+    let nonzero = dropped.iter().any(|d| *d != 0);
+    let first = dropped.first().copied().unwrap_or(0);
+    let rest_nonzero = dropped.iter().skip(1).any(|d| *d != 0);
+    let last_odd = kept.last().is_some_and(|d| d % 2 == 1);
+    let up = match mode {
+        RoundMode::Up => nonzero,
+        RoundMode::Down => false,
+        RoundMode::Ceiling => nonzero && !negative,
+        RoundMode::Floor => nonzero && negative,
+        RoundMode::HalfUp => first >= 5,
+        RoundMode::HalfDown => first > 5 || (first == 5 && rest_nonzero),
+        RoundMode::HalfEven => first > 5 || (first == 5 && (rest_nonzero || last_odd)),
+    };
+    let mut int: Vec<u8> = kept.to_vec();
+    if up {
+        let mut i = int.len();
+        loop {
+            if i == 0 {
+                int.insert(0, 1);
+                break;
+            }
+            i -= 1;
+            if int[i] == 9 {
+                int[i] = 0;
+            } else {
+                int[i] += 1;
+                break;
+            }
+        }
+    }
+    if int.iter().all(|d| *d == 0) {
+        return 0.0;
+    }
+    let text: String = int.iter().map(|d| char::from(b'0' + d)).collect();
+    format!("{}{text}e{}", if negative { "-" } else { "" }, -precision)
+        .parse::<f64>()
+        .unwrap_or(x)
+}
+
 /// Formats a float as Cypher (Java) prints it: `1.0`, `0.5`, `1.0E10`.
 pub(crate) fn fmt_float(f: f64) -> String {
     if f.is_nan() {
@@ -1182,14 +1293,46 @@ impl Ctx<'_, '_> {
             "ceil" => math1!(f64::ceil),
             "floor" => math1!(f64::floor),
             "round" => {
-                arity(1, 1)?;
-                Ok(num(&a[0])?.map_or(Null, |x| {
-                    Float(if (x.fract().abs() - 0.5).abs() < f64::EPSILON {
-                        (x + 0.5).floor()
-                    } else {
-                        x.round()
-                    })
-                }))
+                arity(1, 3)?;
+                let Some(x) = num(&a[0])? else {
+                    return Ok(Null);
+                };
+                if n == 1 {
+                    // a half goes up, towards positive infinity (Java's Math.round)
+                    // (x - floor(x) is exact)
+                    let floor = x.floor();
+                    return Ok(Float(if x - floor >= 0.5 { floor + 1.0 } else { floor }));
+                }
+                let precision = match &a[1] {
+                    Null => return Ok(Null),
+                    Int(p) => *p,
+                    o => {
+                        return Err(type_err(format!(
+                            "round() precision must be an integer, got {}",
+                            o.type_name()
+                        )));
+                    }
+                };
+                let mode = match a.get(2) {
+                    None => RoundMode::HalfUp,
+                    Some(Null) => return Ok(Null),
+                    Some(Str(m)) => RoundMode::parse(m).ok_or_else(|| {
+                        arg_err(
+                            "InvalidArgumentValue",
+                            format!(
+                                "round() mode must be one of UP, DOWN, CEILING, FLOOR, HALF_UP, \
+                                 HALF_DOWN, HALF_EVEN; got {m:?}"
+                            ),
+                        )
+                    })?,
+                    Some(o) => {
+                        return Err(type_err(format!(
+                            "round() mode must be a string, got {}",
+                            o.type_name()
+                        )));
+                    }
+                };
+                Ok(Float(round_decimal(x, precision, mode)))
             }
             "sqrt" => math1!(f64::sqrt),
             "exp" => math1!(f64::exp),
@@ -1501,4 +1644,54 @@ fn float_to_int(f: f64) -> Option<i64> {
     (-9_223_372_036_854_775_808.0..9_223_372_036_854_775_808.0)
         .contains(&t)
         .then_some(t as i64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{RoundMode, round_decimal};
+
+    #[test]
+    fn round_with_precision_rounds_the_printed_decimal() {
+        use RoundMode::*;
+        let cases: [(f64, i64, RoundMode, f64); 18] = [
+            (2.675, 2, HalfUp, 2.68),
+            (1.005, 2, HalfUp, 1.01),
+            (-2.5, 0, HalfUp, -3.0),
+            (2.5, 0, HalfEven, 2.0),
+            (3.5, 0, HalfEven, 4.0),
+            (1.2345, 3, HalfDown, 1.234),
+            (1.23451, 3, HalfDown, 1.235),
+            (1234.5, -2, HalfUp, 1200.0),
+            (1250.0, -2, HalfUp, 1300.0),
+            (0.0004, 2, Up, 0.01),
+            (-0.0004, 2, Ceiling, 0.0),
+            (-0.0004, 2, Floor, -0.01),
+            (9.999, 2, HalfUp, 10.0),
+            (5.5, -1, HalfUp, 10.0),
+            (4.4, -1, HalfUp, 0.0),
+            (123.456, 400, HalfUp, 123.456),
+            (-7.25, 1, Down, -7.2),
+            (0.049, 1, HalfUp, 0.0),
+        ];
+        for (x, p, mode, want) in cases {
+            let got = round_decimal(x, p, mode);
+            assert!(
+                (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                "round({x}, {p}, {mode:?}) = {got}, want {want}"
+            );
+        }
+        assert!(round_decimal(f64::NAN, 2, HalfUp).is_nan());
+        assert_eq!(
+            round_decimal(f64::INFINITY, 2, HalfUp).to_bits(),
+            f64::INFINITY.to_bits()
+        );
+        assert_eq!(
+            round_decimal(1e300, 2, HalfUp).to_bits(),
+            1e300f64.to_bits()
+        );
+        assert_eq!(
+            round_decimal(123.0, -1000, HalfUp).to_bits(),
+            0f64.to_bits()
+        );
+    }
 }

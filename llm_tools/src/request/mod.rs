@@ -7,10 +7,12 @@ use crate::chat::{ChatModel, ChatRequest, Message};
 use crate::error::{Error, Result};
 
 mod llm;
+mod places;
 pub mod question;
 mod route;
 mod rules;
 pub use llm::*;
+pub use places::*;
 pub use route::*;
 pub use rules::*;
 

@@ -43,8 +43,11 @@ pub(super) const LEAD_INS: [&str; 27] = [
 ];
 
 /// Segment phrases, longest first, with the prepositions that may precede them.
-pub(super) const SEGMENTS: [(&str, SegmentConstraint); 18] = [
+pub(super) const SEGMENTS: [(&str, SegmentConstraint); 22] = [
     ("straight stretch of road", SegmentConstraint::StraightRoad),
+    ("four-way crossing", SegmentConstraint::Crossroads),
+    ("three-way junction", SegmentConstraint::TJunction),
+    ("three-way intersection", SegmentConstraint::TJunction),
     (
         "straight stretch of street",
         SegmentConstraint::StraightRoad,
@@ -59,6 +62,7 @@ pub(super) const SEGMENTS: [(&str, SegmentConstraint); 18] = [
     ("t-junction", SegmentConstraint::TJunction),
     ("t junction", SegmentConstraint::TJunction),
     ("t-intersection", SegmentConstraint::TJunction),
+    ("four-way", SegmentConstraint::Crossroads),
     ("l-junction", SegmentConstraint::Bend),
     ("bend", SegmentConstraint::Bend),
     ("straight road", SegmentConstraint::StraightRoad),
