@@ -239,15 +239,33 @@ impl Lexicon {
         self.nouns.is_empty()
     }
 
-    /// The noun synsets of a phrase ("post box"): as written with underscores, or as one
-    /// word ("postbox"); empty when WordNet does not know it.
+    /// The noun synsets of a phrase ("post box"): as written with underscores, as one word
+    /// ("postbox"), or a word split in two ("letterbox" as "letter box"); empty when
+    /// WordNet does not know it.
     pub fn synsets(&self, phrase: &str) -> &[u32] {
         let spaced = phrase.trim().to_lowercase().replace([' ', '-'], "_");
         if let Some(s) = self.nouns.get(&spaced) {
             return s;
         }
         let joined = spaced.replace('_', "");
-        self.nouns.get(&joined).map_or(&[], Vec::as_slice)
+        if let Some(s) = self.nouns.get(&joined) {
+            return s;
+        }
+        // one word written for two ("letterbox" for "letter box")
+        if !spaced.contains('_') {
+            for (i, _) in spaced.char_indices().skip(3) {
+                if spaced.len() - i < 3 {
+                    break;
+                }
+                if let Some(s) = self
+                    .nouns
+                    .get(&format!("{}_{}", &spaced[..i], &spaced[i..]))
+                {
+                    return s;
+                }
+            }
+        }
+        &[]
     }
 
     /// The noun lemmas of a synset, with spaces for underscores.

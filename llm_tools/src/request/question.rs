@@ -188,8 +188,19 @@ pub fn task_schema() -> serde_json::Value {
 }
 
 /// Words that open a question and say nothing of its task.
-const POLITE: [&str; 25] = [
+const POLITE: [&str; 36] = [
     "please ",
+    "would you happen to know ",
+    "do you happen to know ",
+    "happen to know ",
+    "return ",
+    "output ",
+    "compute ",
+    "report ",
+    "give me ",
+    "the node id of ",
+    "the object id of ",
+    "the instance id of ",
     "okay ",
     "ok ",
     "so ",
@@ -424,6 +435,8 @@ fn whole_map(place: &str) -> bool {
             "your",
             "whole",
             "entire",
+            "full",
+            "complete",
             "all",
             "of",
             "in",
@@ -475,8 +488,17 @@ struct Prepared {
 }
 
 /// Short forms people type ("seg 12", "dist", "@ the corner").
-const SHORT_FORMS: [(&str, &str); 12] = [
+const SHORT_FORMS: [(&str, &str); 21] = [
     ("seg", "segment"),
+    ("hw", "how"),
+    ("r", "are"),
+    ("u", "you"),
+    ("pls", "please"),
+    ("plz", "please"),
+    ("w/in", "within"),
+    ("rd", "road"),
+    ("obj", "object"),
+    ("4-way", "four-way"),
     ("segs", "segments"),
     ("dist", "distance"),
     ("len", "length"),
@@ -519,8 +541,69 @@ fn prepare(text: &str) -> Prepared {
         })
         .collect::<Vec<_>>()
         .join(" ");
+    // "bins/trash cans": the first of the names; "bend / corner": either
+    let words: Vec<&str> = t.split(' ').collect();
+    let mut kept: Vec<&str> = Vec::new();
+    let mut k = 0;
+    while k < words.len() {
+        let w = words[k];
+        let short = SHORT_FORMS
+            .iter()
+            .any(|(s, _)| *s == w.trim_end_matches(['?', ',']));
+        match w.split_once('/') {
+            Some((a, b))
+                if !short
+                    && !a.is_empty()
+                    && !b.is_empty()
+                    && a.chars().all(|c| c.is_alphabetic() || c == '-')
+                    && b.chars().next().is_some_and(char::is_alphabetic) =>
+            {
+                kept.push(a);
+                // the second name's other words ("bins/trash cans in ..."), up to a stop
+                k += 1;
+                let mut n = 0;
+                while k < words.len()
+                    && n < 2
+                    && !w.ends_with([',', '?', '.'])
+                    && !ends_np(words[k].trim_end_matches(['?', ',', '.']))
+                    && words[k]
+                        .chars()
+                        .all(|c| c.is_alphabetic() || c == '?' || c == ',')
+                    && !words[k - 1].ends_with([',', '?', '.'])
+                {
+                    if words[k].ends_with(['?', ',', '.']) {
+                        let tail = &words[k][words[k].trim_end_matches(['?', ',', '.']).len()..];
+                        kept.push(tail);
+                        k += 1;
+                        break;
+                    }
+                    k += 1;
+                    n += 1;
+                }
+                continue;
+            }
+            _ => kept.push(w),
+        }
+        k += 1;
+    }
+    t = kept.join(" ").replace(" / ", " or ");
     // phrasings that say a common word another way
     for (said, meant) in [
+        (" segment no. ", " segment "),
+        (" segment number ", " segment "),
+        (" segment nr ", " segment "),
+        (" seg no. ", " segment "),
+        (" would you say ", " "),
+        (" do you think ", " "),
+        (" do you reckon ", " "),
+        (", as the crow flies,", ""),
+        (" as the crow flies", ""),
+        (", in a straight line over the ground,", ""),
+        (", in a straight line,", ""),
+        (" in a straight line over the ground", ""),
+        (", over the ground,", ""),
+        (" over the ground", ""),
+        (" ground-plane ", " "),
         (" most near ", " nearest "),
         (" most close ", " closest "),
         (" more near ", " nearer "),
@@ -535,6 +618,16 @@ fn prepare(text: &str) -> Prepared {
         (" in straight line", " in a straight line"),
     ] {
         t = format!(" {t} ").replace(said, meant).trim().to_string();
+    }
+    // what a removed phrase leaves: "be., how far" -> "be. how far"
+    for (left, tidy) in [
+        (".,", "."),
+        ("?,", "?"),
+        ("!,", "!"),
+        (" ,", ","),
+        (",,", ","),
+    ] {
+        t = t.replace(left, tidy);
     }
     // contractions that hide a verb
     for (short, long) in [
@@ -557,9 +650,13 @@ fn prepare(text: &str) -> Prepared {
                 Some(c) => (c, &w[c.len()..]),
                 None => (w, ""),
             };
+            // the word as written ("no."), else without its punctuation ("seg,")
+            if let Some((_, l)) = SHORT_FORMS.iter().find(|(s, _)| *s == w) {
+                return (*l).to_string();
+            }
             SHORT_FORMS
                 .iter()
-                .find(|(s, _)| *s == core)
+                .find(|(s, _)| *s == core && !s.ends_with('.'))
                 .map_or_else(|| w.to_string(), |(_, l)| format!("{l}{tail}"))
         })
         .collect::<Vec<_>>()
@@ -836,7 +933,12 @@ const MORE_VERBS: [&str; 20] = [
 ];
 
 /// Heads of noun phrases that name no thing in the map.
-const NOT_THINGS: [&str; 30] = [
+const NOT_THINGS: [&str; 35] = [
+    "sidewalk",
+    "pavement",
+    "curb",
+    "kerb",
+    "side",
     "drive",
     "map",
     "city",
@@ -1013,10 +1115,32 @@ fn named_in(context: &str) -> Vec<Named> {
         i = end.max(i + 1);
     }
     // a sentence that is only a noun phrase ("heavy red motorcycle - what kind of road is
-    // it at?")
+    // it at?"), or opens with one and has no verb ("red cast-iron hydrant on the sidewalk")
     if found.is_empty() && w.len() <= 5 && !w.iter().any(|x| ends(x)) && !w.is_empty() {
         let head = stem(w[w.len() - 1]);
         found.push((0, Named::Thing(w.join(" "), head)));
+    } else if !w.is_empty()
+        && !taken[0]
+        && !ends(w[0])
+        && !matches!(
+            w[0],
+            "a" | "an" | "the" | "one" | "it" | "this" | "there" | "here"
+        )
+        && !w
+            .iter()
+            .any(|x| VERBS.contains(x) || MORE_VERBS.contains(x))
+    {
+        let n = (1..w.len()).find(|&k| ends(w[k])).unwrap_or(w.len());
+        if n <= 5 {
+            let head = stem(w[n - 1]);
+            let words = w[..n].join(" ");
+            if !NOT_THINGS.contains(&head.as_str())
+                && !super::places::is_road_word(&head)
+                && take_segment(&words).0.is_none()
+            {
+                found.push((0, Named::Thing(words, head)));
+            }
+        }
     }
     found.sort_by_key(|f| f.0);
     found.into_iter().map(|f| f.1).collect()
@@ -1046,8 +1170,11 @@ const PARTICIPLES: [&str; 18] = [
 ];
 
 /// Words for a road segment after "that" ("that stretch", "that segment").
-const ROAD_WORDS: [&str; 9] = [
+const ROAD_WORDS: [&str; 12] = [
     "segment",
+    "crossing",
+    "intersection",
+    "roundabout",
     "stretch",
     "road",
     "section",
@@ -1145,11 +1272,14 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
             let next = w.get(i + 1).map(|x| x.trim_end_matches([',', '?']));
             if matches!(word, "that" | "this")
                 && i > 0
-                && matches!(w[i - 1], "is" | "was" | "does" | "of" | "to" | "near")
+                && matches!(
+                    w[i - 1],
+                    "is" | "was" | "does" | "of" | "to" | "near" | "would" | "will" | "could"
+                )
                 && next.is_none_or(|x| {
                     matches!(
                         x,
-                        "in" | "on" | "at" | "sit" | "stand" | "have" | "has" | "by"
+                        "in" | "on" | "at" | "sit" | "stand" | "have" | "has" | "by" | "be"
                     )
                 })
                 && let Some(g) = thing(None).or_else(road).or_else(place)
@@ -1158,6 +1288,16 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
                 i += 1;
                 continue;
             }
+        }
+        // "how many hatchbacks in there": the segment said before
+        if word == "there"
+            && i > 0
+            && matches!(w[i - 1], "in" | "at" | "on")
+            && let Some(r) = road()
+        {
+            out.push(format!("{r}{comma}"));
+            i += 1;
+            continue;
         }
         // "how far is it to X": "it" stands for no thing
         let dummy = word == "it"
@@ -1227,8 +1367,32 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
             context,
         };
     }
-    let named = named_in(&context);
-    let question = clean(&fill_references(question, &named, &context));
+    // each sentence apart (a sentence that is only a noun phrase names a thing)
+    let named: Vec<Named> = sentences
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != qi)
+        .flat_map(|(_, s)| named_in(s))
+        .collect();
+    let mut question = clean(&fill_references(question, &named, &context));
+    // "the nearest to me": where the asker said they are
+    if let Some(here) = asker_at(&context) {
+        for me in ["me", "us"] {
+            for prep in ["to", "from", "near", "nearest", "closest"] {
+                let said = format!(" {prep} {me}");
+                let padded = format!("{question} ");
+                if let Some(i) = padded.find(&format!("{said} ")) {
+                    question = format!(
+                        "{} {prep} {here}{}",
+                        &padded[..i],
+                        &padded[i + said.len()..]
+                    )
+                    .trim()
+                    .to_string();
+                }
+            }
+        }
+    }
     Prepared {
         question,
         whole,
@@ -1242,6 +1406,11 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
 fn cut_segment_choices(t: &str) -> String {
     let kinds = [
         "crossroads",
+        "four-way",
+        "three-way",
+        "crossing",
+        "straight section",
+        "straight bit",
         "junction",
         "t-junction",
         "t junction",
@@ -1281,6 +1450,59 @@ fn cut_segment_choices(t: &str) -> String {
 /// A number of metres in "within 50 m of", "in 30 metres of", "less than 20 m from";
 /// (radius, place, the text without that phrase).
 fn radius_of(t: &str) -> Option<(f64, String, String)> {
+    // "(X) whose (ground) distance to P is at most R m"
+    for cue in [" distance to ", " distance from "] {
+        let Some(i) = t.find(cue) else { continue };
+        let rest = &t[i + cue.len()..];
+        let Some(j) = rest.find(" is ") else { continue };
+        let bound = rest[j + 4..].trim();
+        let Some(num) = [
+            "at most ",
+            "no more than ",
+            "not more than ",
+            "up to ",
+            "less than ",
+            "under ",
+            "below ",
+            "within ",
+            "<= ",
+            "< ",
+        ]
+        .iter()
+        .find_map(|b| bound.strip_prefix(b)) else {
+            continue;
+        };
+        let mut nw = num.split_whitespace();
+        let first = nw.next().unwrap_or("");
+        let (n, unit_next) = match first.strip_suffix('m') {
+            Some(n) if n.parse::<f64>().is_ok() => (n, false),
+            _ => (first, true),
+        };
+        let Ok(r) = n.parse::<f64>() else { continue };
+        let mut after: Vec<&str> = nw.collect();
+        if unit_next {
+            if !matches!(
+                after.first().map(|u| u.trim_end_matches([',', '.'])),
+                Some("m" | "metres" | "meters" | "metre" | "meter")
+            ) {
+                continue;
+            }
+            after.remove(0);
+        }
+        // what is counted stands before "whose"/"with"/"at"
+        let head = t[..i]
+            .trim_end_matches(" ground")
+            .trim_end_matches(" ground-plane")
+            .trim_end_matches(" straight-line");
+        let head = ["whose", "with a", "with", "that have a", "having a"]
+            .iter()
+            .find_map(|c| head.strip_suffix(c))
+            .unwrap_or(head);
+        let place = phrase(&rest[..j]);
+        if r.is_finite() && r >= 0.0 && !place.is_empty() {
+            return Some((r, place, clean(&format!("{head} {}", after.join(" ")))));
+        }
+    }
     let w: Vec<&str> = t.split_whitespace().collect();
     for i in 0..w.len() {
         let n_at = match w[i] {
@@ -1412,6 +1634,13 @@ fn phrase(s: &str) -> String {
         " straight line",
         " as the crow flies",
         " over the ground",
+        ", id",
+        " its id",
+        " the id",
+        " node id",
+        " id",
+        ", dear",
+        " dear",
     ] {
         if let Some(r) = t.strip_suffix(tail) {
             t = r.trim().to_string();
@@ -1424,6 +1653,14 @@ fn phrase(s: &str) -> String {
         .min()
     {
         t = t[..i].trim().to_string();
+    }
+    // "the crossroads that is segment 2404": the node named
+    for sep in [" that is ", " which is ", " i.e. ", ", "] {
+        if let Some((_, tail)) = t.rsplit_once(sep)
+            && super::spec_in_words(tail).is_some()
+        {
+            t = tail.trim().to_string();
+        }
     }
     // words run on after a node's id ("object 1481 straight line"): the node
     if t.chars().any(|c| c.is_ascii_digit()) && super::spec_in_words(&t).is_none() {
@@ -1520,7 +1757,11 @@ fn segments_named(kind: &str) -> Option<Option<SegmentConstraint>> {
         return Some(Some(SegmentConstraint::Junction));
     }
     let (seg, rest) = take_segment(k);
-    let rest = trim_words(&rest, &["s"], &["segments", "segment", "s", "es", "roads"]);
+    let rest = trim_words(
+        &rest,
+        &["s", "four-way", "three-way", "proper"],
+        &["segments", "segment", "s", "es", "roads"],
+    );
     match seg {
         Some(s) if rest.is_empty() => Some(Some(s)),
         _ => None,
@@ -1609,8 +1850,14 @@ fn is_kind_of(words: &[&str], i: usize) -> bool {
 
 /// Words before a kind that are not part of it ("return the trailers", "all distinct
 /// benches").
-const KIND_FRONT: [&str; 17] = [
+const KIND_FRONT: [&str; 23] = [
     "the",
+    "proper",
+    "actual",
+    "real",
+    "simply",
+    "just",
+    "either",
     "all",
     "any",
     "of",
@@ -1629,8 +1876,12 @@ const KIND_FRONT: [&str; 17] = [
     "an",
 ];
 /// Words after a kind that name no kind ("trailer instances", "bench objects").
-const KIND_BACK: [&str; 9] = [
+const KIND_BACK: [&str; 13] = [
     "you",
+    "present",
+    "existing",
+    "would",
+    "be",
     "instances",
     "instance",
     "objects",
@@ -1712,10 +1963,27 @@ fn count_task(t: &str) -> Option<Task> {
         // "how many segments are junctions (of any type)": the kind follows "are"
         if seg.is_none() {
             let said = format!(" {after} ");
-            if let Some((_, what)) = said
-                .split_once(" that are ")
-                .or_else(|| said.split_once(" are "))
+            if let Some((_, what)) = [
+                " that are ",
+                " which are ",
+                " whose kind is ",
+                " whose type is ",
+                " of kind ",
+                " of type ",
+                " being ",
+                " are ",
+            ]
+            .iter()
+            .find_map(|sep| said.split_once(sep))
             {
+                let what = trim_words(
+                    what.trim(),
+                    &[
+                        "simply", "just", "only", "either", "all", "purely", "proper",
+                    ],
+                    &[],
+                );
+                let what = what.as_str();
                 // an aside ("junctions, i.e. crossroads, t-junctions and bends") adds nothing
                 let what = [
                     ",",
@@ -2000,7 +2268,12 @@ pub fn parse_question(text: &str) -> Option<Task> {
             Task::RouteLength { from, to } | Task::Distance { from, to } => {
                 !(muddled(from) || muddled(to)) || ends_in_context(&p).is_none()
             }
-            _ => true,
+            // a distance or route asked, read as something else
+            Task::Count { .. } => true,
+            _ => {
+                let q = p.question.trim();
+                !(route_asked(q) || distance_asked(q)) || ends_in_context(&p).is_none()
+            }
         })
         .or_else(|| ends_in_context(&p))
         .or_else(|| {
@@ -2076,7 +2349,16 @@ fn ends_in_context(p: &Prepared) -> Option<Task> {
 /// bus stop", "we're parked next to segment 4".
 fn asker_at(context: &str) -> Option<String> {
     let t = format!(" {context} ");
-    for me in [" i'm ", " i am ", " we're ", " we are "] {
+    for me in [
+        " i'm ",
+        " i am ",
+        " we're ",
+        " we are ",
+        " were i ",
+        " i were ",
+        " if i stand ",
+        " if i stood ",
+    ] {
         let Some(i) = t.find(me) else { continue };
         let mut rest = t[i + me.len()..].trim();
         for verb in [
@@ -2106,11 +2388,14 @@ fn asker_at(context: &str) -> Option<String> {
         }) {
             return Some(words[..n].join(" "));
         }
-        if matches!(words.first().copied(), Some("the" | "a" | "an")) {
+        if matches!(
+            words.first().copied(),
+            Some("the" | "a" | "an" | "that" | "this")
+        ) {
             let n = (1..words.len())
                 .find(|&k| ends_np(words[k]) || PARTICIPLES.contains(&words[k]))
                 .unwrap_or(words.len());
-            return Some(words[..n].join(" "));
+            return Some(format!("the {}", words[1..n].join(" ")));
         }
     }
     None
@@ -2245,6 +2530,10 @@ fn read_prepared(t: &str, text: &str) -> Option<Task> {
     let metres_asked = metres_asked(t);
     let route_words = route_asked(t);
     let distance_words = distance_asked(t);
+    // "the number of letter boxes whose distance to P is at most 25 m" counts
+    if has_any(t, &["how many", "number of", "count"]) && radius_of(t).is_some() {
+        return count_task(t);
+    }
     if route_words {
         let body = trim_keep(
             t,
@@ -2435,6 +2724,10 @@ fn read_prepared(t: &str, text: &str) -> Option<Task> {
                 "intersection",
                 "place",
                 "street",
+                "map",
+                "would",
+                "will",
+                "could",
                 "id",
                 "is",
                 "are",
@@ -2465,7 +2758,8 @@ fn read_prepared(t: &str, text: &str) -> Option<Task> {
             &[
                 "in", "on", "at", "to", "belong", "belongs", "located", "situated", "standing",
                 "parked", "stands", "sits", "lies", "is", "are", "placed", "found", "part", "of",
-                "segment", "which", "kind", "what", "type", "sit", "stand", "lie",
+                "segment", "which", "kind", "what", "type", "sit", "stand", "lie", "be", "dear",
+                "would",
             ],
         );
         if !obj.is_empty() {
@@ -2668,6 +2962,13 @@ pub fn check_grounded(task: &Task, question: &str) -> std::result::Result<(), St
                 "distance",
                 "\"distance\", \"far\", \"apart\" or metres",
             )?;
+            // along the lanes is a route's length, not a straight line
+            if route_asked(&q) {
+                return Err(
+                    "the question asks for a route along the lanes, not a straight-line distance"
+                        .into(),
+                );
+            }
             said(from, "the place")?;
             said(to, "the place")
         }
@@ -3005,6 +3306,39 @@ mod tests {
                 ),
             ),
             (
+                "Return the number of letter boxes whose ground distance to the centroid of \
+                 segment 2406 is at most 25 m.",
+                count(
+                    "letter boxes",
+                    None,
+                    Some("the centroid of segment 2406"),
+                    Some(25.0),
+                ),
+            ),
+            (
+                "Were I standing beside that large red delivery truck, which hatchback would be \
+                 the nearest to me? Do give me its id, if you would.",
+                Task::Nearest {
+                    kind: "hatchback".into(),
+                    near: "the large red delivery truck".into(),
+                },
+            ),
+            (
+                "seg 2423 - how many hatchbacks in there?",
+                count("hatchbacks", Some("segment 2423"), None, None),
+            ),
+            (
+                "how many bins/trash cans in segment no. 2421?",
+                count("bins", Some("segment 2421"), None, None),
+            ),
+            (
+                "red cast-iron hydrant on the sidewalk - what kind of rd is it on? 4-way, T, \
+                 corner or straight?",
+                Task::Segment {
+                    object: "the red cast-iron hydrant".into(),
+                },
+            ),
+            (
                 "benches in seg 2410?",
                 count("benches", Some("segment 2410"), None, None),
             ),
@@ -3148,6 +3482,17 @@ mod tests {
             )
             .is_err()
         );
+        let q = "If one were to drive along the lanes, how far would it be from lane node 2426 \
+                 to lane node 2429?";
+        let e = check_grounded(
+            &Task::Distance {
+                from: "lane node 2426".into(),
+                to: "lane node 2429".into(),
+            },
+            q,
+        )
+        .unwrap_err();
+        assert!(e.contains("route"), "{e}");
         let q = "I'm at a T-junction next to a bus stop, where am I?";
         assert!(
             check_grounded(
