@@ -336,6 +336,7 @@ fn has_word(caption: &str, word: &str) -> bool {
 const PLACE_WORDS: &[&str] = &[
     "on", "atop", "over", "above", "next", "near", "by", "beside", "at", "along", "against",
     "behind", "in", "inside", "within", "under", "beneath", "below", "opposite", "across",
+    "facing",
 ];
 
 /// Words of an anchor phrase that name nothing.
@@ -344,7 +345,7 @@ const ARTICLES: &[&str] = &["a", "an", "the", "this", "that", "some", "one", "it
 /// Whether `caption` itself places its object by the anchor `phrase` under `rel`: its first
 /// place word ("on", "next", "near", …) agrees with the relation (on: on, atop, over, above;
 /// under: under, beneath, below; inside: in, inside, within; opposite and across the road
-/// from: opposite, across; the rest: any but those two) and every word of the phrase but its
+/// from: opposite, across, facing; the rest: any but those three) and every word of the phrase but its
 /// article follows it. "a small yellow metal post box on a short post" places itself on "a
 /// short post"; "a brown bench, long, facing the street" places itself by nothing.
 pub fn caption_places_by(caption: &str, rel: Relation, phrase: &str) -> bool {
@@ -357,8 +358,10 @@ pub fn caption_places_by(caption: &str, rel: Relation, phrase: &str) -> bool {
         Relation::On => ["on", "atop", "over", "above"].contains(&place),
         Relation::Under => ["under", "beneath", "below"].contains(&place),
         Relation::Inside => ["in", "inside", "within"].contains(&place),
-        Relation::Opposite | Relation::AcrossTheRoadFrom => ["opposite", "across"].contains(&place),
-        _ => !["opposite", "across"].contains(&place),
+        Relation::Opposite | Relation::AcrossTheRoadFrom => {
+            ["opposite", "across", "facing"].contains(&place)
+        }
+        _ => !["opposite", "across", "facing"].contains(&place),
     };
     let content: Vec<String> = words(phrase)
         .into_iter()
@@ -819,6 +822,12 @@ mod tests {
             "the street"
         ));
         assert!(!caption_places_by(mailbox, Relation::On, "the"));
+        // "facing the traffic" is how the sign stands, said by its caption
+        assert!(caption_places_by(
+            "a round red and white metal speed limit sign facing the traffic",
+            Relation::Opposite,
+            "the traffic"
+        ));
     }
 
     #[test]

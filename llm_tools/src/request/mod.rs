@@ -458,6 +458,19 @@ mod tests {
     }
 
     #[test]
+    fn a_function_word_inside_an_objects_name_names_no_function() {
+        let objects = |t: &str| parse_rules(t).unwrap().objects;
+        assert!(objects("the round red-and-white speed limit sign facing the traffic").is_empty());
+        assert!(objects("the green rubbish bin").is_empty());
+        assert_eq!(objects("somewhere I can post a letter"), ["a mailbox"]);
+        assert_eq!(objects("somewhere to throw away rubbish"), ["a trash can"]);
+        assert_eq!(
+            objects("a sign that shows the speed limit"),
+            ["a traffic sign"]
+        );
+    }
+
+    #[test]
     fn the_schema_accepts_what_the_rule_parser_makes() {
         let schema = request_schema();
         for text in [

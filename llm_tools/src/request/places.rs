@@ -184,7 +184,13 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
         .trim_end_matches(['.', '?', '!'])
         .to_lowercase()
         .replace(['’', '‘'], "'")
-        .replace("'s ", " ");
+        .replace("'s ", " ")
+        .replace("set off", "started")
+        .replace("setting off", "starting")
+        .replace("sets off", "starts")
+        .replace("kicked off", "started")
+        .replace("came to a stop", "ended")
+        .replace("wrapped up", "ended");
     let words: Vec<&str> = t
         .split_whitespace()
         .filter(|w| {
@@ -230,6 +236,9 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
         "begins",
         "began",
         "initial",
+        "departed",
+        "departure",
+        "commenced",
     ];
     let end = [
         "end",
@@ -240,6 +249,8 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
         "finished",
         "finishing",
         "final",
+        "stopped",
+        "terminated",
     ];
     match words.as_slice() {
         [a] if start.contains(a) => Some("start"),
@@ -318,6 +329,8 @@ mod tests {
             ("the final position of the drive", Some("end")),
             ("the starting point", Some("start")),
             ("the end", Some("end")),
+            ("where the drive set off", Some("start")),
+            ("where the run stopped", Some("end")),
             ("the bus stop", None),
             ("the end of the road", None),
             ("the start of the bus lane", None),

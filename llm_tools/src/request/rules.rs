@@ -372,15 +372,34 @@ pub(super) fn find_relation(t: &str, from: usize, phrase: &str) -> Option<usize>
     None
 }
 
+/// Head nouns that make a function word before them part of an object's name ("speed limit
+/// sign", "rubbish bin", "bus stop shelter" name things, not what they are for).
+const OBJECT_HEADS: [&str; 22] = [
+    "sign", "signs", "bin", "bins", "can", "cans", "box", "boxes", "shelter", "shelters", "light",
+    "lights", "pole", "poles", "post", "posts", "truck", "trucks", "rack", "racks", "stand",
+    "stands",
+];
+
 /// The objects that serve the functions named in `phrase` (see [`AFFORDANCES`]), in table
-/// order, without repeats.
+/// order, without repeats. A trigger that is part of an object's name (followed by one of
+/// [`OBJECT_HEADS`]) names no function.
 pub fn objects_for_function(phrase: &str) -> Vec<String> {
     let t = normalise(phrase);
     let mut out: Vec<String> = Vec::new();
+    let said = |tr: &str| {
+        let mut from = 0;
+        while let Some(i) = t.get(from..).and_then(|rest| find_words(rest, tr)) {
+            let end = from + i + tr.len();
+            let next = t[end..].split_whitespace().next().unwrap_or("");
+            if !OBJECT_HEADS.contains(&next) {
+                return true;
+            }
+            from = end;
+        }
+        false
+    };
     for (triggers, object) in AFFORDANCES {
-        if triggers.iter().any(|tr| find_words(&t, tr).is_some())
-            && !out.iter().any(|o| o == object)
-        {
+        if triggers.iter().any(|tr| said(tr)) && !out.iter().any(|o| o == object) {
             out.push((*object).to_string());
         }
     }
