@@ -22,6 +22,20 @@ KIND_WORDS = {"intersection": "crossroads", "t_intersection": "t_junction",
               "l_intersection": "bend", "straight_roadway": "straight_road"}
 
 
+def normalise(kind, truth):
+    """One truth form for every set: set 6 writes {"id"} for a segment, {"kind"} for a segment
+    kind and {"distance_m"} / {"length_m"} for metres."""
+    truth = dict(truth)
+    if kind == "segment" and "id" in truth:
+        truth = {"segment": truth["id"]}
+    if kind == "segment_kind" and "kind" in truth:
+        truth = {"segment_kind": truth["kind"]}
+    for k in ("distance_m", "length_m"):
+        if k in truth:
+            truth = {"metres": truth[k]}
+    return truth
+
+
 def right(value, truth):
     if value is None:
         return False
@@ -63,7 +77,7 @@ def main():
         secs = time.monotonic() - t0
         times.append(secs)
         ans = json.loads(p.stdout) if p.returncode == 0 and p.stdout.strip() else {}
-        ok = right(ans.get("value"), it["truth"])
+        ok = right(ans.get("value"), normalise(it["kind"], it["truth"]))
         k = per_kind.setdefault(it["kind"], [0, 0])
         k[0] += ok
         k[1] += 1

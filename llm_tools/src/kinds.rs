@@ -265,6 +265,18 @@ pub fn kind_phrase(text: &str, lexicon: &Lexicon) -> String {
     kept.join(" ")
 }
 
+/// WordNet's lexicon and links as `scripts/setup.sh` fetched them ([`Lexicon::load_default`],
+/// [`Taxonomy::load_default`]), loaded once per process; empty when not fetched.
+pub fn wordnet() -> &'static (Lexicon, Taxonomy) {
+    static WN: std::sync::OnceLock<(Lexicon, Taxonomy)> = std::sync::OnceLock::new();
+    WN.get_or_init(|| {
+        (
+            Lexicon::load_default().unwrap_or_default(),
+            Taxonomy::load_default().unwrap_or_default(),
+        )
+    })
+}
+
 /// Kinds matched against labels with WordNet.
 #[derive(Debug, Clone, Copy)]
 pub struct Kinds<'a> {
@@ -303,8 +315,12 @@ impl Kinds<'_> {
         }
         let all = l.clone();
         let l = self.things(l);
+        // a compound WordNet does not know ("speed limit sign") is taken by its head; a
+        // label WordNet knows whole is a kind of the head ("billboard" is a sign), not of the
+        // compound, so only another compound of the same head can be its synonym
+        let compound_only = kind_by_head && !by_head;
         // synonyms: a sense the kind has among the label's two most frequent ones
-        if l.iter().take(SYNONYM_SENSES).any(|s| k.contains(s)) {
+        if !compound_only && l.iter().take(SYNONYM_SENSES).any(|s| k.contains(s)) {
             return Some(if by_head {
                 KindMatch::KindOf
             } else {
@@ -319,7 +335,7 @@ impl Kinds<'_> {
                 .into_iter()
                 .any(|g| k.contains(&g))
         };
-        if above(main) {
+        if !kind_by_head && above(main) {
             return Some(KindMatch::KindOf);
         }
         let modifier_part = by_head
@@ -533,6 +549,9 @@ mod tests {
         assert_eq!(m("signs", "traffic light"), None);
         assert_eq!(m("signs", "speed limit sign"), Some(KindMatch::KindOf));
         assert_eq!(m("poles", "utility pole"), Some(KindMatch::KindOf));
+        // a billboard is a sign, not a speed limit sign
+        assert_eq!(m("signs", "billboard"), Some(KindMatch::KindOf));
+        assert_eq!(m("speed limit signs", "billboard"), None);
         assert_eq!(kind_phrase("poles", &lex), "pole");
         assert_eq!(kind_phrase("benches", &lex), "bench");
         assert_eq!(kind_phrase("boxes", &lex), "box");

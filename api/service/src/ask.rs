@@ -2,7 +2,7 @@
 //!
 //! [`ask`] reads the question as one [`Task`] (count, nearest, distance, route length,
 //! segment, colour, neighbours, locate, find): with a language model, the model fills the
-//! task's flat form under a grammar (`ask_task@v1`, eight worked examples), falling back to
+//! task's flat form under a grammar (`ask_task@v2`, with worked examples), falling back to
 //! the rule parser ([`parse_question`]) when its form is unusable; without one, the rule
 //! parser alone. The task runs through the same [`Toolbox`] as MCP, and the answer is
 //! composed from the tool's result, not generated; the transcript records the model, the
@@ -443,10 +443,22 @@ fn best_object(
             "find_objects",
             json!({"text": object, "k": 50}),
         )?;
-        return a["results"]
+        let there: Vec<&Json> = a["results"]
             .as_array()
-            .and_then(|v| v.iter().find(|o| o["segment"][0].as_u64() == Some(segment)))
-            .cloned()
+            .map(|v| {
+                v.iter()
+                    .filter(|o| o["segment"][0].as_u64() == Some(segment))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let labels: Vec<&str> = there
+            .iter()
+            .map(|o| o["label"].as_str().unwrap_or(""))
+            .collect();
+        let pick = crate::plan::first_of_kind(&object, &labels).unwrap_or(0);
+        return there
+            .get(pick)
+            .map(|o| (*o).clone())
             .ok_or_else(|| format!("nothing in segment {segment} matches {object:?}"));
     }
     let a = call(

@@ -11,11 +11,10 @@
 //! horizontal axes; height ignored), metres.
 
 use std::collections::BTreeMap;
-use std::sync::OnceLock;
 
 use graphstore::{Direction, GraphRead, Value};
-use llm_tools::kinds::{KindMatch, Kinds, SIMILAR_MIN_COSINE, Taxonomy, kind_phrase};
-use llm_tools::labels::{Lexicon, noun_phrase};
+use llm_tools::kinds::{KindMatch, Kinds, SIMILAR_MIN_COSINE, kind_phrase, wordnet};
+use llm_tools::labels::noun_phrase;
 use planner::{Spec, Target};
 use scene::view::{MapView, SceneObject};
 use serde::Serialize;
@@ -35,17 +34,6 @@ pub const CENTROID_MEASURE: &str = "ground-plane distance between centroids (hei
 pub const BOX_GAP_MEASURE: &str = "ground-plane gap between footprints (0 when they overlap), metres: box to box for an object, box to the segment's area for a segment, box to the point otherwise";
 /// The default radius of `count_objects` around `near`, metres.
 pub const DEFAULT_RADIUS_M: f64 = 20.0;
-
-/// The WordNet lexicon and links, loaded once per process; empty when not fetched.
-fn wordnet() -> &'static (Lexicon, Taxonomy) {
-    static WN: OnceLock<(Lexicon, Taxonomy)> = OnceLock::new();
-    WN.get_or_init(|| {
-        (
-            Lexicon::load_default().unwrap_or_default(),
-            Taxonomy::load_default().unwrap_or_default(),
-        )
-    })
-}
 
 /// A place as resolved.
 #[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]

@@ -502,6 +502,11 @@ struct Prepared {
     context: String,
 }
 
+/// Whom a radio or phone call is addressed to ("control, how many ...").
+const CALLED: [&str; 9] = [
+    "control", "base", "dispatch", "hq", "ops", "operator", "team", "robot", "computer",
+];
+
 /// Short forms people type ("seg 12", "dist", "@ the corner").
 const SHORT_FORMS: [(&str, &str); 21] = [
     ("seg", "segment"),
@@ -633,6 +638,36 @@ fn prepare(text: &str) -> Prepared {
         (" in straight line", " in a straight line"),
     ] {
         t = format!(" {t} ").replace(said, meant).trim().to_string();
+    }
+    // radio talk: "over" and "over and out" end a turn, "control, ..." calls someone
+    for (said, meant) in [
+        (", over and out", ""),
+        (" over and out", ""),
+        (", over?", "?"),
+        (", over.", "."),
+        (". over.", "."),
+        ("? over.", "?"),
+        ("? over", "?"),
+        (". over", "."),
+    ] {
+        t = t.replace(said, meant);
+    }
+    for end in [", over", " over"] {
+        if let Some(r) = t.trim_end().strip_suffix(end) {
+            t = r.to_string();
+        }
+    }
+    for who in CALLED {
+        for at in ["", ". ", "? "] {
+            let said = format!("{at}{who}, ");
+            if at.is_empty() {
+                if let Some(r) = t.strip_prefix(&said) {
+                    t = r.to_string();
+                }
+            } else {
+                t = t.replace(&said, at);
+            }
+        }
     }
     // what a removed phrase leaves: "be., how far" -> "be. how far"
     for (left, tidy) in [
@@ -981,8 +1016,11 @@ const MORE_VERBS: [&str; 20] = [
 const TIME_WORDS: [&str; 4] = ["today", "tonight", "yesterday", "tomorrow"];
 
 /// Heads of noun phrases that name no thing in the map.
-const NOT_THINGS: [&str; 40] = [
+const NOT_THINGS: [&str; 43] = [
     "point",
+    "line",
+    "metres",
+    "meters",
     "today",
     "tonight",
     "yesterday",
@@ -1023,6 +1061,16 @@ const NOT_THINGS: [&str; 40] = [
     "week",
     "roadside",
 ];
+
+/// Heads in [`NOT_THINGS`] that name a thing when more words say which ("our van" is the
+/// asker's, "the silver camper van" is in the map).
+const THINGS_WHEN_SAID_WHICH: [&str; 4] = ["van", "vehicle", "robot", "side"];
+
+/// Whether a noun phrase of `n` words with head `head` names something in the map.
+fn names_thing(head: &str, n: usize) -> bool {
+    (!NOT_THINGS.contains(&head) || (n > 1 && THINGS_WHEN_SAID_WHICH.contains(&head)))
+        && !super::places::is_road_word(head)
+}
 
 /// A word that cannot be inside a noun phrase.
 fn ends_np(x: &str) -> bool {
@@ -1114,6 +1162,23 @@ fn named_in(context: &str) -> Vec<Named> {
         if let Some(n) = (2..=5).rev().find(|n| {
             i + n <= w.len()
                 && !taken[i..i + n].iter().any(|t| *t)
+                && w[i..i + n].iter().any(|x| {
+                    matches!(
+                        x.trim_end_matches([',', '.']),
+                        "drive"
+                            | "trajectory"
+                            | "route"
+                            | "recording"
+                            | "run"
+                            | "journey"
+                            | "survey"
+                            | "start"
+                            | "end"
+                            | "beginning"
+                            | "starting"
+                            | "ending"
+                    )
+                })
                 && super::drive_end_of(&w[i..i + n].join(" ")).is_some()
         }) {
             taken[i..i + n].iter_mut().for_each(|t| *t = true);
@@ -1208,7 +1273,7 @@ fn named_in(context: &str) -> Vec<Named> {
                 }
             }
         }
-        if !NOT_THINGS.contains(&head.as_str()) && !super::places::is_road_word(&head) {
+        if names_thing(&head, j - start) {
             found.push((i, Named::Thing(w[start..end].join(" "), head, subject)));
         }
         i = end.max(i + 1);
@@ -1235,11 +1300,9 @@ fn named_in(context: &str) -> Vec<Named> {
         if n <= 5 {
             let head = stem(w[n - 1]);
             let words = w[..n].join(" ");
-            if !NOT_THINGS.contains(&head.as_str())
-                && !super::places::is_road_word(&head)
-                && take_segment(&words).0.is_none()
-            {
-                found.push((0, Named::Thing(words, head, true)));
+            // a heading ("excavation permit near the silver camper van") is not the subject
+            if names_thing(&head, n) && take_segment(&words).0.is_none() {
+                found.push((0, Named::Thing(words, head, false)));
             }
         }
     }
@@ -1422,6 +1485,26 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
             i += 1;
             continue;
         }
+        // "hydrants in segment", "nearest bin to segment centre": the segment said before
+        if word == "segment"
+            && i > 0
+            && matches!(
+                w[i - 1],
+                "in" | "on" | "at" | "to" | "of" | "from" | "near" | "the" | "this" | "that"
+            )
+            && !w.get(i + 1).is_some_and(|x| {
+                x.starts_with(|c: char| c.is_ascii_digit() || c == '#' || c == ':')
+                    || matches!(*x, "id" | "kind" | "type" | "number")
+            })
+            && let Some(r) = road()
+        {
+            if matches!(w[i - 1], "the" | "this" | "that") {
+                out.pop();
+            }
+            out.push(format!("{r}{comma}"));
+            i += 1;
+            continue;
+        }
         // "within 50 m of its centre": the segment or thing itself
         if word == "its"
             && w.get(i + 1).is_some_and(|x| {
@@ -1459,8 +1542,14 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
             && i > 0
             && matches!(w[i - 1], "is" | "was")
             && matches!(w.get(i + 1).copied(), Some("to" | "from"));
+        // "the scooter on its kickstand": its own, said in the same sentence
+        let own = word == "its"
+            && w[..i]
+                .iter()
+                .any(|x| matches!(*x, "the" | "a" | "an" | "that" | "this"));
         if matches!(word, "it" | "its" | "them" | "they")
             && !dummy
+            && !own
             && let Some(g) = thing(None).or_else(road)
         {
             out.push(format!("{g}{comma}"));
@@ -1510,11 +1599,25 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
         &["if", "so", "then", "and", "ok", "okay", "also"],
         &["please"],
     );
-    if bare.split(' ').count() <= 3 {
-        // "how many" after "are there any pedestrians in segment 4"
+    let nearest_asked = has_any(question, &["nearest", "closest"]);
+    if bare.split(' ').count() <= 3 && !nearest_asked {
+        // "how many" after "are there any pedestrians in segment 4": the sentence before
+        // it, its references filled from the others
+        let (said, others): (String, Vec<Named>) = if qi > 0 && sentences.len() > 2 {
+            let others = sentences
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| *i != qi && *i != qi - 1)
+                .flat_map(|(_, s)| named_in(s))
+                .collect();
+            (sentences[qi - 1].clone(), others)
+        } else {
+            (context.clone(), Vec::new())
+        };
+        let said = fill_references(&said, &others, &context);
         let question = clean(&format!(
             "{bare} {}",
-            trim_words(&context, &["are", "is", "there", "any", "some"], &[])
+            trim_words(&said, &["are", "is", "there", "any", "some"], &[])
         ));
         return Prepared {
             question,
@@ -1530,10 +1633,44 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
         .flat_map(|(_, s)| named_in(s))
         .collect();
     let mut question = clean(&fill_references(question, &named, &context));
+    // "which bin is nearest so I can throw this away", "closest hydrant?": from where the
+    // asker is, or the one place the other sentences name
+    if nearest_asked {
+        for why in [
+            " so i ",
+            " so we ",
+            " so that ",
+            " because ",
+            " in order to ",
+            " for me to ",
+        ] {
+            if let Some(k) = format!("{question} ").find(why) {
+                question.truncate(k);
+            }
+        }
+        let cue = ["nearest", "closest"]
+            .iter()
+            .filter_map(|c| at_words(&question, c).map(|i| i + c.len()))
+            .min()
+            .unwrap_or(0);
+        let after = format!(" {} ", &question[cue..]);
+        if ![" to ", " from ", " near ", " of ", " me ", " us "]
+            .iter()
+            .any(|p| after.contains(p))
+        {
+            question.push_str(" to me");
+        }
+    }
+    let said_place = || {
+        named.iter().rev().find_map(|n| match n {
+            Named::Road(s) | Named::Place(s) => Some(s.clone()),
+            Named::Thing(..) => None,
+        })
+    };
     // "the nearest to me": where the asker said they are
-    if let Some(here) = asker_at(&context) {
+    if let Some(here) = asker_at(&context).or_else(|| said_place().filter(|_| nearest_asked)) {
         for me in ["me", "us"] {
-            for prep in ["to", "from", "near", "nearest", "closest"] {
+            for prep in ["to", "from", "near", "nearest", "closest", "of", "around"] {
                 let said = format!(" {prep} {me}");
                 let padded = format!("{question} ");
                 if let Some(i) = padded.find(&format!("{said} ")) {
@@ -1973,6 +2110,15 @@ fn split_kind(t: &str) -> (String, String) {
                     | "whose"
                     | "who"
                     | "counting"
+                    | "am"
+                    | "should"
+                    | "would"
+                    | "could"
+                    | "can"
+                    | "will"
+                    | "might"
+                    | "must"
+                    | "shall"
                     | "including"
                     | "excluding"
                     | "-"
@@ -2532,7 +2678,15 @@ fn ends_in_context(p: &Prepared) -> Option<Task> {
 /// Where the asker says they are: "I'm standing where the drive started", "I am at the
 /// bus stop", "we're parked next to segment 4".
 fn asker_at(context: &str) -> Option<String> {
-    let t = format!(" {context} ");
+    // "standing in the middle of segment 4. how many ...": the asker, unsaid
+    let unsaid = ["standing ", "parked ", "sitting ", "waiting ", "stopped "]
+        .iter()
+        .any(|v| context.starts_with(v));
+    let t = if unsaid {
+        format!(" i'm {context} ")
+    } else {
+        format!(" {context} ")
+    };
     for me in [
         " i'm ",
         " i am ",
@@ -2580,6 +2734,31 @@ fn asker_at(context: &str) -> Option<String> {
                 .find(|&k| ends_np(words[k]) || PARTICIPLES.contains(&words[k]))
                 .unwrap_or(words.len());
             return Some(format!("the {}", words[1..n].join(" ")));
+        }
+    }
+    // "I just finished a snack at the green climbing frame": where the asker did something
+    if t.starts_with(" i ") || t.starts_with(" we ") {
+        let at = [
+            " at the ",
+            " by the ",
+            " next to the ",
+            " beside the ",
+            " near the ",
+        ]
+        .iter()
+        .filter_map(|p| t.find(p).map(|k| k + p.len()))
+        .min()?;
+        let words: Vec<&str> = t[at..]
+            .split([',', '.', ';'])
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .collect();
+        let n = (1..words.len())
+            .find(|&k| ends_np(words[k]) || PARTICIPLES.contains(&words[k]))
+            .unwrap_or(words.len());
+        if n > 0 {
+            return Some(format!("the {}", words[..n].join(" ")));
         }
     }
     None
@@ -2867,10 +3046,10 @@ fn read_prepared(t: &str, text: &str) -> Option<Task> {
             &[
                 "what", "which", "colour", "color", "colours", "colors", "is", "are", "was", "the",
                 "of", "tell", "me", "give", "say", "know", "paint", "painted", "does", "do",
-                "have", "has", "in", "what's",
+                "have", "has", "in", "what's", "should", "would", "could", "will", "must", "might",
             ],
             &[
-                "colour", "color", "painted", "is", "are", "have", "has", "in", "of", "what",
+                "colour", "color", "painted", "is", "are", "have", "has", "in", "of", "what", "be",
             ],
         );
         let obj = if obj.starts_with("the ")
@@ -3794,6 +3973,54 @@ mod tests {
                 "State the road type of the segment containing the red-and-white speed limit sign that faces the traffic.",
                 Task::Segment {
                     object: "the red-and-white speed limit sign that faces the traffic".into(),
+                },
+            ),
+            (
+                "Control, standing in the middle of segment 2412. How many post boxes are within 30 metres of me, over?",
+                count(
+                    "post boxes",
+                    None,
+                    Some("the middle of segment 2412"),
+                    Some(30.0),
+                ),
+            ),
+            (
+                "I'm doing a check along segment 21. How many rubbish bins should I find in that segment, over?",
+                count("rubbish bins", Some("the segment 21"), None, None),
+            ),
+            (
+                "WO-207 hydrant flushing, segment 2414. No. of hydrants in segment?",
+                count("hydrants", Some("segment 2414"), None, None),
+            ),
+            (
+                "Base, checking the post box on segment 2422. What colour should it be?",
+                Task::Colour {
+                    object: "the post box on segment 2422".into(),
+                },
+            ),
+            (
+                "Excavation permit near the silver camper van. Hydrants within 50 m of it - how many?",
+                count("hydrants", None, Some("the silver camper van"), Some(50.0)),
+            ),
+            (
+                "Valve check at lane node 2429. Closest hydrant? Node id required.",
+                Task::Nearest {
+                    kind: "hydrant".into(),
+                    near: "lane node 2429".into(),
+                },
+            ),
+            (
+                "I just finished a snack at the green climbing frame. Which bin is nearest so I can throw the wrapper away?",
+                Task::Nearest {
+                    kind: "bin".into(),
+                    near: "the green climbing frame".into(),
+                },
+            ),
+            (
+                "Control, how far is it from that heavy scooter on its kickstand to the middle of segment 2401? Straight line, metres.",
+                Task::Distance {
+                    from: "that heavy scooter on its kickstand".into(),
+                    to: "the middle of segment 2401".into(),
                 },
             ),
             (
