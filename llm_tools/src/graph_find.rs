@@ -339,6 +339,9 @@ const PLACE_WORDS: &[&str] = &[
     "facing",
 ];
 
+/// The place words of a caption that face its anchor (opposite and across the road from).
+const FACING_WORDS: [&str; 3] = ["opposite", "across", "facing"];
+
 /// Words of an anchor phrase that name nothing.
 const ARTICLES: &[&str] = &["a", "an", "the", "this", "that", "some", "one", "its"];
 
@@ -358,10 +361,8 @@ pub fn caption_places_by(caption: &str, rel: Relation, phrase: &str) -> bool {
         Relation::On => ["on", "atop", "over", "above"].contains(&place),
         Relation::Under => ["under", "beneath", "below"].contains(&place),
         Relation::Inside => ["in", "inside", "within"].contains(&place),
-        Relation::Opposite | Relation::AcrossTheRoadFrom => {
-            ["opposite", "across", "facing"].contains(&place)
-        }
-        _ => !["opposite", "across", "facing"].contains(&place),
+        Relation::Opposite | Relation::AcrossTheRoadFrom => FACING_WORDS.contains(&place),
+        _ => !FACING_WORDS.contains(&place),
     };
     let content: Vec<String> = words(phrase)
         .into_iter()

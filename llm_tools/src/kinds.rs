@@ -277,6 +277,22 @@ pub fn wordnet() -> &'static (Lexicon, Taxonomy) {
     })
 }
 
+/// Of candidates ranked by meaning (their labels, best first), the first whose label is the
+/// kind `described` names ([`crate::labels::noun_phrase`]) or a kind of it, by [`wordnet`]:
+/// "the post box" is the letter box, not a brown post ranked above it by meaning. `None`
+/// when no label is.
+pub fn first_of_kind(described: &str, labels: &[&str]) -> Option<usize> {
+    let (lexicon, taxonomy) = wordnet();
+    let kinds = Kinds { lexicon, taxonomy };
+    let kind = kind_phrase(&crate::labels::noun_phrase(described, lexicon), lexicon);
+    labels.iter().position(|l| {
+        matches!(
+            kinds.match_label(&kind, l, false),
+            Some(KindMatch::Same | KindMatch::KindOf)
+        )
+    })
+}
+
 /// Kinds matched against labels with WordNet.
 #[derive(Debug, Clone, Copy)]
 pub struct Kinds<'a> {
@@ -552,6 +568,11 @@ mod tests {
         // a billboard is a sign, not a speed limit sign
         assert_eq!(m("signs", "billboard"), Some(KindMatch::KindOf));
         assert_eq!(m("speed limit signs", "billboard"), None);
+        assert_eq!(
+            first_of_kind("the yellow post box", &["lamp post", "letter box", "bench"]),
+            Some(1)
+        );
+        assert_eq!(first_of_kind("the post box", &["lamp post", "bench"]), None);
         assert_eq!(kind_phrase("poles", &lex), "pole");
         assert_eq!(kind_phrase("benches", &lex), "bench");
         assert_eq!(kind_phrase("boxes", &lex), "box");

@@ -455,7 +455,7 @@ fn best_object(
             .iter()
             .map(|o| o["label"].as_str().unwrap_or(""))
             .collect();
-        let pick = crate::plan::first_of_kind(&object, &labels).unwrap_or(0);
+        let pick = llm_tools::kinds::first_of_kind(&object, &labels).unwrap_or(0);
         return there
             .get(pick)
             .map(|o| (*o).clone())

@@ -330,28 +330,11 @@ fn is_place(text: &str) -> bool {
 /// segment 12") is looked for among.
 const IN_SEGMENT_CANDIDATES: usize = 200;
 
-/// Of candidates ranked by meaning (their labels, best first), the first whose label is the
-/// kind `described` names or a kind of it (WordNet, [`llm_tools::kinds::Kinds`]): "the post
-/// box" is the letter box, not a brown post ranked above it by meaning. `None` when no label
-/// is.
-pub fn first_of_kind(described: &str, labels: &[&str]) -> Option<usize> {
-    let (lexicon, taxonomy) = llm_tools::kinds::wordnet();
-    let kinds = llm_tools::kinds::Kinds { lexicon, taxonomy };
-    let kind =
-        llm_tools::kinds::kind_phrase(&llm_tools::labels::noun_phrase(described, lexicon), lexicon);
-    labels.iter().position(|l| {
-        matches!(
-            kinds.match_label(&kind, l, false),
-            Some(llm_tools::kinds::KindMatch::Same | llm_tools::kinds::KindMatch::KindOf)
-        )
-    })
-}
-
 /// Resolves one end: a spec as given or in words ("segment 12", "lane node 7", "object #86":
 /// [`llm_tools::request::spec_in_words`]), an end of the drive
 /// ([`llm_tools::request::drive_end_of`]) as its frame's position, an object with its segment
 /// by id ("the post box in segment 12": `find`'s best in that segment of the kind said,
-/// [`first_of_kind`]), a place or
+/// [`llm_tools::kinds::first_of_kind`]), a place or
 /// description by `locate`, anything else by graph-aware `find` (its best instance).
 ///
 /// # Errors
@@ -415,7 +398,7 @@ pub fn resolve_end(
             .filter(|f| f.cosine >= weak && f.segment.as_ref().is_some_and(|s| s.0 == segment))
             .collect();
         let labels: Vec<&str> = there.iter().map(|f| f.label.as_str()).collect();
-        let best = first_of_kind(&object, &labels)
+        let best = llm_tools::kinds::first_of_kind(&object, &labels)
             .map(|i| there[i].clone())
             .or_else(|| there.into_iter().next())
             .ok_or_else(|| {

@@ -175,6 +175,26 @@ pub fn object_in_segment(text: &str) -> Option<(String, u64)> {
     (!object.is_empty()).then(|| (object.to_string(), id))
 }
 
+/// Words for the drive itself ("the start of the trajectory", "where the survey began").
+const DRIVE_WORDS: [&str; 8] = [
+    "drive",
+    "trajectory",
+    "route",
+    "recording",
+    "run",
+    "map",
+    "journey",
+    "survey",
+];
+
+/// Whether a word says the drive ("drive", "survey"; not "map", which says more often
+/// the whole map) or an end of it as a noun ("start", "beginning"), not only a verb of
+/// starting or ending ("finished a snack").
+pub(super) fn says_the_drive(word: &str) -> bool {
+    (DRIVE_WORDS.contains(&word) && word != "map")
+        || matches!(word, "start" | "end" | "beginning" | "starting" | "ending")
+}
+
 /// Which end of the drive `text` names, when it names only that: "the start of the drive",
 /// "where the drive ended", "the beginning of the trajectory", "the drive's starting point",
 /// "the starting position" → `Some("start" | "end")`.
@@ -217,16 +237,6 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
             )
         })
         .collect();
-    let path = [
-        "drive",
-        "trajectory",
-        "route",
-        "recording",
-        "run",
-        "map",
-        "journey",
-        "survey",
-    ];
     let start = [
         "start",
         "starts",
@@ -255,8 +265,8 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
     match words.as_slice() {
         [a] if start.contains(a) => Some("start"),
         [a] if end.contains(a) => Some("end"),
-        [a, b] | [b, a] if path.contains(b) && start.contains(a) => Some("start"),
-        [a, b] | [b, a] if path.contains(b) && end.contains(a) => Some("end"),
+        [a, b] | [b, a] if DRIVE_WORDS.contains(b) && start.contains(a) => Some("start"),
+        [a, b] | [b, a] if DRIVE_WORDS.contains(b) && end.contains(a) => Some("end"),
         _ => None,
     }
 }
