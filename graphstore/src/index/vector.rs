@@ -12,6 +12,8 @@ use crate::simd::{dot_f32, dot_i8_rows};
 
 /// Layers below this size are scanned in f32 only.
 const QUANTIZE_MIN_ROWS: usize = 512;
+/// Rows of int8 codes scored per kernel call in the quantised pass.
+const SCAN_BLOCK_ROWS: usize = 2048;
 /// Slack for f32 rounding in the bound.
 const BOUND_EPS: f32 = 1e-4;
 
@@ -198,32 +200,42 @@ pub(crate) fn top_k(
     let (qscale, qerr) = quantize(&q, &mut qcodes);
     let mut lower_k = TopK::new(k);
     let mut cands: Vec<(usize, usize, f32)> = Vec::new();
-    let mut approx = Vec::new();
+    let mut threshold = f32::NEG_INFINITY;
+    let mut approx = Vec::with_capacity(SCAN_BLOCK_ROWS);
     for (li, (layer, vis)) in view.iter().enumerate() {
         let Some(quant) = &layer.quant else {
             scan_exact(layer, vis, &q, &mut top);
             continue;
         };
-        dot_i8_rows(&qcodes, &quant.codes, &mut approx);
         let all = vis.all_visible();
-        for (i, a) in approx.iter().enumerate() {
-            let est = qscale * quant.scale[i] * (*a as f32);
-            let bound = qerr + quant.err[i] + qerr * quant.err[i] + BOUND_EPS;
-            let upper = est + bound;
-            if lower_k.min_score().is_some_and(|t| upper < t) {
-                continue;
+        // in blocks, so the scores stay in cache and no large buffer is allocated per query
+        for (block, codes) in quant.codes.chunks(SCAN_BLOCK_ROWS * layer.dim).enumerate() {
+            dot_i8_rows(&qcodes, codes, &mut approx);
+            let first = block * SCAN_BLOCK_ROWS;
+            let scales = &quant.scale[first..first + approx.len()];
+            let errs = &quant.err[first..first + approx.len()];
+            for (j, ((a, scale), err)) in approx.iter().zip(scales).zip(errs).enumerate() {
+                let est = qscale * scale * (*a as f32);
+                let bound = qerr + err + qerr * err + BOUND_EPS;
+                let upper = est + bound;
+                // the k-th best lower bound so far (minus infinity until k rows are in)
+                if upper < threshold {
+                    continue;
+                }
+                let i = first + j;
+                let n = layer.ids[i];
+                if !(all || vis.visible(n)) {
+                    continue;
+                }
+                lower_k.push(est - bound, n);
+                threshold = lower_k.min_score().unwrap_or(f32::NEG_INFINITY);
+                cands.push((li, i, upper));
             }
-            let n = layer.ids[i];
-            if !(all || vis.visible(n)) {
-                continue;
-            }
-            lower_k.push(est - bound, n);
-            cands.push((li, i, upper));
         }
     }
-    let threshold = lower_k.min_score();
+    let kth_lower = lower_k.min_score();
     for (li, i, upper) in cands {
-        if threshold.is_some_and(|t| upper < t) {
+        if kth_lower.is_some_and(|t| upper < t) {
             continue;
         }
         let layer = view[li].0;
