@@ -309,6 +309,17 @@ pub(crate) fn encode_node(labels: &[u32], props: &[(u32, Value)]) -> Vec<u8> {
     out
 }
 
+/// The labels of a node record, without decoding its properties.
+pub(crate) fn node_labels(buf: &[u8]) -> Result<Vec<u32>> {
+    let mut r = Reader::new(buf, "node record");
+    let n = r.len(1)?;
+    let mut labels = Vec::with_capacity(n);
+    for _ in 0..n {
+        labels.push(r.u32_varint()?);
+    }
+    Ok(labels)
+}
+
 pub(crate) fn decode_node(buf: &[u8]) -> Result<(Vec<u32>, RawProps)> {
     let mut r = Reader::new(buf, "node record");
     let n = r.len(1)?;

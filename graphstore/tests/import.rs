@@ -400,3 +400,86 @@ fn node_link_json_imports_as_the_same_graph() {
         std::fs::remove_file(dir.path().join("bad.og")).unwrap();
     }
 }
+
+/// An import into an empty store holds the adjacency back and writes it at the end, and also
+/// when a later batch fails: the batches that stay are whole (adjacency, counts, consistency).
+#[test]
+fn held_back_adjacency_is_written_on_success_and_on_failure() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "nodes.csv", ":ID\n1\n2\n3\n");
+    let rels = ":START_ID,:END_ID,:TYPE\n1,2,R\n2,3,R\n3,1,R\n";
+    for bad in [false, true] {
+        let sub = dir.path().join(format!("bad{bad}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        std::fs::copy(dir.path().join("nodes.csv"), sub.join("nodes.csv")).unwrap();
+        let text = if bad {
+            format!("{rels}1,9,R\n")
+        } else {
+            rels.to_string()
+        };
+        write(&sub, "relationships.csv", &text);
+        let store = Store::create(sub.join("g.og")).unwrap();
+        let files = CsvFiles::from_folder(&sub).unwrap();
+        let got = import_neo4j_csv(&store, &files, 1, &mut |_, _| {});
+        if bad {
+            let e = got.expect_err("row 5 names a missing node").to_string();
+            assert!(e.contains("relationships.csv:5"), "{e}");
+        } else {
+            assert_eq!(got.unwrap().relationships, 3);
+        }
+        assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new());
+        assert_eq!(store.counts().unwrap().total_relationships, 3);
+        let r = store.read().unwrap();
+        for (node, other) in [(1, 2), (2, 3), (3, 1)] {
+            let out = r
+                .neighbours(node, graphstore::Direction::Outgoing, None)
+                .unwrap();
+            assert_eq!(out.len(), 1, "bad={bad} node {node}");
+            assert_eq!(out[0].other, other);
+        }
+    }
+}
+
+/// The bulk path checks a type's end labels against the schema, also for an end first seen
+/// on a row whose type names no labels.
+#[test]
+fn bulk_relationships_check_end_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::create(dir.path().join("g.og")).unwrap();
+    let mut schema = graphstore::Schema::default();
+    schema.relationships.insert(
+        "IN".into(),
+        graphstore::RelRule {
+            from_labels: vec!["A".into()],
+            to_labels: vec!["B".into()],
+            ..Default::default()
+        },
+    );
+    store.set_schema(schema).unwrap();
+    let (a, b) = store
+        .write(|tx| {
+            Ok((
+                tx.create_node_named(&["A"], &[])?,
+                tx.create_node_named(&["B"], &[])?,
+            ))
+        })
+        .unwrap();
+    let attempt = |rows: &[(u64, &str, u64)]| {
+        store.write(|tx| {
+            let rows = rows
+                .iter()
+                .map(|(s, t, e)| Ok((*s, tx.rel_type_id(t)?, *e, Vec::new())))
+                .collect::<graphstore::Result<Vec<_>>>()?;
+            tx.create_rels(rows)
+                .map_err(|(i, e)| graphstore::Error::InvalidValue(format!("row {i}: {e}")))
+        })
+    };
+    // b is seen first by a type without rules, then ends wrongly as the start of IN
+    let e = attempt(&[(b, "FREE", a), (b, "IN", a)]).expect_err("B cannot start IN");
+    assert!(
+        e.to_string().contains("row 1") && e.to_string().contains("must be labelled A"),
+        "{e}"
+    );
+    assert_eq!(attempt(&[(b, "FREE", a), (a, "IN", b)]).unwrap().len(), 2);
+    assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new());
+}

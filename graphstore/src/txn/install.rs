@@ -115,7 +115,7 @@ impl WriteTxn<'_> {
         for id in Raw::all_rels(self)? {
             let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
             let (s, e) = (self.rec(rel.start)?, self.rec(rel.end)?);
-            self.check_rel(rel.ty.0, &s, &e, &raw_props(&rel.props))
+            self.check_rel(rel.ty.0, &s.labels, &e.labels, &raw_props(&rel.props))
                 .map_err(|err| match err {
                     Error::Constraint { target, detail } => Error::Schema(format!(
                         "existing relationship {id} breaks the new schema: {target}: {detail}"

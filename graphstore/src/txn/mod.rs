@@ -22,6 +22,7 @@ use crate::value::Value;
 
 mod install;
 mod rels;
+pub(crate) use rels::AdjEntry;
 mod validate;
 
 /// A read snapshot. Holds the redb read transaction and the matching index state.
@@ -741,6 +742,16 @@ impl<'a> WriteTxn<'a> {
 
     fn rec(&self, id: u64) -> Result<NodeRec> {
         Raw::load_rec(self, id)?.ok_or(Error::NodeNotFound(id))
+    }
+
+    /// A node's labels (sorted), decoding nothing else; with `labels` false only whether it
+    /// exists (an empty list). `None` when there is no such node.
+    fn node_labels(&self, id: u64, labels: bool) -> Result<Option<Vec<u32>>> {
+        match self.nodes.get(&id).map_err(storage)? {
+            Some(g) if labels => Ok(Some(codec::node_labels(g.value())?)),
+            Some(_) => Ok(Some(Vec::new())),
+            None => Ok(None),
+        }
     }
 
     // ---- public writes ----

@@ -3,6 +3,12 @@
 
 use super::*;
 
+/// An adjacency row as stored: `(node, direction 0 out 1 in, type, rel)` and the other end.
+pub(crate) type AdjEntry = ((u64, u8, u32, u64), u64);
+
+/// Ends whose labels [`WriteTxn::create_rels`] keeps at once (a few tens of MB at most).
+const MAX_CACHED_ENDS: usize = 1 << 20;
+
 impl WriteTxn<'_> {
     /// Creates a relationship `start -[ty]-> end`.
     pub fn create_rel(
@@ -19,7 +25,7 @@ impl WriteTxn<'_> {
             self.rec(end)?
         };
         let props = raw_props(&normalize_props(props));
-        self.check_rel(ty.0, &s, &e, &props)?;
+        self.check_rel(ty.0, &s.labels, &e.labels, &props)?;
         let id = self.next_rel;
         let bytes = codec::encode_rel(ty.0, start, end, &props);
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
@@ -37,7 +43,8 @@ impl WriteTxn<'_> {
 
     /// Creates many relationships at once, for bulk loads: each row as
     /// [`WriteTxn::create_rel`] would (same ids, in row order; same checks), but every row is
-    /// checked before any is written, each end's record is read once per call, and the
+    /// checked before any is written, each end is looked up once per call (its labels decoded only
+    /// when the type's schema rule names end labels), and the
     /// adjacency rows are inserted in key order, which a B-tree takes far faster than the
     /// scattered order of the rows.
     ///
@@ -48,22 +55,47 @@ impl WriteTxn<'_> {
         &mut self,
         rows: Vec<crate::NewRel>,
     ) -> std::result::Result<Vec<u64>, (usize, Error)> {
+        self.create_rels_into(rows, None)
+    }
+
+    /// [`WriteTxn::create_rels`], with the adjacency rows appended to `deferred` instead of
+    /// written when it is given: the caller writes them later with
+    /// [`WriteTxn::insert_adjacency`] (a bulk import into an empty store, whose adjacency
+    /// then goes in once, in key order).
+    pub(crate) fn create_rels_into(
+        &mut self,
+        rows: Vec<crate::NewRel>,
+        deferred: Option<&mut Vec<AdjEntry>>,
+    ) -> std::result::Result<Vec<u64>, (usize, Error)> {
         let n = rows.len();
-        let mut recs: HashMap<u64, NodeRec> = HashMap::new();
+        // an end's labels, read once per call: only the labels are decoded, and only for a
+        // type whose schema rule names end labels (otherwise the end need only exist)
+        let mut ends: HashMap<u64, Vec<u32>> = HashMap::new();
         let mut encoded = Vec::with_capacity(n);
         for (i, (start, ty, end, props)) in rows.into_iter().enumerate() {
-            // records may be large (embeddings): hold a bounded number (cleared before
-            // this row's two ends are read, so both stay)
-            if recs.len() >= 65_536 {
-                recs.clear();
+            if ends.len() >= MAX_CACHED_ENDS {
+                ends.clear();
             }
+            let rule = self.schema.rels.get(&ty.0);
+            let labelled = rule.is_some_and(|r| !r.from.is_empty() || !r.to.is_empty());
             for id in [start, end] {
-                if let std::collections::hash_map::Entry::Vacant(slot) = recs.entry(id) {
-                    slot.insert(self.rec(id).map_err(|e| (i, e))?);
+                if let std::collections::hash_map::Entry::Vacant(slot) = ends.entry(id) {
+                    let labels = self
+                        .node_labels(id, labelled)
+                        .and_then(|l| l.ok_or(Error::NodeNotFound(id)))
+                        .map_err(|e| (i, e))?;
+                    slot.insert(labels);
+                } else if labelled && ends[&id].is_empty() {
+                    // cached by a row whose type needed no labels
+                    let labels = self
+                        .node_labels(id, true)
+                        .and_then(|l| l.ok_or(Error::NodeNotFound(id)))
+                        .map_err(|e| (i, e))?;
+                    ends.insert(id, labels);
                 }
             }
             let props = raw_props(&normalize_props(props));
-            self.check_rel(ty.0, &recs[&start], &recs[&end], &props)
+            self.check_rel(ty.0, &ends[&start], &ends[&end], &props)
                 .map_err(|e| (i, e))?;
             encoded.push((
                 start,
@@ -72,7 +104,7 @@ impl WriteTxn<'_> {
                 codec::encode_rel(ty.0, start, end, &props),
             ));
         }
-        drop(recs);
+        drop(ends);
         let store = |e| (n, e);
         let first = self.next_rel;
         let mut adj = Vec::with_capacity(2 * n);
@@ -87,15 +119,24 @@ impl WriteTxn<'_> {
             self.bump(1, ty, 1).map_err(store)?;
             ids.push(id);
         }
-        adj.sort_unstable();
-        for (key, other) in adj {
-            self.adj
-                .insert(&key, &other)
-                .map_err(|e| store(storage(e)))?;
+        match deferred {
+            Some(out) => out.append(&mut adj),
+            None => self.insert_adjacency(&mut adj).map_err(store)?,
         }
         self.bump(2, 1, n as i64).map_err(store)?;
         self.next_rel = first + n as u64;
         Ok(ids)
+    }
+
+    /// Writes adjacency rows, sorted here and inserted in key order (into an empty table
+    /// that appends, and the B-tree's pages come out full). `rows` keeps them: the caller
+    /// clears it once the transaction has committed.
+    pub(crate) fn insert_adjacency(&mut self, rows: &mut [AdjEntry]) -> Result<()> {
+        rows.sort_unstable();
+        for (key, other) in rows.iter() {
+            self.adj.insert(key, other).map_err(storage)?;
+        }
+        Ok(())
     }
 
     /// Re-creates a deleted relationship under its old id (for undoing an edit exactly).
@@ -123,7 +164,7 @@ impl WriteTxn<'_> {
             self.rec(end)?
         };
         let props = raw_props(&normalize_props(props));
-        self.check_rel(ty.0, &s, &e, &props)?;
+        self.check_rel(ty.0, &s.labels, &e.labels, &props)?;
         let bytes = codec::encode_rel(ty.0, start, end, &props);
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
         self.adj
@@ -160,7 +201,7 @@ impl WriteTxn<'_> {
     ) -> Result<()> {
         let s = self.rec(rel.start)?;
         let e = self.rec(rel.end)?;
-        self.check_rel(rel.ty.0, &s, &e, &props)?;
+        self.check_rel(rel.ty.0, &s.labels, &e.labels, &props)?;
         let bytes = codec::encode_rel(rel.ty.0, rel.start, rel.end, &props);
         self.rels
             .insert(&rel.id, bytes.as_slice())

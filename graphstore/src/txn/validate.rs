@@ -156,11 +156,12 @@ impl WriteTxn<'_> {
         Ok(())
     }
 
+    /// Checks a relationship against its type's schema rule, given its ends' labels (sorted).
     pub(super) fn check_rel(
         &self,
         ty: u32,
-        start: &NodeRec,
-        end: &NodeRec,
+        start: &[u32],
+        end: &[u32],
         props: &[(u32, Value)],
     ) -> Result<()> {
         let Some(rule) = self.schema.rels.get(&ty) else {
@@ -174,13 +175,13 @@ impl WriteTxn<'_> {
                 .collect::<Vec<_>>()
                 .join("|")
         };
-        if !rule.from.is_empty() && !rule.from.iter().any(|l| start.has_label(*l)) {
+        if !rule.from.is_empty() && !rule.from.iter().any(|l| start.binary_search(l).is_ok()) {
             return Err(Error::Constraint {
                 target: tname,
                 detail: format!("start node must be labelled {}", names(&rule.from)),
             });
         }
-        if !rule.to.is_empty() && !rule.to.iter().any(|l| end.has_label(*l)) {
+        if !rule.to.is_empty() && !rule.to.iter().any(|l| end.binary_search(l).is_ok()) {
             return Err(Error::Constraint {
                 target: tname,
                 detail: format!("end node must be labelled {}", names(&rule.to)),
