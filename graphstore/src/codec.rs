@@ -309,9 +309,7 @@ pub(crate) fn encode_node(labels: &[u32], props: &[(u32, Value)]) -> Vec<u8> {
     out
 }
 
-/// The labels of a node record, without decoding its properties.
-pub(crate) fn node_labels(buf: &[u8]) -> Result<Vec<u32>> {
-    let mut r = Reader::new(buf, "node record");
+fn read_labels(r: &mut Reader<'_>) -> Result<Vec<u32>> {
     let n = r.len(1)?;
     let mut labels = Vec::with_capacity(n);
     for _ in 0..n {
@@ -320,13 +318,14 @@ pub(crate) fn node_labels(buf: &[u8]) -> Result<Vec<u32>> {
     Ok(labels)
 }
 
+/// The labels of a node record, without decoding its properties.
+pub(crate) fn node_labels(buf: &[u8]) -> Result<Vec<u32>> {
+    read_labels(&mut Reader::new(buf, "node record"))
+}
+
 pub(crate) fn decode_node(buf: &[u8]) -> Result<(Vec<u32>, RawProps)> {
     let mut r = Reader::new(buf, "node record");
-    let n = r.len(1)?;
-    let mut labels = Vec::with_capacity(n);
-    for _ in 0..n {
-        labels.push(r.u32_varint()?);
-    }
+    let labels = read_labels(&mut r)?;
     let props = decode_props(&mut r)?;
     if !r.is_empty() {
         return Err(r.err("trailing bytes"));

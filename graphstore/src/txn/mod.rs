@@ -744,12 +744,10 @@ impl<'a> WriteTxn<'a> {
         Raw::load_rec(self, id)?.ok_or(Error::NodeNotFound(id))
     }
 
-    /// A node's labels (sorted), decoding nothing else; with `labels` false only whether it
-    /// exists (an empty list). `None` when there is no such node.
-    fn node_labels(&self, id: u64, labels: bool) -> Result<Option<Vec<u32>>> {
+    /// A node's labels (sorted), decoding nothing else. `None` when there is no such node.
+    fn node_labels(&self, id: u64) -> Result<Option<Vec<u32>>> {
         match self.nodes.get(&id).map_err(storage)? {
-            Some(g) if labels => Ok(Some(codec::node_labels(g.value())?)),
-            Some(_) => Ok(Some(Vec::new())),
+            Some(g) => Ok(Some(codec::node_labels(g.value())?)),
             None => Ok(None),
         }
     }

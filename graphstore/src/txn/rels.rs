@@ -43,8 +43,8 @@ impl WriteTxn<'_> {
 
     /// Creates many relationships at once, for bulk loads: each row as
     /// [`WriteTxn::create_rel`] would (same ids, in row order; same checks), but every row is
-    /// checked before any is written, each end is looked up once per call (its labels decoded only
-    /// when the type's schema rule names end labels), and the
+    /// checked before any is written, each end's labels are read once per call (its properties
+    /// are not decoded), and the
     /// adjacency rows are inserted in key order, which a B-tree takes far faster than the
     /// scattered order of the rows.
     ///
@@ -68,30 +68,20 @@ impl WriteTxn<'_> {
         deferred: Option<&mut Vec<AdjEntry>>,
     ) -> std::result::Result<Vec<u64>, (usize, Error)> {
         let n = rows.len();
-        // an end's labels, read once per call: only the labels are decoded, and only for a
-        // type whose schema rule names end labels (otherwise the end need only exist)
+        // an end's labels, read once per call (only the labels are decoded)
         let mut ends: HashMap<u64, Vec<u32>> = HashMap::new();
         let mut encoded = Vec::with_capacity(n);
         for (i, (start, ty, end, props)) in rows.into_iter().enumerate() {
             if ends.len() >= MAX_CACHED_ENDS {
                 ends.clear();
             }
-            let rule = self.schema.rels.get(&ty.0);
-            let labelled = rule.is_some_and(|r| !r.from.is_empty() || !r.to.is_empty());
             for id in [start, end] {
                 if let std::collections::hash_map::Entry::Vacant(slot) = ends.entry(id) {
                     let labels = self
-                        .node_labels(id, labelled)
+                        .node_labels(id)
                         .and_then(|l| l.ok_or(Error::NodeNotFound(id)))
                         .map_err(|e| (i, e))?;
                     slot.insert(labels);
-                } else if labelled && ends[&id].is_empty() {
-                    // cached by a row whose type needed no labels
-                    let labels = self
-                        .node_labels(id, true)
-                        .and_then(|l| l.ok_or(Error::NodeNotFound(id)))
-                        .map_err(|e| (i, e))?;
-                    ends.insert(id, labels);
                 }
             }
             let props = raw_props(&normalize_props(props));
