@@ -204,12 +204,21 @@ def pct(xs, q):
     return xs[round((len(xs) - 1) * q)]
 
 
-def dir_size(p):
+def files_under(p):
     if os.path.isfile(p):
-        return os.path.getsize(p)
-    return sum(
-        os.path.getsize(os.path.join(r, f)) for r, _, fs in os.walk(p) for f in fs
-    )
+        return [p]
+    return [os.path.join(r, f) for r, _, fs in os.walk(p) for f in fs]
+
+
+def dir_size(p):
+    """Apparent size in bytes (what `ls -l` shows; a sparse file counts its holes)."""
+    return sum(os.path.getsize(f) for f in files_under(p))
+
+
+def disk_usage(p):
+    """Bytes of disk allocated (what `du` shows): redb grows its file by doubling it while
+    it is smaller than one region, and the new tail is a hole until pages are written."""
+    return sum(os.stat(f).st_blocks * 512 for f in files_under(p))
 
 
 def main():
@@ -304,6 +313,7 @@ def main():
     kz_load = time.perf_counter() - t
     del conn, db
     og_size, kz_size = dir_size(og_db), dir_size(kz_db)
+    og_disk, kz_disk = disk_usage(og_db), disk_usage(kz_db)
     print(
         f"load: opengraph import {og_load:.2f} s (whole process), Kùzu COPY {kz_load:.2f} s "
         f"(in process, tables declared) -> {og_load / kz_load:.2f}x; opengraph CREATE INDEX "
@@ -311,7 +321,9 @@ def main():
         flush=True,
     )
     print(
-        f"store size: opengraph {og_size / 1e6:.1f} MB, Kùzu {kz_size / 1e6:.1f} MB "
+        f"store size on disk (du): opengraph {og_disk / 1e6:.1f} MB, Kùzu "
+        f"{kz_disk / 1e6:.1f} MB -> {og_disk / kz_disk:.2f}x; apparent size (ls -l): "
+        f"opengraph {og_size / 1e6:.1f} MB, Kùzu {kz_size / 1e6:.1f} MB "
         f"-> {og_size / kz_size:.2f}x",
         flush=True,
     )
@@ -321,6 +333,8 @@ def main():
         kuzu_load_secs=kz_load,
         og_bytes=og_size,
         kuzu_bytes=kz_size,
+        og_disk_bytes=og_disk,
+        kuzu_disk_bytes=kz_disk,
     )
     t = time.perf_counter()
     db = kuzu.Database(kz_db, read_only=True)

@@ -107,58 +107,58 @@ unsafe fn dot_i8_rows_avx2(query: &[i8], rows: &[i8], out: &mut Vec<i32>) {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
 unsafe fn dot_i8_rows_vnni(query: &[i8], rows: &[i8], out: &mut Vec<i32>) {
+    let dim = query.len();
+    let mut padded = vec![0i8; dim.div_ceil(64) * 64];
+    padded[..dim].copy_from_slice(query);
+    let shift = 128 * query.iter().map(|&x| i32::from(x)).sum::<i32>();
+    let mut quads = rows.chunks_exact(4 * dim);
+    for quad in &mut quads {
+        // SAFETY: `quad` holds 4 rows of `dim` bytes, `padded` is `dim` rounded up to 64.
+        out.extend(unsafe { vnni_rows::<4>(&padded, quad.as_ptr(), dim) }.map(|d| d - shift));
+    }
+    for row in quads.remainder().chunks_exact(dim) {
+        // SAFETY: `row` holds 1 row of `dim` bytes.
+        out.push(unsafe { vnni_rows::<1>(&padded, row.as_ptr(), dim) }[0] - shift);
+    }
+}
+
+/// The `u8 x i8` dot products (rows flipped to unsigned by `xor 0x80`, so each is off by
+/// `128 * sum(query)`) of `N` consecutive rows of `dim` bytes at `rows` with the query,
+/// `padded` being the query zero-padded to whole 64-byte blocks.
+///
+/// # Safety
+/// `rows` must point to `N * dim` readable bytes and `padded.len() >= dim.div_ceil(64) * 64`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
+#[inline]
+unsafe fn vnni_rows<const N: usize>(padded: &[i8], rows: *const i8, dim: usize) -> [i32; N] {
     use std::arch::x86_64::{
         __m512i, _mm512_dpbusd_epi32, _mm512_loadu_si512, _mm512_maskz_loadu_epi8,
         _mm512_reduce_add_epi32, _mm512_set1_epi8, _mm512_setzero_si512, _mm512_xor_si512,
     };
-    let dim = query.len();
-    let blocks = dim.div_ceil(64);
-    let full = dim / 64;
-    let tail = dim % 64;
-    let tail_mask: u64 = if tail == 0 { 0 } else { (1u64 << tail) - 1 };
-    let mut padded = vec![0i8; blocks * 64];
-    padded[..dim].copy_from_slice(query);
-    let shift = 128 * query.iter().map(|&x| i32::from(x)).sum::<i32>();
+    let (full, tail) = (dim / 64, dim % 64);
     let flip = _mm512_set1_epi8(-128);
     let qp = padded.as_ptr();
-    // SAFETY (every read below): a query read at block `b < blocks` is inside `padded`; a
-    // row read of a whole block `b < full` ends at `64 * (b + 1) <= dim`, inside the row;
-    // the masked read of the last block touches only its first `tail` bytes, in the row.
-    let mut quads = rows.chunks_exact(4 * dim);
-    for quad in &mut quads {
-        let p = quad.as_ptr();
-        let mut acc: [__m512i; 4] = [_mm512_setzero_si512(); 4];
-        for b in 0..full {
-            let qb = unsafe { _mm512_loadu_si512(qp.add(b * 64).cast()) };
-            for (k, a) in acc.iter_mut().enumerate() {
-                let v = unsafe { _mm512_loadu_si512(p.add(k * dim + b * 64).cast()) };
-                *a = _mm512_dpbusd_epi32(*a, _mm512_xor_si512(v, flip), qb);
-            }
+    let mut acc: [__m512i; N] = [_mm512_setzero_si512(); N];
+    // SAFETY (every read below): a query read at block `b <= full` is inside `padded`; a row
+    // read of a whole block `b < full` ends at `64 * (b + 1) <= dim`, inside the row; the
+    // masked read of the last block touches only its first `tail` bytes, in the row.
+    for b in 0..full {
+        let qb = unsafe { _mm512_loadu_si512(qp.add(b * 64).cast()) };
+        for (k, a) in acc.iter_mut().enumerate() {
+            let v = unsafe { _mm512_loadu_si512(rows.add(k * dim + b * 64).cast()) };
+            *a = _mm512_dpbusd_epi32(*a, _mm512_xor_si512(v, flip), qb);
         }
-        if tail > 0 {
-            let qb = unsafe { _mm512_loadu_si512(qp.add(full * 64).cast()) };
-            for (k, a) in acc.iter_mut().enumerate() {
-                let v = unsafe { _mm512_maskz_loadu_epi8(tail_mask, p.add(k * dim + full * 64)) };
-                *a = _mm512_dpbusd_epi32(*a, _mm512_xor_si512(v, flip), qb);
-            }
-        }
-        out.extend(acc.map(|a| _mm512_reduce_add_epi32(a) - shift));
     }
-    for row in quads.remainder().chunks_exact(dim) {
-        let p = row.as_ptr();
-        let mut a = _mm512_setzero_si512();
-        for b in 0..full {
-            let qb = unsafe { _mm512_loadu_si512(qp.add(b * 64).cast()) };
-            let v = unsafe { _mm512_loadu_si512(p.add(b * 64).cast()) };
-            a = _mm512_dpbusd_epi32(a, _mm512_xor_si512(v, flip), qb);
+    if tail > 0 {
+        let qb = unsafe { _mm512_loadu_si512(qp.add(full * 64).cast()) };
+        let mask: u64 = (1u64 << tail) - 1;
+        for (k, a) in acc.iter_mut().enumerate() {
+            let v = unsafe { _mm512_maskz_loadu_epi8(mask, rows.add(k * dim + full * 64)) };
+            *a = _mm512_dpbusd_epi32(*a, _mm512_xor_si512(v, flip), qb);
         }
-        if tail > 0 {
-            let qb = unsafe { _mm512_loadu_si512(qp.add(full * 64).cast()) };
-            let v = unsafe { _mm512_maskz_loadu_epi8(tail_mask, p.add(full * 64)) };
-            a = _mm512_dpbusd_epi32(a, _mm512_xor_si512(v, flip), qb);
-        }
-        out.push(_mm512_reduce_add_epi32(a) - shift);
     }
+    acc.map(|a| _mm512_reduce_add_epi32(a))
 }
 
 #[cfg(test)]
