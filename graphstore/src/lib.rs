@@ -38,7 +38,7 @@ pub use schema::{
     LabelRule, PropertyIndexSpec, PropertyRule, RelRule, Schema, SpatialIndexSpec, TextIndexSpec,
     VectorIndexSpec, VectorMethod,
 };
-pub use store::Store;
+pub use store::{Store, StoreOptions};
 pub use tokens::{LabelId, PropKey, RelType};
 pub use txn::{ReadTxn, WriteTxn};
 pub use value::{Value, ValueType, float_json};

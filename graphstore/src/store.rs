@@ -82,10 +82,33 @@ fn open_error(path: &Path, e: redb::DatabaseError) -> Error {
     }
 }
 
+/// How a store is opened for writing ([`Store::create_with`]).
+#[derive(Debug, Clone, Default)]
+#[non_exhaustive]
+pub struct StoreOptions {
+    /// Bytes of the file the storage engine may keep in memory (its read cache plus the
+    /// pages a write transaction holds before commit); `None`: redb's default, 1 GiB. A
+    /// long batch writer that reads little back (the map build) needs far less.
+    pub cache_bytes: Option<usize>,
+}
+
+impl StoreOptions {
+    /// These options with the cache limited to `bytes`.
+    pub fn with_cache_bytes(mut self, bytes: usize) -> Self {
+        self.cache_bytes = Some(bytes);
+        self
+    }
+}
+
 impl Store {
     /// Opens the store at `path`, creating an empty one if the file does not exist.
     pub fn create(path: impl AsRef<Path>) -> Result<Store> {
-        Self::open_inner(path.as_ref(), true)
+        Self::open_inner(path.as_ref(), true, &StoreOptions::default())
+    }
+
+    /// [`Store::create`] with `options`.
+    pub fn create_with(path: impl AsRef<Path>, options: &StoreOptions) -> Result<Store> {
+        Self::open_inner(path.as_ref(), true, options)
     }
 
     /// Opens an existing store; fails if the file does not exist.
@@ -97,7 +120,7 @@ impl Store {
                 reason: "no such file".into(),
             });
         }
-        Self::open_inner(path, false)
+        Self::open_inner(path, false, &StoreOptions::default())
     }
 
     /// Opens an existing store for reading only: the file is never written (not even its
@@ -144,7 +167,7 @@ impl Store {
         Self::finish_open(Db::Ro(db), path)
     }
 
-    fn open_inner(path: &Path, create: bool) -> Result<Store> {
+    fn open_inner(path: &Path, create: bool, options: &StoreOptions) -> Result<Store> {
         let existed = path.exists()
             && std::fs::metadata(path)
                 .map(|m| m.len() > 0)
@@ -152,10 +175,14 @@ impl Store {
         // redb panics deep inside on some malformed headers in older versions; guard the
         // open so a hostile file can only ever produce an error.
         let opened = std::panic::catch_unwind(|| {
+            let mut builder = Database::builder();
+            if let Some(bytes) = options.cache_bytes {
+                builder.set_cache_size(bytes);
+            }
             if create {
-                Database::create(path)
+                builder.create(path)
             } else {
-                Database::open(path)
+                builder.open(path)
             }
         });
         let db = match opened {

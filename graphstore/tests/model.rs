@@ -559,3 +559,31 @@ thread_local! {
 fn store_placeholder() -> Store {
     EMPTY.with(|s| s.clone())
 }
+
+/// A store opened with a page cache far smaller than what it writes keeps and reads back
+/// every record (the cache only bounds memory), across a reopen with the default cache.
+#[test]
+fn a_small_page_cache_bounds_memory_not_data() {
+    use graphstore::{GraphRead, Store, StoreOptions, Value};
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("c.og");
+    let s = Store::create_with(&p, &StoreOptions::default().with_cache_bytes(64 << 10)).unwrap();
+    let text = "x".repeat(2_000);
+    for batch in 0..4 {
+        s.write(|tx| {
+            for i in 0..500 {
+                tx.create_node_named(
+                    &["Thing"],
+                    &[("n", Value::Int(batch * 500 + i)), ("t", Value::from(text.as_str()))],
+                )?;
+            }
+            Ok(())
+        })
+        .unwrap();
+    }
+    assert_eq!(s.read().unwrap().nodes_with_label("Thing").unwrap().len(), 2_000);
+    drop(s);
+    let s = Store::open(&p).unwrap();
+    assert_eq!(s.read().unwrap().nodes_with_label("Thing").unwrap().len(), 2_000);
+    assert!(s.check_consistency().unwrap().is_empty());
+}

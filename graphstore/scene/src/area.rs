@@ -6,7 +6,7 @@ use parry2d::math::{Pose, Vector};
 use parry2d::query::PointQuery;
 use parry2d::shape::Ball;
 
-use crate::geom::closest_on_segment;
+use crate::geom::{point_segment_distance_sq, polyline_distance};
 
 /// The area a segment covers.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -49,10 +49,7 @@ impl SegmentArea {
                     let c = centreline.first().copied().unwrap_or([0.0, 0.0]);
                     ((c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2)).sqrt()
                 } else {
-                    centreline
-                        .windows(2)
-                        .map(|w| edge_gap(p, w[0], w[1]))
-                        .fold(f64::INFINITY, f64::min)
+                    polyline_distance(p, centreline)
                 };
                 (d - half_width_m).max(0.0)
             }
@@ -160,7 +157,7 @@ impl SegmentArea {
         let SegmentArea::Corridor { centreline, .. } = self else {
             return None;
         };
-        let gap = |a: [f64; 2], b: [f64; 2]| edge_gap(p, a, b);
+        let gap = |a: [f64; 2], b: [f64; 2]| point_segment_distance_sq(p, a, b);
         let best = centreline
             .windows(2)
             .min_by(|a, b| gap(a[0], a[1]).total_cmp(&gap(b[0], b[1])))?;
@@ -295,8 +292,9 @@ impl Drivable {
             return 0.0;
         }
         self.edges()
-            .map(|(a, b)| edge_gap(p, a, b))
+            .map(|(a, b)| point_segment_distance_sq(p, a, b))
             .fold(f64::INFINITY, f64::min)
+            .sqrt()
     }
 
     /// The drivable area of Segment node `id` (its `polygon` property); `None` when it has
@@ -351,12 +349,6 @@ fn even_odd(edges: impl IntoIterator<Item = ([f64; 2], [f64; 2])>, p: [f64; 2]) 
         }
     }
     inside
-}
-
-/// Distance from `p` to the edge `a`–`b`, metres.
-fn edge_gap(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (_, q) = closest_on_segment(p, a, b);
-    (p[0] - q[0]).hypot(p[1] - q[1])
 }
 
 /// Several drivable areas with disjoint interiors (the segments' polygons) behind one
@@ -426,17 +418,22 @@ impl DrivableIndex {
         if self.contains(p) {
             return true;
         }
+        // a negative or NaN tolerance admits nothing outside (its square would)
+        if tolerance_m.is_nan() || tolerance_m < 0.0 {
+            return false;
+        }
         let lo = ((p[1] - tolerance_m - self.y0) / BAND_M).floor().max(0.0) as usize;
         let hi = ((p[1] + tolerance_m - self.y0) / BAND_M).floor();
         if hi < 0.0 {
             return false;
         }
         let hi = (hi as usize).min(self.bands.len().saturating_sub(1));
+        let tolerance_sq = tolerance_m * tolerance_m;
         (lo..=hi).any(|k| {
             self.bands.get(k).is_some_and(|edges| {
                 edges
                     .iter()
-                    .any(|(a, b)| edge_gap(p, *a, *b) <= tolerance_m)
+                    .any(|(a, b)| point_segment_distance_sq(p, *a, *b) <= tolerance_sq)
             })
         })
     }
@@ -484,6 +481,9 @@ mod tests {
             assert_eq!(idx.contains(p), want, "{p:?}");
             let near = both.iter().any(|a| a.distance(p) <= 0.3);
             assert_eq!(idx.within(p, 0.3), near, "{p:?}");
+            // a negative or NaN tolerance admits only points inside
+            assert_eq!(idx.within(p, -0.3), want, "{p:?}");
+            assert_eq!(idx.within(p, f64::NAN), want, "{p:?}");
         }
         assert!(
             DrivableIndex::new(&[]).is_empty() && !DrivableIndex::new(&[]).within([0.0, 0.0], 1.0)

@@ -29,14 +29,22 @@ pub fn closest_on_segment(p: GroundPoint, a: GroundPoint, b: GroundPoint) -> (f6
 
 /// Distance from `p` to the segment `a`–`b`, metres.
 pub fn point_segment_distance(p: GroundPoint, a: GroundPoint, b: GroundPoint) -> f64 {
-    dist(p, closest_on_segment(p, a, b).1)
+    point_segment_distance_sq(p, a, b).sqrt()
+}
+
+/// The square of [`point_segment_distance`], m²: for taking the least over many segments
+/// with one square root at the end.
+pub fn point_segment_distance_sq(p: GroundPoint, a: GroundPoint, b: GroundPoint) -> f64 {
+    let q = closest_on_segment(p, a, b).1;
+    (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)
 }
 
 /// Distance from `p` to a polyline, metres (infinite for fewer than two points).
 pub fn polyline_distance(p: GroundPoint, poly: &[GroundPoint]) -> f64 {
     poly.windows(2)
-        .map(|w| point_segment_distance(p, w[0], w[1]))
+        .map(|w| point_segment_distance_sq(p, w[0], w[1]))
         .fold(f64::INFINITY, f64::min)
+        .sqrt()
 }
 
 #[cfg(test)]
