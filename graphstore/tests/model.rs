@@ -574,16 +574,25 @@ fn a_small_page_cache_bounds_memory_not_data() {
             for i in 0..500 {
                 tx.create_node_named(
                     &["Thing"],
-                    &[("n", Value::Int(batch * 500 + i)), ("t", Value::from(text.as_str()))],
+                    &[
+                        ("n", Value::Int(batch * 500 + i)),
+                        ("t", Value::from(text.as_str())),
+                    ],
                 )?;
             }
             Ok(())
         })
         .unwrap();
     }
-    assert_eq!(s.read().unwrap().nodes_with_label("Thing").unwrap().len(), 2_000);
+    assert_eq!(
+        s.read().unwrap().nodes_with_label("Thing").unwrap().len(),
+        2_000
+    );
     drop(s);
     let s = Store::open(&p).unwrap();
-    assert_eq!(s.read().unwrap().nodes_with_label("Thing").unwrap().len(), 2_000);
+    assert_eq!(
+        s.read().unwrap().nodes_with_label("Thing").unwrap().len(),
+        2_000
+    );
     assert!(s.check_consistency().unwrap().is_empty());
 }

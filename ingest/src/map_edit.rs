@@ -308,13 +308,8 @@ fn relink(
             others.push((other, b));
         }
     }
-    let road_dir = |g: [f64; 2]| {
-        segments
-            .iter()
-            .filter(|s| matches!(s.area, scene::area::SegmentArea::Corridor { .. }))
-            .min_by(|a, b| a.area.distance(g).total_cmp(&b.area.distance(g)))
-            .and_then(|s| s.area.direction_near(g))
-    };
+    let roads = scene::area::RoadDirections::new(segments.iter().map(|s| &s.area));
+    let road_dir = |g: [f64; 2]| roads.direction_near(g);
     for (other, b) in others {
         let boxes = [me, b];
         let c = frame.ground(boxes[1].centre());

@@ -167,6 +167,56 @@ impl SegmentArea {
     }
 }
 
+/// The road direction near many points (one per pair of instances when the hierarchy labels
+/// relations): the direction of the corridor nearest each point. Corridors are measured
+/// nearest-bound first ([`SegmentArea::bounds`] gives a lower bound of the distance) and the
+/// search stops once a bound is past the best distance found: the same corridor as measuring
+/// every one, ties to the first given.
+#[derive(Debug, Clone)]
+pub struct RoadDirections<'a> {
+    corridors: Vec<([[f64; 2]; 2], &'a SegmentArea)>,
+}
+
+impl<'a> RoadDirections<'a> {
+    /// The corridors among `areas` (discs have no direction), in the order given.
+    pub fn new(areas: impl IntoIterator<Item = &'a SegmentArea>) -> Self {
+        let corridors = areas
+            .into_iter()
+            .filter(|a| matches!(a, SegmentArea::Corridor { .. }))
+            .map(|a| (a.bounds(), a))
+            .collect();
+        Self { corridors }
+    }
+
+    /// The corridor nearest `p` (ground metres); `None` without corridors.
+    pub fn nearest(&self, p: [f64; 2]) -> Option<&'a SegmentArea> {
+        let mut order: Vec<(f64, usize)> = self
+            .corridors
+            .iter()
+            .enumerate()
+            .map(|(i, (b, _))| (box_gap(b, p), i))
+            .collect();
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut best: Option<(f64, usize)> = None;
+        for (lower, i) in order {
+            if best.is_some_and(|(d, _)| lower > d) {
+                break;
+            }
+            let d = self.corridors[i].1.distance(p);
+            if best.is_none_or(|(bd, bi)| d.total_cmp(&bd).then(i.cmp(&bi)).is_lt()) {
+                best = Some((d, i));
+            }
+        }
+        best.map(|(_, i)| self.corridors[i].1)
+    }
+
+    /// The road direction (unit vector) at the nearest corridor's point nearest `p`
+    /// ([`SegmentArea::direction_near`]); `None` without corridors.
+    pub fn direction_near(&self, p: [f64; 2]) -> Option<[f64; 2]> {
+        self.nearest(p)?.direction_near(p)
+    }
+}
+
 /// How far `p` is from a segment, for membership (`IN_SEGMENT`): from its drivable area
 /// measured from the map when it has one, else from its trajectory `area`. Metres, 0 inside.
 pub fn membership_distance(area: &SegmentArea, drivable: Option<&Drivable>, p: [f64; 2]) -> f64 {
@@ -442,6 +492,40 @@ impl DrivableIndex {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    proptest::proptest! {
+        /// The pruned search finds the corridor a scan of every corridor finds (the first of
+        /// the least distance), discs skipped.
+        #[test]
+        fn road_directions_match_the_scan(
+            lines in proptest::collection::vec(
+                (proptest::collection::vec((-50.0f64..50.0, -50.0f64..50.0), 1..5), 0.5f64..8.0, proptest::bool::ANY),
+                0..12,
+            ),
+            p in (-80.0f64..80.0, -80.0f64..80.0),
+        ) {
+            let areas: Vec<SegmentArea> = lines
+                .into_iter()
+                .map(|(pts, w, disc)| {
+                    if disc {
+                        SegmentArea::Disc { centre: [pts[0].0, pts[0].1], radius_m: w }
+                    } else {
+                        SegmentArea::Corridor {
+                            centreline: pts.into_iter().map(|(x, y)| [x, y]).collect(),
+                            half_width_m: w,
+                        }
+                    }
+                })
+                .collect();
+            let p = [p.0, p.1];
+            let scan = areas
+                .iter()
+                .filter(|a| matches!(a, SegmentArea::Corridor { .. }))
+                .min_by(|a, b| a.distance(p).total_cmp(&b.distance(p)));
+            let got = RoadDirections::new(&areas).nearest(p);
+            proptest::prop_assert_eq!(got.map(|a| a as *const _), scan.map(|a| a as *const _));
+        }
+    }
 
     #[test]
     fn drivable_outline_of_triangles_with_a_hole() {

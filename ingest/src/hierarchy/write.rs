@@ -424,13 +424,8 @@ fn write_all(
             report.instances_linked += 1;
         }
     }
-    let road_dir = |g: [f64; 2]| {
-        segs.segments
-            .iter()
-            .filter(|s| matches!(s.area, SegmentArea::Corridor { .. }))
-            .min_by(|a, b| a.area.distance(g).total_cmp(&b.area.distance(g)))
-            .and_then(|s| s.area.direction_near(g))
-    };
+    let roads = scene::area::RoadDirections::new(segs.segments.iter().map(|s| &s.area));
+    let road_dir = |g: [f64; 2]| roads.direction_near(g);
     for r in infer_relations(&boxes, frame, road_dir, &cfg.relations) {
         RelationRecord {
             relation: r.relation.to_string(),
