@@ -117,15 +117,23 @@ pub fn plan(
     let mut path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &cfg)?;
     let mut drivable_segments = drivable.len();
     if path.fallback && !drivable.is_empty() {
-        let loose = planner::plan_path(&route, &obstacles, &cfg)?;
-        if !loose.fallback {
-            path = loose;
-            path.warning = Some(format!(
+        let mut loose = planner::plan_path(&route, &obstacles, &cfg)?;
+        loose.warning = Some(if loose.fallback {
+            // both failed: say why each did (the corridor alone is what was tried last)
+            format!(
+                "on the drivable areas measured from the map: {}; in the {} m corridor alone: {}",
+                path.warning.as_deref().unwrap_or("no path"),
+                opts.corridor_m,
+                loose.warning.as_deref().unwrap_or("no path")
+            )
+        } else {
+            format!(
                 "the drivable areas measured from the map have gaps along the route; planned in the {} m corridor alone",
                 opts.corridor_m
-            ));
-            drivable_segments = 0;
-        }
+            )
+        });
+        path = loose;
+        drivable_segments = 0;
     }
     if path.fallback {
         // the route polyline: nothing kept it anywhere
