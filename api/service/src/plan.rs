@@ -104,20 +104,50 @@ pub fn plan(
     // the drivable areas the corridor reaches; where they have gaps across the road (sparse
     // scans), OMPL cannot stay on them, and the corridor alone bounds the path
     let corridor = planner::Validity::new(&route.polyline, opts.corridor_m, &[], 0.0);
+    // the bounds first: most of a city's areas are nowhere near the route, and an area can
+    // reach the corridor only if its bounds meet the route's grown by the corridor
+    let mut reach = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
+    for q in &route.polyline {
+        for k in 0..2 {
+            reach[0][k] = reach[0][k].min(q[k] - opts.corridor_m);
+            reach[1][k] = reach[1][k].max(q[k] + opts.corridor_m);
+        }
+    }
     let drivable: Vec<scene::area::Drivable> = planner::motion::drivable_of_store(r, ground)?
         .into_iter()
         .filter(|d| {
-            route.polyline.iter().any(|q| d.contains(*q))
-                || d.rings
+            let b = d.bounds();
+            (0..2).all(|k| b[0][k] <= reach[1][k] && b[1][k] >= reach[0][k])
+                && (route
+                    .polyline
                     .iter()
-                    .flatten()
-                    .any(|p| corridor.corridor_distance(*p) <= opts.corridor_m)
+                    .any(|q| scene::area::box_gap(&b, *q) == 0.0 && d.contains(*q))
+                    || d.rings
+                        .iter()
+                        .flatten()
+                        .any(|p| corridor.corridor_distance(*p) <= opts.corridor_m))
         })
         .collect();
-    let mut path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &cfg)?;
+    // one budget for both tries: at most half for the drivable areas (where a gap across the
+    // road leaves OMPL searching until its time is up), the rest for the corridor alone
+    let t_first = Instant::now();
+    let first_cfg = planner::MotionConfig {
+        budget_ms: if drivable.is_empty() {
+            cfg.budget_ms
+        } else {
+            cfg.budget_ms / 2.0
+        },
+        ..cfg.clone()
+    };
+    let mut path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &first_cfg)?;
     let mut drivable_segments = drivable.len();
-    if path.fallback && !drivable.is_empty() {
-        let mut loose = planner::plan_path(&route, &obstacles, &cfg)?;
+    let left_ms = cfg.budget_ms - t_first.elapsed().as_secs_f64() * 1e3;
+    if path.fallback && !drivable.is_empty() && left_ms >= 1.0 {
+        let loose_cfg = planner::MotionConfig {
+            budget_ms: left_ms,
+            ..cfg.clone()
+        };
+        let mut loose = planner::plan_path(&route, &obstacles, &loose_cfg)?;
         loose.warning = Some(if loose.fallback {
             // both failed: say why each did (the corridor alone is what was tried last)
             format!(
@@ -134,6 +164,12 @@ pub fn plan(
         });
         path = loose;
         drivable_segments = 0;
+    } else if path.fallback && !drivable.is_empty() {
+        path.warning = Some(format!(
+            "on the drivable areas measured from the map: {}; no budget left to try the {} m corridor alone",
+            path.warning.as_deref().unwrap_or("no path"),
+            opts.corridor_m
+        ));
     }
     if path.fallback {
         // the route polyline: nothing kept it anywhere

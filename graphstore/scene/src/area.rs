@@ -231,16 +231,7 @@ pub fn membership_distance(area: &SegmentArea, drivable: Option<&Drivable>, p: [
 /// of the membership distance.
 pub fn membership_bounds(area: &SegmentArea, drivable: Option<&Drivable>) -> [[f64; 2]; 2] {
     match drivable {
-        Some(d) if !d.is_empty() => {
-            let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
-            for q in d.rings.iter().flatten() {
-                for k in 0..2 {
-                    b[0][k] = b[0][k].min(q[k]);
-                    b[1][k] = b[1][k].max(q[k]);
-                }
-            }
-            b
-        }
+        Some(d) if !d.is_empty() => d.bounds(),
         _ => area.bounds(),
     }
 }
@@ -262,6 +253,20 @@ pub struct Drivable {
 }
 
 impl Drivable {
+    /// The axis-aligned bounds `[min, max]` of the rings, ground metres (infinite, min above
+    /// max, when there are none): every point of the area lies inside, so the distance to the
+    /// bounds ([`box_gap`]) is a lower bound of [`Drivable::distance`].
+    pub fn bounds(&self) -> [[f64; 2]; 2] {
+        let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
+        for q in self.rings.iter().flatten() {
+            for k in 0..2 {
+                b[0][k] = b[0][k].min(q[k]);
+                b[1][k] = b[1][k].max(q[k]);
+            }
+        }
+        b
+    }
+
     /// The outline of the union of `triangles` (each given counter-clockwise, sharing exact
     /// vertex coordinates where they touch, as a triangulation's faces do): every directed
     /// edge whose reverse is not an edge of another triangle is on the boundary, and the
