@@ -164,13 +164,7 @@ impl Validity {
         obstacles: &[Obstacle],
         margin_m: f64,
     ) -> Validity {
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in route {
-            for i in 0..2 {
-                lo[i] = lo[i].min(p[i]);
-                hi[i] = hi[i].max(p[i]);
-            }
-        }
+        let [lo, hi] = scene::geom::bounds(route);
         let boxes = obstacles
             .iter()
             .map(|o| {
@@ -199,6 +193,11 @@ impl Validity {
         self.drivable = DrivableIndex::new(drivable);
         self.drivable_tolerance_m = tolerance_m;
         self
+    }
+
+    /// The bounds `[min, max]` of the corridor: the route's, grown by the half-width.
+    pub fn bounds(&self) -> [[f64; 2]; 2] {
+        [self.bounds.0, self.bounds.1]
     }
 
     /// Distance from `p` to the route's centreline.
@@ -381,13 +380,7 @@ pub fn plan_path_on(
         }
         let (a, b) = (point_at(poly, s0), point_at(poly, s1));
         let piece = crate::route::sub_polyline(poly, s0, s1);
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in &piece {
-            for i in 0..2 {
-                lo[i] = lo[i].min(p[i]);
-                hi[i] = hi[i].max(p[i]);
-            }
-        }
+        let [lo, hi] = scene::geom::bounds(&piece);
         let pad = cfg.corridor_half_width_m;
         let req = bridge::PlanRequest {
             start_x: a[0],

@@ -105,14 +105,8 @@ pub fn plan(
     // scans), OMPL cannot stay on them, and the corridor alone bounds the path
     let corridor = planner::Validity::new(&route.polyline, opts.corridor_m, &[], 0.0);
     // the bounds first: most of a city's areas are nowhere near the route, and an area can
-    // reach the corridor only if its bounds meet the route's grown by the corridor
-    let mut reach = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
-    for q in &route.polyline {
-        for k in 0..2 {
-            reach[0][k] = reach[0][k].min(q[k] - opts.corridor_m);
-            reach[1][k] = reach[1][k].max(q[k] + opts.corridor_m);
-        }
-    }
+    // reach the corridor only if its bounds meet the corridor's
+    let reach = corridor.bounds();
     let drivable: Vec<scene::area::Drivable> = planner::motion::drivable_of_store(r, ground)?
         .into_iter()
         .filter(|d| {
@@ -142,34 +136,36 @@ pub fn plan(
     let mut path = planner::motion::plan_path_on(&route, &obstacles, &drivable, &first_cfg)?;
     let mut drivable_segments = drivable.len();
     let left_ms = cfg.budget_ms - t_first.elapsed().as_secs_f64() * 1e3;
-    if path.fallback && !drivable.is_empty() && left_ms >= 1.0 {
-        let loose_cfg = planner::MotionConfig {
-            budget_ms: left_ms,
-            ..cfg.clone()
-        };
-        let mut loose = planner::plan_path(&route, &obstacles, &loose_cfg)?;
-        loose.warning = Some(if loose.fallback {
-            // both failed: say why each did (the corridor alone is what was tried last)
-            format!(
-                "on the drivable areas measured from the map: {}; in the {} m corridor alone: {}",
-                path.warning.as_deref().unwrap_or("no path"),
-                opts.corridor_m,
-                loose.warning.as_deref().unwrap_or("no path")
-            )
+    if path.fallback && !drivable.is_empty() {
+        if left_ms >= 1.0 {
+            let loose_cfg = planner::MotionConfig {
+                budget_ms: left_ms,
+                ..cfg.clone()
+            };
+            let mut loose = planner::plan_path(&route, &obstacles, &loose_cfg)?;
+            loose.warning = Some(if loose.fallback {
+                // both failed: say why each did (the corridor alone is what was tried last)
+                format!(
+                    "on the drivable areas measured from the map: {}; in the {} m corridor alone: {}",
+                    path.warning.as_deref().unwrap_or("no path"),
+                    opts.corridor_m,
+                    loose.warning.as_deref().unwrap_or("no path")
+                )
+            } else {
+                format!(
+                    "the drivable areas measured from the map have gaps along the route; planned in the {} m corridor alone",
+                    opts.corridor_m
+                )
+            });
+            path = loose;
+            drivable_segments = 0;
         } else {
-            format!(
-                "the drivable areas measured from the map have gaps along the route; planned in the {} m corridor alone",
+            path.warning = Some(format!(
+                "on the drivable areas measured from the map: {}; no budget left to try the {} m corridor alone",
+                path.warning.as_deref().unwrap_or("no path"),
                 opts.corridor_m
-            )
-        });
-        path = loose;
-        drivable_segments = 0;
-    } else if path.fallback && !drivable.is_empty() {
-        path.warning = Some(format!(
-            "on the drivable areas measured from the map: {}; no budget left to try the {} m corridor alone",
-            path.warning.as_deref().unwrap_or("no path"),
-            opts.corridor_m
-        ));
+            ));
+        }
     }
     if path.fallback {
         // the route polyline: nothing kept it anywhere

@@ -6,7 +6,7 @@ use parry2d::math::{Pose, Vector};
 use parry2d::query::PointQuery;
 use parry2d::shape::Ball;
 
-use crate::geom::{point_segment_distance_sq, polyline_distance};
+use crate::geom::{bounds, point_segment_distance_sq, polyline_distance};
 
 /// The area a segment covers.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -74,19 +74,12 @@ impl SegmentArea {
                 centreline,
                 half_width_m,
             } => {
-                let mut lo = [f64::INFINITY; 2];
-                let mut hi = [f64::NEG_INFINITY; 2];
-                for q in centreline {
-                    for k in 0..2 {
-                        lo[k] = lo[k].min(q[k]);
-                        hi[k] = hi[k].max(q[k]);
-                    }
-                }
-                if centreline.is_empty() {
-                    // distance() measures from the origin then
-                    lo = [0.0, 0.0];
-                    hi = [0.0, 0.0];
-                }
+                // with no centreline, distance() measures from the origin
+                let [lo, hi] = if centreline.is_empty() {
+                    [[0.0, 0.0]; 2]
+                } else {
+                    bounds(centreline)
+                };
                 [
                     [lo[0] - half_width_m, lo[1] - half_width_m],
                     [hi[0] + half_width_m, hi[1] + half_width_m],
@@ -167,47 +160,59 @@ impl SegmentArea {
     }
 }
 
+/// The nearest of many areas to `p` (ground metres), given each one's bounds (`[min, max]`,
+/// every point of the area inside) and its distance: areas are measured nearest-bound first
+/// ([`box_gap`] is a lower bound of the distance) and the search stops once a bound is past
+/// the best distance found. Returns the index and distance of the least distance, ties to
+/// the smaller index: the same as measuring every one. `None` when there are none.
+pub fn nearest_by_bounds(
+    bounds: &[[[f64; 2]; 2]],
+    p: [f64; 2],
+    mut distance: impl FnMut(usize) -> f64,
+) -> Option<(usize, f64)> {
+    let mut order: Vec<(f64, usize)> = bounds
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (box_gap(b, p), i))
+        .collect();
+    order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut best: Option<(usize, f64)> = None;
+    for (lower, i) in order {
+        if best.is_some_and(|(_, d)| lower > d) {
+            break;
+        }
+        let d = distance(i);
+        if best.is_none_or(|(bi, bd)| d.total_cmp(&bd).then(i.cmp(&bi)).is_lt()) {
+            best = Some((i, d));
+        }
+    }
+    best
+}
+
 /// The road direction near many points (one per pair of instances when the hierarchy labels
-/// relations): the direction of the corridor nearest each point. Corridors are measured
-/// nearest-bound first ([`SegmentArea::bounds`] gives a lower bound of the distance) and the
-/// search stops once a bound is past the best distance found: the same corridor as measuring
-/// every one, ties to the first given.
+/// relations): the direction of the corridor nearest each point ([`nearest_by_bounds`]; the
+/// same corridor as measuring every one, ties to the first given).
 #[derive(Debug, Clone)]
 pub struct RoadDirections<'a> {
-    corridors: Vec<([[f64; 2]; 2], &'a SegmentArea)>,
+    corridors: Vec<&'a SegmentArea>,
+    bounds: Vec<[[f64; 2]; 2]>,
 }
 
 impl<'a> RoadDirections<'a> {
     /// The corridors among `areas` (discs have no direction), in the order given.
     pub fn new(areas: impl IntoIterator<Item = &'a SegmentArea>) -> Self {
-        let corridors = areas
+        let corridors: Vec<&SegmentArea> = areas
             .into_iter()
             .filter(|a| matches!(a, SegmentArea::Corridor { .. }))
-            .map(|a| (a.bounds(), a))
             .collect();
-        Self { corridors }
+        let bounds = corridors.iter().map(|a| a.bounds()).collect();
+        Self { corridors, bounds }
     }
 
     /// The corridor nearest `p` (ground metres); `None` without corridors.
     pub fn nearest(&self, p: [f64; 2]) -> Option<&'a SegmentArea> {
-        let mut order: Vec<(f64, usize)> = self
-            .corridors
-            .iter()
-            .enumerate()
-            .map(|(i, (b, _))| (box_gap(b, p), i))
-            .collect();
-        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut best: Option<(f64, usize)> = None;
-        for (lower, i) in order {
-            if best.is_some_and(|(d, _)| lower > d) {
-                break;
-            }
-            let d = self.corridors[i].1.distance(p);
-            if best.is_none_or(|(bd, bi)| d.total_cmp(&bd).then(i.cmp(&bi)).is_lt()) {
-                best = Some((d, i));
-            }
-        }
-        best.map(|(_, i)| self.corridors[i].1)
+        nearest_by_bounds(&self.bounds, p, |i| self.corridors[i].distance(p))
+            .map(|(i, _)| self.corridors[i])
     }
 
     /// The road direction (unit vector) at the nearest corridor's point nearest `p`
@@ -257,14 +262,7 @@ impl Drivable {
     /// max, when there are none): every point of the area lies inside, so the distance to the
     /// bounds ([`box_gap`]) is a lower bound of [`Drivable::distance`].
     pub fn bounds(&self) -> [[f64; 2]; 2] {
-        let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
-        for q in self.rings.iter().flatten() {
-            for k in 0..2 {
-                b[0][k] = b[0][k].min(q[k]);
-                b[1][k] = b[1][k].max(q[k]);
-            }
-        }
-        b
+        bounds(self.rings.iter().flatten())
     }
 
     /// The outline of the union of `triangles` (each given counter-clockwise, sharing exact

@@ -9,6 +9,19 @@ pub fn dist(a: GroundPoint, b: GroundPoint) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
 }
 
+/// The axis-aligned bounds `[min, max]` of `points`, metres; for no points, min is +inf and
+/// max is -inf (a box that meets nothing).
+pub fn bounds<'a>(points: impl IntoIterator<Item = &'a GroundPoint>) -> [GroundPoint; 2] {
+    let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
+    for q in points {
+        for k in 0..2 {
+            b[0][k] = b[0][k].min(q[k]);
+            b[1][k] = b[1][k].max(q[k]);
+        }
+    }
+    b
+}
+
 /// Length of a polyline, metres (0 for fewer than two points).
 pub fn polyline_length(p: &[GroundPoint]) -> f64 {
     p.windows(2).map(|w| dist(w[0], w[1])).sum()

@@ -379,15 +379,14 @@ fn write_all(
     // instances
     let instances = tx.nodes_with_label(scene::label::INSTANCE)?;
     let mut boxes = Vec::with_capacity(instances.len());
-    // each segment's bounds give a lower bound of an instance's distance to it: segments are
-    // measured nearest-bound first, and once a bound is past the best distance found the rest
-    // cannot win (the same answer as measuring all, ties to the smaller id)
+    // each segment's bounds give a lower bound of an instance's distance to it, so the
+    // nearest is found measuring few (scene::area::nearest_by_bounds; ties to the smaller id,
+    // as a segment's id is its index)
     let seg_bounds: Vec<[[f64; 2]; 2]> = segs
         .segments
         .iter()
         .map(|s| scene::area::membership_bounds(&s.area, Some(&drivable[s.id])))
         .collect();
-    let mut order: Vec<(f64, usize)> = Vec::with_capacity(segs.segments.len());
     for &id in &instances {
         let Some(b) = read_instance_box(&*tx, id, frame)? else {
             return Err(Error::Invalid(format!(
@@ -396,29 +395,10 @@ fn write_all(
         };
         boxes.push(b);
         let c = frame.ground(b.centre());
-        order.clear();
-        order.extend(
-            seg_bounds
-                .iter()
-                .enumerate()
-                .map(|(i, b)| (scene::area::box_gap(b, c), i)),
-        );
-        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut nearest: Option<(usize, f64)> = None;
-        for &(lb, i) in &order {
-            if nearest.is_some_and(|(_, best)| lb > best) {
-                break;
-            }
+        let nearest = scene::area::nearest_by_bounds(&seg_bounds, c, |i| {
             let s = &segs.segments[i];
-            let d = scene::area::membership_distance(&s.area, Some(&drivable[s.id]), c);
-            let better = match nearest {
-                None => true,
-                Some((bid, best)) => d.total_cmp(&best).then(s.id.cmp(&bid)).is_lt(),
-            };
-            if better {
-                nearest = Some((s.id, d));
-            }
-        }
+            scene::area::membership_distance(&s.area, Some(&drivable[s.id]), c)
+        });
         if let Some((sid, d)) = nearest {
             InSegmentRecord { distance_m: d }.create(tx, id, seg_ids[sid])?;
             report.instances_linked += 1;
