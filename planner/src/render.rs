@@ -110,13 +110,7 @@ pub fn write_map_png(
                 .flat_map(|f| [f.min, f.max]),
         )
         .collect();
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in &pts {
-        for i in 0..2 {
-            lo[i] = lo[i].min(p[i]);
-            hi[i] = hi[i].max(p[i]);
-        }
-    }
+    let [lo, hi] = scene::geom::bounds(&pts);
     let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1.0);
     let scale = 1540.0 / span;
     let (w, h) = (

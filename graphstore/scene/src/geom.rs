@@ -11,9 +11,12 @@ pub fn dist(a: GroundPoint, b: GroundPoint) -> f64 {
 
 /// The axis-aligned bounds `[min, max]` of `points`, metres; for no points, min is +inf and
 /// max is -inf (a box that meets nothing).
-pub fn bounds<'a>(points: impl IntoIterator<Item = &'a GroundPoint>) -> [GroundPoint; 2] {
+pub fn bounds<P: std::borrow::Borrow<GroundPoint>>(
+    points: impl IntoIterator<Item = P>,
+) -> [GroundPoint; 2] {
     let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
     for q in points {
+        let q = q.borrow();
         for k in 0..2 {
             b[0][k] = b[0][k].min(q[k]);
             b[1][k] = b[1][k].max(q[k]);

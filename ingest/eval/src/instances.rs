@@ -139,14 +139,7 @@ fn match_greedy(inst: &[[[f64; 2]; 4]], truth: &[TruthObject]) -> Vec<(usize, us
 }
 
 fn bounds(p: &[[f64; 2]; 4]) -> ([f64; 2], [f64; 2]) {
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for q in p {
-        for k in 0..2 {
-            lo[k] = lo[k].min(q[k]);
-            hi[k] = hi[k].max(q[k]);
-        }
-    }
+    let [lo, hi] = scene::geom::bounds(p);
     (lo, hi)
 }
 

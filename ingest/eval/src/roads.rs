@@ -210,13 +210,7 @@ pub fn eval_roads(r: &impl GraphRead, sim_dir: &Path, max_gap_m: f64) -> Result<
             .drivable
             .as_ref()
             .map(|d| {
-                let (mut a, mut b) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-                for p in d.rings.iter().flatten() {
-                    for k in 0..2 {
-                        a[k] = a[k].min(p[k]);
-                        b[k] = b[k].max(p[k]);
-                    }
-                }
+                let [a, b] = d.bounds();
                 (a, b)
             })
             .unwrap_or((blo, bhi));

@@ -25,13 +25,7 @@ struct View {
 
 impl View {
     fn fit(points: impl Iterator<Item = [f64; 2]>) -> Option<(View, u32, u32)> {
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in points {
-            for i in 0..2 {
-                lo[i] = lo[i].min(p[i]);
-                hi[i] = hi[i].max(p[i]);
-            }
-        }
+        let [lo, hi] = scene::geom::bounds(points);
         if !lo[0].is_finite() {
             return None;
         }

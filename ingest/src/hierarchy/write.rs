@@ -204,14 +204,7 @@ fn world_box(
 }
 
 fn bounds(pts: &[[f64; 2]], pad: f64) -> ([f64; 2], [f64; 2]) {
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for p in pts {
-        for i in 0..2 {
-            lo[i] = lo[i].min(p[i]);
-            hi[i] = hi[i].max(p[i]);
-        }
-    }
+    let [lo, hi] = scene::geom::bounds(pts);
     ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad])
 }
 

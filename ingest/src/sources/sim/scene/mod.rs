@@ -101,16 +101,7 @@ struct SegmentGrid {
 
 impl SegmentGrid {
     fn new(net: &RoadNetwork) -> SegmentGrid {
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
-        for r in &net.roads {
-            for p in &r.centerline {
-                for k in 0..2 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
-            }
-        }
+        let [lo, hi] = scene::geom::bounds(net.roads.iter().flat_map(|r| &r.centerline));
         let origin = [lo[0] - REACH_M - 1.0, lo[1] - REACH_M - 1.0];
         let cols = (((hi[0] - origin[0]) + REACH_M + 1.0) / GRID_CELL_M).ceil() as usize + 1;
         let rows = (((hi[1] - origin[1]) + REACH_M + 1.0) / GRID_CELL_M).ceil() as usize + 1;
