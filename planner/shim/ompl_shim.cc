@@ -6,6 +6,7 @@
 #include <ompl/base/objectives/PathLengthOptimizationObjective.h>
 #include <ompl/base/spaces/DubinsStateSpace.h>
 #include <ompl/base/spaces/ReedsSheppStateSpace.h>
+#include <ompl/geometric/PathGeometric.h>
 #include <ompl/geometric/PathSimplifier.h>
 #include <ompl/geometric/SimpleSetup.h>
 #include <ompl/geometric/planners/rrt/RRTstar.h>
@@ -13,38 +14,164 @@
 #include <ompl/util/RandomNumbers.h>
 
 #include <chrono>
+#include <cstdint>
 #include <mutex>
+#include <vector>
 
 namespace og {
 
 namespace ob = ompl::base;
 namespace ogeo = ompl::geometric;
 
-PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
+namespace {
+
+// Once per process, before OMPL's first random number generator: its log level and its seed.
+void init(std::uint32_t seed) {
   static std::once_flag once;
   std::call_once(once, [&] {
     ompl::msg::setLogLevel(ompl::msg::LOG_NONE);
-    // OMPL takes one seed per process, before its first random number generator
-    ompl::RNG::setSeed(req.seed);
+    ompl::RNG::setSeed(seed);
   });
+}
+
+// The car's state space: Reeds-Shepp (reverse allowed) or Dubins, within the bounds.
+ob::StateSpacePtr car_space(double turning_radius, bool reverse_allowed, double min_x,
+                            double min_y, double max_x, double max_y) {
+  ob::StateSpacePtr space;
+  if (reverse_allowed) {
+    space = std::make_shared<ob::ReedsSheppStateSpace>(turning_radius);
+  } else {
+    space = std::make_shared<ob::DubinsStateSpace>(turning_radius);
+  }
+  ob::RealVectorBounds bounds(2);
+  bounds.setLow(0, min_x);
+  bounds.setLow(1, min_y);
+  bounds.setHigh(0, max_x);
+  bounds.setHigh(1, max_y);
+  space->as<ob::SE2StateSpace>()->setBounds(bounds);
+  return space;
+}
+
+// The path's states, interpolated every sample_step along its curves, into out.poses.
+void emit(ogeo::PathGeometric &path, double sample_step, PlanResult &out) {
+  out.length = path.length();
+  path.interpolate(static_cast<unsigned int>(std::max(2.0, path.length() / sample_step)));
+  for (std::size_t i = 0; i < path.getStateCount(); ++i) {
+    const auto *st = path.getState(i)->as<ob::SE2StateSpace::StateType>();
+    out.poses.push_back(st->getX());
+    out.poses.push_back(st->getY());
+    out.poses.push_back(st->getYaw());
+  }
+  out.solved = true;
+  out.exact = true;
+}
+
+} // namespace
+
+PlanResult follow_se2(const FollowRequest &req, const Checker &checker) {
+  init(req.seed);
   PlanResult out;
   out.solved = false;
   out.exact = false;
   out.length = 0.0;
-  ob::StateSpacePtr space;
-  if (req.reverse_allowed) {
-    space = std::make_shared<ob::ReedsSheppStateSpace>(req.turning_radius);
-    out.planner = "RRTstar/ReedsShepp";
-  } else {
-    space = std::make_shared<ob::DubinsStateSpace>(req.turning_radius);
-    out.planner = "RRTstar/Dubins";
+  out.planner = req.reverse_allowed ? "follow/ReedsShepp" : "follow/Dubins";
+  const std::size_t lanes = req.lanes;
+  const std::size_t n = lanes == 0 ? 0 : req.poses.size() / (3 * lanes);
+  if (n < 2 || req.max_skip < 1) {
+    return out;
   }
-  ob::RealVectorBounds bounds(2);
-  bounds.setLow(0, req.min_x);
-  bounds.setLow(1, req.min_y);
-  bounds.setHigh(0, req.max_x);
-  bounds.setHigh(1, req.max_y);
-  space->as<ob::SE2StateSpace>()->setBounds(bounds);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto space = car_space(req.turning_radius, req.reverse_allowed, req.min_x, req.min_y,
+                         req.max_x, req.max_y);
+  auto si = std::make_shared<ob::SpaceInformation>(space);
+  si->setStateValidityChecker([&checker](const ob::State *s) {
+    const auto *st = s->as<ob::SE2StateSpace::StateType>();
+    return checker.is_valid(st->getX(), st->getY(), st->getYaw());
+  });
+  si->setStateValidityCheckingResolution(
+      std::min(1.0, req.check_step_m / space->getMaximumExtent()));
+  si->setup();
+  // node (i, k): station i along the route, lateral offset k (0 is the route itself)
+  std::vector<ob::ScopedState<ob::SE2StateSpace>> states;
+  states.reserve(n * lanes);
+  for (std::size_t v = 0; v < n * lanes; ++v) {
+    ob::ScopedState<ob::SE2StateSpace> s(space);
+    s->setXY(req.poses[3 * v], req.poses[3 * v + 1]);
+    s->setYaw(req.poses[3 * v + 2]);
+    states.push_back(s);
+  }
+  // -1 unknown, 0 invalid or exhausted (no way on from it), 1 valid
+  std::vector<signed char> mark(n * lanes, -1);
+  auto usable = [&](std::size_t v) {
+    if (mark[v] < 0) {
+      mark[v] = si->isValid(states[v].get()) ? 1 : 0;
+    }
+    return mark[v] == 1;
+  };
+  if (!usable(0) || !usable((n - 1) * lanes)) {
+    return out;
+  }
+  // depth first, farthest station first and the route before its offsets: from each node,
+  // one curve to the farthest node within max_skip stations that it reaches through valid
+  // states; a node with no way on is never tried again. The start and goal are offset 0.
+  struct Frame {
+    std::size_t v;
+    std::size_t j;
+    std::size_t k;
+  };
+  auto first_j = [&](std::size_t i) {
+    return std::min(n - 1, i + static_cast<std::size_t>(req.max_skip));
+  };
+  std::vector<Frame> stack{{0, first_j(0), 0}};
+  bool reached = false;
+  std::size_t expansions = 0;
+  while (!stack.empty() && !reached) {
+    if (++expansions % 16 == 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >
+            req.limit_secs) {
+      return out;
+    }
+    Frame &f = stack.back();
+    const std::size_t i = f.v / lanes;
+    if (f.j <= i) {
+      mark[f.v] = 0;
+      stack.pop_back();
+      continue;
+    }
+    const std::size_t w = f.j * lanes + f.k;
+    const std::size_t k_end = f.j == n - 1 ? 1 : lanes;
+    if (++f.k >= k_end) {
+      f.k = 0;
+      --f.j;
+    }
+    if (!usable(w) || !si->checkMotion(states[f.v].get(), states[w].get())) {
+      continue;
+    }
+    if (w == (n - 1) * lanes) {
+      reached = true;
+    }
+    stack.push_back({w, first_j(w / lanes), 0});
+  }
+  if (!reached) {
+    return out;
+  }
+  ogeo::PathGeometric path(si);
+  for (const Frame &f : stack) {
+    path.append(states[f.v].get());
+  }
+  emit(path, req.sample_step, out);
+  return out;
+}
+
+PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
+  init(req.seed);
+  PlanResult out;
+  out.solved = false;
+  out.exact = false;
+  out.length = 0.0;
+  out.planner = req.reverse_allowed ? "RRTstar/ReedsShepp" : "RRTstar/Dubins";
+  auto space = car_space(req.turning_radius, req.reverse_allowed, req.min_x, req.min_y,
+                         req.max_x, req.max_y);
 
   ogeo::SimpleSetup ss(space);
   // OMPL's motion validator calls only this checker, so it must enforce bounds itself (the
@@ -85,17 +212,7 @@ PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
   if (left > 0.0) {
     ss.simplifySolution(left);
   }
-  auto &path = ss.getSolutionPath();
-  out.length = path.length();
-  path.interpolate(static_cast<unsigned int>(std::max(2.0, path.length() / req.sample_step)));
-  for (std::size_t i = 0; i < path.getStateCount(); ++i) {
-    const auto *st = path.getState(i)->as<ob::SE2StateSpace::StateType>();
-    out.poses.push_back(st->getX());
-    out.poses.push_back(st->getY());
-    out.poses.push_back(st->getYaw());
-  }
-  out.solved = true;
-  out.exact = true;
+  emit(ss.getSolutionPath(), req.sample_step, out);
   return out;
 }
 

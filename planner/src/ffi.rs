@@ -40,6 +40,28 @@ pub(crate) mod bridge {
         seed: u32,
     }
 
+    /// Poses to follow: `lanes` poses (flattened x, y, yaw triples) at each station along
+    /// the route, the route's own first and then its lateral offsets; the start is the first
+    /// station's first pose and the goal the last's. From each reached pose, one curve of the
+    /// car's space goes to a pose at the farthest of the next `max_skip` stations that it
+    /// reaches through valid states (depth first, so a dead end is backed out of); the search
+    /// gives up after `limit_secs`.
+    struct FollowRequest {
+        poses: Vec<f64>,
+        lanes: u32,
+        limit_secs: f64,
+        min_x: f64,
+        min_y: f64,
+        max_x: f64,
+        max_y: f64,
+        turning_radius: f64,
+        reverse_allowed: bool,
+        check_step_m: f64,
+        sample_step: f64,
+        max_skip: u32,
+        seed: u32,
+    }
+
     /// What OMPL found: poses flattened as x, y, yaw triples.
     struct PlanResult {
         solved: bool,
@@ -57,5 +79,6 @@ pub(crate) mod bridge {
     unsafe extern "C++" {
         include!("planner/shim/ompl_shim.h");
         fn plan_se2(req: &PlanRequest, checker: &Checker) -> PlanResult;
+        fn follow_se2(req: &FollowRequest, checker: &Checker) -> PlanResult;
     }
 }

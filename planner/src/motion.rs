@@ -4,8 +4,10 @@
 //! blocking boxes, inside the planning bounds.
 //!
 //! Long routes are planned in consecutive chunks of about `chunk_m` metres between waypoints
-//! on the route, each with its share of the time budget; the pieces join at the waypoints
-//! with matching headings. When OMPL finds no solution in time, the route polyline itself is
+//! on the route; the pieces join at the waypoints with matching headings. Each chunk is first
+//! followed deterministically (poses along the route joined by the car's curves, checked
+//! state by state; a few milliseconds), and planned with RRT* in its share of the time budget
+//! only where that fails. When OMPL finds no solution in time, the route polyline itself is
 //! returned, marked as a fallback, with a warning.
 
 use parry2d::math::{Pose, Vector};
@@ -62,7 +64,40 @@ pub struct MotionConfig {
     /// With drivable areas given ([`plan_path_on`]), a state may be this far outside them
     /// (the measured areas have small gaps where the LiDAR saw no road).
     pub drivable_tolerance_m: f64,
+    /// How each chunk is refined: followed deterministically, planned with RRT*, or both
+    /// (the default: RRT* only where following fails).
+    pub refinement: Refinement,
 }
+
+/// How [`plan_path_on`] refines each chunk of a route.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum Refinement {
+    /// Follow the route deterministically: poses every [`FOLLOW_STEP_M`] along it and at
+    /// [`FOLLOW_OFFSETS_M`] to either side, joined by the car's curves (OMPL's Reeds-Shepp or
+    /// Dubins) from each pose to one at the farthest station within [`FOLLOW_REACH_M`] that a
+    /// curve reaches through valid states, depth first (a dead end is backed out of; a few
+    /// milliseconds a chunk, at most its share of the budget); RRT* plans only the chunks
+    /// this cannot (a lane blocked wall to wall, a turn tighter than the radius allows within
+    /// the corridor), sharing what is left of the budget by length.
+    #[default]
+    FollowThenRrt,
+    /// Follow only: a chunk that cannot be followed makes the route fall back at once,
+    /// without spending the budget (a quick test of whether the valid region is continuous
+    /// along the route).
+    FollowOnly,
+    /// RRT* on every chunk, each with its share of the budget by length.
+    RrtOnly,
+}
+
+/// Spacing of the route poses the deterministic pass follows.
+pub const FOLLOW_STEP_M: f64 = 2.0;
+/// How far along the route one curve of the deterministic pass may reach.
+pub const FOLLOW_REACH_M: f64 = 30.0;
+/// Lateral offsets (left positive) of the deterministic pass's poses beside the route, in
+/// the order they are tried; only those at least 1 m inside the corridor are used.
+pub const FOLLOW_OFFSETS_M: [f64; 4] = [-1.5, 1.5, -3.0, 3.0];
 
 impl Default for MotionConfig {
     fn default() -> Self {
@@ -77,6 +112,7 @@ impl Default for MotionConfig {
             good_enough_ratio: 1.25,
             seed: 42,
             drivable_tolerance_m: 0.5,
+            refinement: Refinement::FollowThenRrt,
         }
     }
 }
@@ -95,13 +131,7 @@ pub struct Obstacle {
 impl Obstacle {
     /// The obstacle of an oriented footprint.
     pub fn oriented(footprint: OrientedBox) -> Obstacle {
-        let (mut min, mut max) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for c in footprint.corners() {
-            for k in 0..2 {
-                min[k] = min[k].min(c[k]);
-                max[k] = max[k].max(c[k]);
-            }
-        }
+        let [min, max] = scene::geom::bounds(footprint.corners());
         Obstacle {
             min,
             max,
@@ -357,56 +387,45 @@ pub fn plan_path_on(
             ));
         }
     }
-    let mut poses: Vec<[f64; 3]> = Vec::new();
-    let mut length = 0.0;
-    let mut planner = String::new();
-    let started = std::time::Instant::now();
-    for (k, w) in marks.windows(2).enumerate() {
-        let (s0, s1) = (w[0], w[1]);
-        let spent = started.elapsed().as_secs_f64() * 1e3;
-        let left_ms = cfg.budget_ms - spent;
-        // this chunk's share of what is left, by length
-        let share = left_ms * (s1 - s0) / (total - s0).max(1e-9);
-        if share <= 0.0 {
-            return Ok(fallback(
-                route,
-                format!(
-                    "OMPL ran out of the {} ms budget at chunk {} of {}; returning the route polyline",
-                    cfg.budget_ms,
-                    k + 1,
-                    marks.len() - 1
-                ),
-            ));
-        }
-        let (a, b) = (point_at(poly, s0), point_at(poly, s1));
-        let piece = crate::route::sub_polyline(poly, s0, s1);
-        let [lo, hi] = scene::geom::bounds(&piece);
-        let pad = cfg.corridor_half_width_m;
-        let req = bridge::PlanRequest {
-            start_x: a[0],
-            start_y: a[1],
-            start_yaw: heading(poly, s0),
-            goal_x: b[0],
-            goal_y: b[1],
-            goal_yaw: heading(poly, s1),
-            min_x: lo[0] - pad,
-            min_y: lo[1] - pad,
-            max_x: hi[0] + pad,
-            max_y: hi[1] + pad,
-            turning_radius: cfg.turning_radius_m,
-            reverse_allowed: cfg.reverse_allowed,
-            budget_secs: share / 1e3,
-            check_step_m: CHECK_STEP_M,
-            // tight, so consecutive chunks join without a jump
-            goal_tolerance: 0.05,
-            range: (s1 - s0).clamp(5.0, 25.0),
-            sample_step: cfg.sample_step_m,
-            cost_threshold: cfg.good_enough_ratio * (s1 - s0),
-            seed: cfg.seed,
-        };
+    let n_chunks = marks.len() - 1;
+    // each chunk's problem: its ends on the route with the route's headings, its bounds
+    let requests: Vec<(f64, bridge::PlanRequest)> = marks
+        .windows(2)
+        .map(|w| {
+            let (s0, s1) = (w[0], w[1]);
+            let (a, b) = (point_at(poly, s0), point_at(poly, s1));
+            let piece = crate::route::sub_polyline(poly, s0, s1);
+            let [lo, hi] = scene::geom::bounds(&piece);
+            let pad = cfg.corridor_half_width_m;
+            let req = bridge::PlanRequest {
+                start_x: a[0],
+                start_y: a[1],
+                start_yaw: heading(poly, s0),
+                goal_x: b[0],
+                goal_y: b[1],
+                goal_yaw: heading(poly, s1),
+                min_x: lo[0] - pad,
+                min_y: lo[1] - pad,
+                max_x: hi[0] + pad,
+                max_y: hi[1] + pad,
+                turning_radius: cfg.turning_radius_m,
+                reverse_allowed: cfg.reverse_allowed,
+                budget_secs: 0.0,
+                check_step_m: CHECK_STEP_M,
+                // tight, so consecutive chunks join without a jump
+                goal_tolerance: 0.05,
+                range: (s1 - s0).clamp(5.0, 25.0),
+                sample_step: cfg.sample_step_m,
+                cost_threshold: cfg.good_enough_ratio * (s1 - s0),
+                seed: cfg.seed,
+            };
+            (s1 - s0, req)
+        })
+        .collect();
+    let checker = |req: &bridge::PlanRequest| {
         let bounds = (req.min_x, req.min_y, req.max_x, req.max_y);
         let val = validity.clone();
-        let checker = Checker {
+        Checker {
             f: Box::new(move |x, y, _yaw| {
                 x >= bounds.0
                     && y >= bounds.1
@@ -414,20 +433,86 @@ pub fn plan_path_on(
                     && y <= bounds.3
                     && val.is_valid([x, y])
             }),
+        }
+    };
+    let started = std::time::Instant::now();
+    // first every chunk deterministically (milliseconds), then RRT* on the chunks that failed,
+    // the whole budget shared among them by length
+    let mut found: Vec<Option<bridge::PlanResult>> = (0..n_chunks).map(|_| None).collect();
+    let mut follow_name = String::new();
+    if cfg.refinement != Refinement::RrtOnly {
+        for (k, w) in marks.windows(2).enumerate() {
+            let req = &requests[k].1;
+            // at most the chunk's share of the whole budget, by length
+            let limit_ms = cfg.budget_ms * requests[k].0 / total.max(1e-9);
+            let follow = follow_request(poly, w[0], w[1], cfg.corridor_half_width_m, limit_ms, req);
+            let res = bridge::follow_se2(&follow, &checker(req));
+            follow_name.clone_from(&res.planner);
+            if res.solved {
+                found[k] = Some(res);
+            }
+        }
+    }
+    let followed = found.iter().flatten().count();
+    if cfg.refinement == Refinement::FollowOnly && followed < n_chunks {
+        let k = found.iter().position(Option::is_none).unwrap_or(0);
+        return Ok(fallback(
+            route,
+            format!(
+                "the route could not be followed at chunk {} of {} ({followed} of {n_chunks} followed); returning the route polyline",
+                k + 1,
+                n_chunks
+            ),
+        ));
+    }
+    let mut rrt_name = String::new();
+    let mut left_len: f64 = (0..n_chunks)
+        .filter(|&k| found[k].is_none())
+        .map(|k| requests[k].0)
+        .sum();
+    for k in 0..n_chunks {
+        if found[k].is_some() {
+            continue;
+        }
+        let (len, req) = &requests[k];
+        let left_ms = cfg.budget_ms - started.elapsed().as_secs_f64() * 1e3;
+        // this chunk's share of what is left, by length
+        let share = left_ms * len / left_len.max(1e-9);
+        left_len -= len;
+        if share <= 0.0 {
+            return Ok(fallback(
+                route,
+                format!(
+                    "OMPL ran out of the {} ms budget at chunk {} of {}; returning the route polyline",
+                    cfg.budget_ms,
+                    k + 1,
+                    n_chunks
+                ),
+            ));
+        }
+        let req = bridge::PlanRequest {
+            budget_secs: share / 1e3,
+            ..*req
         };
-        let res = bridge::plan_se2(&req, &checker);
+        let res = bridge::plan_se2(&req, &checker(&req));
         if !res.solved {
             return Ok(fallback(
                 route,
                 format!(
-                    "OMPL found no solution for chunk {} of {} within {share:.0} ms ({}); returning the route polyline",
+                    "OMPL found no solution for chunk {} of {} within {share:.0} ms ({}; {followed} of {n_chunks} chunks followed the route); returning the route polyline",
                     k + 1,
-                    marks.len() - 1,
+                    n_chunks,
                     res.planner
                 ),
             ));
         }
-        planner = res.planner.clone();
+        rrt_name.clone_from(&res.planner);
+        found[k] = Some(res);
+    }
+    let by_rrt = n_chunks - followed;
+    let mut poses: Vec<[f64; 3]> = Vec::new();
+    let mut length = 0.0;
+    for res in found.iter().flatten() {
         length += res.length;
         for t in res.poses.chunks_exact(3) {
             let p = [t[0], t[1], t[2]];
@@ -442,15 +527,91 @@ pub fn plan_path_on(
     Ok(MotionPath {
         poses,
         length_m: length,
-        planner: format!(
-            "{planner} ({} chunk{}, simplified)",
-            marks.len() - 1,
-            if marks.len() == 2 { "" } else { "s" }
-        ),
+        planner: match (followed, by_rrt) {
+            (_, 0) => format!("{follow_name} ({followed} chunk{})", plural(followed)),
+            (0, _) => format!("{rrt_name} ({by_rrt} chunk{}, simplified)", plural(by_rrt)),
+            _ => format!(
+                "{follow_name} ({followed} chunk{}) + {rrt_name} ({by_rrt} chunk{}, simplified)",
+                plural(followed),
+                plural(by_rrt)
+            ),
+        },
         fallback: false,
         warning: None,
     })
 }
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
+
+/// The deterministic pass's request for the chunk `s0..s1` of `poly`: stations every
+/// [`FOLLOW_STEP_M`] (the chunk's ends exactly), at each the route's pose and its lateral
+/// offsets within `half_width_m - 1`, with the RRT* request's space and bounds; at most
+/// `limit_ms` of search.
+fn follow_request(
+    poly: &[[f64; 2]],
+    s0: f64,
+    s1: f64,
+    half_width_m: f64,
+    limit_ms: f64,
+    req: &bridge::PlanRequest,
+) -> bridge::FollowRequest {
+    let n = ((s1 - s0) / FOLLOW_STEP_M).ceil().max(1.0) as usize;
+    let offsets: Vec<f64> = std::iter::once(0.0)
+        .chain(
+            FOLLOW_OFFSETS_M
+                .into_iter()
+                .filter(|o| o.abs() <= half_width_m - 1.0),
+        )
+        .collect();
+    let mut poses = Vec::with_capacity(3 * (n + 1) * offsets.len());
+    for i in 0..=n {
+        let s = s0 + (s1 - s0) * i as f64 / n as f64;
+        let p = point_at(poly, s);
+        let h = heading(poly, s);
+        for o in &offsets {
+            poses.extend([p[0] - o * h.sin(), p[1] + o * h.cos(), h]);
+        }
+    }
+    bridge::FollowRequest {
+        poses,
+        lanes: offsets.len() as u32,
+        limit_secs: limit_ms.max(0.0) / 1e3,
+        min_x: req.min_x,
+        min_y: req.min_y,
+        max_x: req.max_x,
+        max_y: req.max_y,
+        turning_radius: req.turning_radius,
+        reverse_allowed: req.reverse_allowed,
+        check_step_m: req.check_step_m,
+        sample_step: req.sample_step,
+        max_skip: (FOLLOW_REACH_M / ((s1 - s0) / n as f64)).floor().max(1.0) as u32,
+        seed: req.seed,
+    }
+}
+
+/// Consecutive pieces of `poly` of about `length_m` each (sharing their ends), every vertex
+/// in at least one.
+fn route_pieces(poly: &[[f64; 2]], length_m: f64) -> Vec<&[[f64; 2]]> {
+    let mut out = Vec::new();
+    let (mut start, mut len) = (0, 0.0);
+    for i in 1..poly.len() {
+        len += dist(poly[i - 1], poly[i]);
+        if len >= length_m || i + 1 == poly.len() {
+            out.push(&poly[start..=i]);
+            (start, len) = (i, 0.0);
+        }
+    }
+    if out.is_empty() {
+        out.push(poly);
+    }
+    out
+}
+
+/// How far [`blocking_instances`] looks beyond the corridor for instances whose oriented
+/// box stands out of their points' axis-aligned box (what the spatial index holds), metres.
+pub const OBB_OVERHANG_M: f64 = 20.0;
 
 /// Classes of instances that are ground surfaces; they never block a path.
 pub const GROUND_CLASSES: [&str; 5] = ["road", "parking", "sidewalk", "other-ground", "terrain"];
@@ -464,8 +625,39 @@ pub fn blocking_instances(
     half_width_m: f64,
 ) -> Result<Vec<Obstacle>> {
     let corridor = Validity::new(&route.polyline, half_width_m, &[], 0.0);
+    // candidates from the instances' spatial index: boxes meeting the padded bounds of
+    // consecutive ~50 m pieces of the route; most of a city is nowhere near the route. The
+    // index holds the points' axis-aligned boxes, and an oriented box's corners can stand
+    // out of that (the box of an L-shaped building: by up to 9.8 m on the city, 1 m or more
+    // for a fifth of its instances), so the pad is the corridor and OBB_OVERHANG_M
+    let pad = half_width_m + OBB_OVERHANG_M;
+    let mut candidates = std::collections::BTreeSet::new();
+    for piece in route_pieces(&route.polyline, 50.0) {
+        let [lo, hi] = scene::geom::bounds(piece);
+        let (a, b) = (
+            ground.world([lo[0] - pad, lo[1] - pad], -1e6),
+            ground.world([hi[0] + pad, hi[1] + pad], 1e6),
+        );
+        let (min, max) = (
+            [a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])],
+            [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])],
+        );
+        candidates.extend(r.spatial_in_box(scene::index::INSTANCE_SPACE, min, max)?);
+    }
+    blocking_among(r, ground, &corridor, half_width_m, candidates)
+}
+
+/// The obstacles among instance nodes `ids` that reach into `corridor` (see
+/// [`blocking_instances`]), sorted by position.
+fn blocking_among(
+    r: &impl graphstore::GraphRead,
+    ground: scene::GroundFrame,
+    corridor: &Validity,
+    half_width_m: f64,
+    ids: impl IntoIterator<Item = u64>,
+) -> Result<Vec<Obstacle>> {
     let mut out = Vec::new();
-    for id in r.nodes_with_label(scene::label::INSTANCE)? {
+    for id in ids {
         let Some(inst) = InstanceRecord::read(r, id)? else {
             continue;
         };
@@ -506,4 +698,98 @@ pub fn blocking_instances(
             .then(a.min[1].total_cmp(&b.min[1]))
     });
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use graphstore::{GraphRead, Store};
+
+    /// The spatial index prunes nothing that reaches the corridor: the same obstacles as
+    /// checking every instance, for boxes of every size and orientation around a winding
+    /// route, in both ground frames.
+    #[test]
+    fn blocking_instances_by_index_equal_a_full_scan() {
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for ground in [scene::GroundFrame::KittiCam, scene::GroundFrame::Enu] {
+            let dir = tempfile::tempdir().unwrap();
+            let store = Store::create(dir.path().join("m.og")).unwrap();
+            store.set_schema(scene::opengraph_schema()).unwrap();
+            let polyline: Vec<[f64; 2]> = (0..40)
+                .map(|i| {
+                    let t = f64::from(i) * 9.0;
+                    [t, 40.0 * (t / 80.0).sin()]
+                })
+                .collect();
+            let route = Route {
+                nodes: vec![],
+                length_m: polyline_length(&polyline),
+                polyline,
+            };
+            store
+                .write(|tx| {
+                    for k in 0..600 {
+                        let c = [rnd() * 400.0 - 20.0, rnd() * 140.0 - 70.0];
+                        let (l, w) = (0.2 + rnd() * 8.0 * rnd(), 0.2 + rnd() * 3.0);
+                        let obb = OrientedBox {
+                            center: c,
+                            half_extents: [l.max(w), l.min(w)],
+                            yaw_rad: (rnd() - 0.5) * std::f64::consts::PI,
+                            height_m: [0.0, 2.0],
+                        };
+                        // the points' box inside the oriented one (as for an L-shaped
+                        // building), so corners stand out of it by up to 19 m
+                        let [mut lo, mut hi] = scene::geom::bounds(obb.corners());
+                        let shrink = (k % 4 == 0) as u8 as f64 * rnd() * 0.9;
+                        for a in 0..2 {
+                            let m = (hi[a] - lo[a]) * shrink / 2.0;
+                            (lo[a], hi[a]) = (lo[a] + m.min(9.5), hi[a] - m.min(9.5));
+                        }
+                        let (a, b) = (ground.world(lo, 0.0), ground.world(hi, 2.0));
+                        let bbox = (
+                            [a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])],
+                            [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])],
+                        );
+                        InstanceRecord {
+                            instance_id: k,
+                            caption: "a box".into(),
+                            semantic_class: "car".into(),
+                            label: None,
+                            colour: None,
+                            material: None,
+                            centroid: ground.world(c, 1.0),
+                            bbox,
+                            captions: None,
+                            feature: None,
+                            point_count: None,
+                            detection_count: None,
+                            first_frame: None,
+                            last_frame: None,
+                            source: None,
+                            detection_feature: None,
+                            obb: (k % 3 != 0).then_some(obb),
+                            tile: None,
+                        }
+                        .create(tx)?;
+                    }
+                    Ok(())
+                })
+                .unwrap();
+            let r = store.read().unwrap();
+            for half_width_m in [2.0, 6.0, 15.0] {
+                let by_index = blocking_instances(&r, ground, &route, half_width_m).unwrap();
+                let corridor = Validity::new(&route.polyline, half_width_m, &[], 0.0);
+                let all = r.nodes_with_label(scene::label::INSTANCE).unwrap();
+                let scan = blocking_among(&r, ground, &corridor, half_width_m, all).unwrap();
+                assert!(!scan.is_empty() && scan.len() < 600, "{}", scan.len());
+                assert_eq!(by_index, scan, "{ground:?}, {half_width_m} m");
+            }
+        }
+    }
 }

@@ -2,7 +2,9 @@
 //! around a blocking box; the fallback; and routing on a real Argoverse 2 map.
 
 use planner::graph::{RoadEdge, RoadNode};
-use planner::{Anchor, MotionConfig, Obstacle, RoadGraph, Validity, astar, plan_path, snap};
+use planner::{
+    Anchor, MotionConfig, Obstacle, Refinement, RoadGraph, Validity, astar, plan_path, snap,
+};
 
 fn l_graph() -> RoadGraph {
     let nodes = vec![
@@ -102,33 +104,52 @@ fn ompl_path_stays_in_the_corridor_and_respects_the_turning_radius() {
         snap(&g, [100.0, 60.0], 5.0).unwrap(),
     );
     let route = astar(&g, a, b).unwrap();
-    let cfg = MotionConfig {
-        budget_ms: 2000.0,
-        ..MotionConfig::default()
-    };
-    let path = plan_path(&route, &[], &cfg).unwrap();
-    let validity = Validity::new(
-        &route.polyline,
-        cfg.corridor_half_width_m,
-        &[],
-        cfg.obstacle_margin_m,
-    );
-    check_path(&path, &validity, &cfg, [10.0, 0.0], [100.0, 60.0]);
-    assert!(path.planner.starts_with("RRTstar"), "{}", path.planner);
-    assert!(path.length_m >= route.length_m - 2.0 * cfg.corridor_half_width_m);
+    // RRT* alone, and the default: the route followed by the car's curves, no RRT* needed
+    for (refinement, name) in [
+        (Refinement::RrtOnly, "RRTstar"),
+        (Refinement::FollowThenRrt, "follow/ReedsShepp"),
+        (Refinement::FollowOnly, "follow/ReedsShepp"),
+    ] {
+        let cfg = MotionConfig {
+            budget_ms: 2000.0,
+            refinement,
+            ..MotionConfig::default()
+        };
+        let path = plan_path(&route, &[], &cfg).unwrap();
+        let validity = Validity::new(
+            &route.polyline,
+            cfg.corridor_half_width_m,
+            &[],
+            cfg.obstacle_margin_m,
+        );
+        check_path(&path, &validity, &cfg, [10.0, 0.0], [100.0, 60.0]);
+        assert!(path.planner.starts_with(name), "{}", path.planner);
+        assert!(path.length_m >= route.length_m - 2.0 * cfg.corridor_half_width_m);
+        if refinement != Refinement::RrtOnly {
+            // deterministic: the same path again, without touching the budget
+            assert_eq!(plan_path(&route, &[], &cfg).unwrap(), path);
+            // the corner is cut by an arc of the turning radius, not driven as a right angle
+            let nearest = path
+                .poses
+                .iter()
+                .map(|p| (p[0] - 100.0).hypot(p[1]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                nearest > 1.0,
+                "the path passes {nearest:.2} m from the corner"
+            );
+        }
+    }
 }
 
 #[test]
-fn ompl_path_avoids_a_blocking_box() {
+fn only_the_blocked_chunk_is_left_to_rrt_star() {
+    // 170 m in two chunks: a truck on the first one's road, leaving a gap only beyond the
+    // deterministic pass's farthest offset (3 m; 3.3 m with the margin), the second chunk
+    // (round the corner) free
     let g = l_graph();
-    let route = astar(
-        &g,
-        snap(&g, [5.0, 0.0], 5.0).unwrap(),
-        snap(&g, [95.0, 0.0], 5.0).unwrap(),
-    )
-    .unwrap();
-    // a parked truck over the right half of the road at x = 40..48
-    let truck = Obstacle::axis_aligned([40.0, -3.0], [48.0, 1.0]);
+    let route = astar(&g, Anchor::Node(0), Anchor::Node(2)).unwrap();
+    let truck = Obstacle::axis_aligned([40.0, -7.0], [48.0, 3.0]);
     let cfg = MotionConfig {
         budget_ms: 3000.0,
         ..MotionConfig::default()
@@ -140,12 +161,74 @@ fn ompl_path_avoids_a_blocking_box() {
         &[truck],
         cfg.obstacle_margin_m,
     );
+    check_path(&path, &validity, &cfg, [0.0, 0.0], [100.0, 70.0]);
+    for p in &path.poses {
+        assert!(validity.is_valid([p[0], p[1]]), "{p:?}");
+    }
+    assert_eq!(
+        path.planner,
+        "follow/ReedsShepp (1 chunk) + RRTstar/ReedsShepp (1 chunk, simplified)"
+    );
+    // following only: the blocked chunk makes it fall back at once, naming the chunk
+    let follow_only = MotionConfig {
+        refinement: Refinement::FollowOnly,
+        ..cfg
+    };
+    let t = std::time::Instant::now();
+    let path = plan_path(&route, &[truck], &follow_only).unwrap();
+    assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
+    assert!(path.fallback);
+    let warning = path.warning.unwrap();
+    assert!(
+        warning.contains("chunk 1 of 2 (1 of 2 followed)"),
+        "{warning}"
+    );
+}
+
+#[test]
+fn ompl_path_avoids_a_blocking_box() {
+    // followed beside the route, and by RRT* alone
+    for (refinement, name) in [
+        (Refinement::FollowThenRrt, "follow/ReedsShepp (1 chunk)"),
+        (
+            Refinement::RrtOnly,
+            "RRTstar/ReedsShepp (1 chunk, simplified)",
+        ),
+    ] {
+        avoids_a_blocking_box(refinement, name);
+    }
+}
+
+fn avoids_a_blocking_box(refinement: Refinement, name: &str) {
+    let g = l_graph();
+    let route = astar(
+        &g,
+        snap(&g, [5.0, 0.0], 5.0).unwrap(),
+        snap(&g, [95.0, 0.0], 5.0).unwrap(),
+    )
+    .unwrap();
+    // a parked truck over the right half of the road at x = 40..48
+    let truck = Obstacle::axis_aligned([40.0, -3.0], [48.0, 1.0]);
+    let cfg = MotionConfig {
+        budget_ms: 3000.0,
+        refinement,
+        ..MotionConfig::default()
+    };
+    let path = plan_path(&route, &[truck], &cfg).unwrap();
+    let validity = Validity::new(
+        &route.polyline,
+        cfg.corridor_half_width_m,
+        &[truck],
+        cfg.obstacle_margin_m,
+    );
     check_path(&path, &validity, &cfg, [5.0, 0.0], [95.0, 0.0]);
+    // the route straight through the truck is refused: the path goes round it
+    assert_eq!(path.planner, name);
     for p in &path.poses {
         assert!(validity.is_valid([p[0], p[1]]));
     }
     // walk the path in 5 cm steps: it passes the truck's stretch of road and never enters the
-    // truck, so it swerved (left or right, whichever RRT* found)
+    // truck, so it swerved (left or right, whichever was found)
     let mut alongside = 0;
     for w in path.poses.windows(2) {
         let (a, b) = (w[0], w[1]);

@@ -122,14 +122,15 @@ pub fn plan(
                         .any(|p| corridor.corridor_distance(*p) <= opts.corridor_m))
         })
         .collect();
-    // one budget for both tries: at most half for the drivable areas (where a gap across the
-    // road leaves OMPL searching until its time is up), the rest for the corridor alone
+    // on the drivable areas, the route is only followed (milliseconds; where the areas have
+    // a gap across the road no search would get across it, and RRT* would spend its whole
+    // budget finding that out); if that fails, the corridor alone has the whole budget
     let t_first = Instant::now();
     let first_cfg = planner::MotionConfig {
-        budget_ms: if drivable.is_empty() {
-            cfg.budget_ms
+        refinement: if drivable.is_empty() {
+            cfg.refinement
         } else {
-            cfg.budget_ms / 2.0
+            planner::Refinement::FollowOnly
         },
         ..cfg.clone()
     };
