@@ -109,7 +109,7 @@ pub(crate) fn check(r: &ReadTxn) -> Result<Vec<String>> {
         ));
     }
     // in-memory indexes
-    let mem: &Mem = &base.mem;
+    let mem: &Mem = r.mem()?;
     for (i, want) in lists.spatial.into_iter().enumerate() {
         if mem.spatial[i].visible_entries(None) != want {
             problems.push(format!("spatial index {i} disagrees with the data"));

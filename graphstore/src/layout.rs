@@ -99,12 +99,49 @@ impl Mem {
     }
 }
 
+/// One commit's in-memory spatial, vector and text indexes, built from the store the first
+/// time a reader needs them (opening a store reads nothing for them: a one-shot `query` on a
+/// city map does not pay for decoding every indexed record), or carried over from the commit
+/// before with the writer's changes merged in.
+#[derive(Debug, Default)]
+pub(crate) struct MemSlot(std::sync::OnceLock<Arc<Mem>>);
+
+impl MemSlot {
+    /// A slot holding `mem` already.
+    pub(crate) fn built(mem: Mem) -> MemSlot {
+        let slot = MemSlot::default();
+        let _ = slot.0.set(Arc::new(mem));
+        slot
+    }
+
+    /// The indexes, if built.
+    pub(crate) fn get(&self) -> Option<&Mem> {
+        self.0.get().map(|m| &**m)
+    }
+
+    /// The indexes, built by `build` if they are not yet (two readers racing may both build;
+    /// the first to finish is kept).
+    pub(crate) fn get_or_build(
+        &self,
+        build: impl FnOnce() -> crate::Result<Mem>,
+    ) -> crate::Result<&Mem> {
+        if self.0.get().is_none() {
+            let mem = crate::mem::uncounted(build)?;
+            let _ = self.0.set(Arc::new(mem));
+        }
+        self.get().ok_or_else(|| crate::Error::Corrupt {
+            what: "in-memory indexes".into(),
+            detail: "not kept after building".into(),
+        })
+    }
+}
+
 /// Everything a transaction needs from the last commit.
 #[derive(Debug)]
 pub struct Committed {
     pub(crate) tokens: Arc<Tokens>,
     pub(crate) schema: Arc<Compiled>,
-    pub(crate) mem: Arc<Mem>,
+    pub(crate) mem: MemSlot,
     /// Commits since the store was opened (see [`crate::Store::commit_seq`]).
     pub(crate) seq: u64,
     /// In-memory copies of hot tables for this commit's readers, built on demand.

@@ -19,6 +19,9 @@ pub(crate) type AdjRow = ((u64, u8, u32, u64), u64);
 pub(crate) trait Raw {
     fn base(&self) -> &Arc<Committed>;
     fn pending_mem(&self) -> Option<&PendingMem>;
+    /// The base commit's in-memory indexes (built on first use by a reader; a writer's base
+    /// has them built before it starts).
+    fn mem(&self) -> Result<&crate::layout::Mem>;
     fn token(&self, kind: TokenKind, name: &str) -> Option<u32>;
     fn token_name(&self, id: u32) -> Option<String>;
     fn load_rec(&self, id: u64) -> Result<Option<NodeRec>>;
@@ -115,7 +118,7 @@ impl VectorSearch for FlatVectorIndex<'_> {
         }
         let i = self.slot;
         Ok(vector::top_k(
-            &raw.base().mem.vector[i],
+            &raw.mem()?.vector[i],
             raw.pending_mem().map(|p| &p.vector[i]),
             query,
             k,
@@ -371,7 +374,7 @@ pub trait GraphRead {
         let raw = self.view().raw;
         let i = raw.base().schema.spatial_by_name(index)?;
         Ok(spatial::in_box(
-            &raw.base().mem.spatial[i],
+            &raw.mem()?.spatial[i],
             raw.pending_mem().map(|p| &p.spatial[i]),
             (min, max),
         ))
@@ -462,7 +465,7 @@ pub trait GraphRead {
         let raw = self.view().raw;
         let i = raw.base().schema.text_by_name(index)?;
         Ok(text::search(
-            &raw.base().mem.text[i],
+            &raw.mem()?.text[i],
             raw.pending_mem().map(|p| &p.text[i]),
             query,
             k,
@@ -535,7 +538,7 @@ fn spatial_hits(
 ) -> Result<Vec<Hit>> {
     let i = v.raw.base().schema.spatial_by_name(index)?;
     let hits = search(
-        &v.raw.base().mem.spatial[i],
+        &v.raw.mem()?.spatial[i],
         v.raw.pending_mem().map(|p| &p.spatial[i]),
     );
     Ok(hits

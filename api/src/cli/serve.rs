@@ -136,6 +136,8 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
     } else {
         Some(open_llm(&cfg, "serve --llm")?)
     };
+    // the in-memory spatial, vector and text indexes now, not in the first request
+    first.store().warm_indexes()?;
     // the readers, then (where writes are on) the writer's own toolbox, sharing one map view
     // per commit and the caches
     let service = api::builder::ServiceBuilder::new()

@@ -275,6 +275,9 @@ impl Raw for ReadTxn {
     fn pending_mem(&self) -> Option<&PendingMem> {
         None
     }
+    fn mem(&self) -> Result<&crate::layout::Mem> {
+        self.base.mem.get_or_build(|| crate::store::build_mem(self))
+    }
     fn token(&self, kind: TokenKind, name: &str) -> Option<u32> {
         self.base.tokens.get(kind, name)
     }
@@ -290,6 +293,12 @@ impl Raw for WriteTxn<'_> {
     }
     fn pending_mem(&self) -> Option<&PendingMem> {
         Some(&self.pending)
+    }
+    fn mem(&self) -> Result<&crate::layout::Mem> {
+        self.base
+            .mem
+            .get()
+            .ok_or_else(|| corrupt("in-memory indexes", "the writer's base has none built"))
     }
     fn token(&self, kind: TokenKind, name: &str) -> Option<u32> {
         self.base
