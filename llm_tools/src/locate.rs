@@ -380,11 +380,15 @@ pub fn locate_normed(
         .iter()
         .map(|s| s.area.standing_spots(SPOT_STEP_M))
         .collect();
+    // each segment's spots' bounds: a candidate farther than TOGETHER_M from them is
+    // farther from every spot, and most of a city's candidates are (box_gap is a lower bound)
+    let spot_bounds: Vec<[[f64; 2]; 2]> = spots.iter().map(scene::geom::bounds).collect();
     let near_spots = |spots: &[[f64; 2]], q: [f64; 2]| {
         spots
             .iter()
-            .map(|p| (q[0] - p[0]).hypot(q[1] - p[1]))
+            .map(|p| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2))
             .fold(f64::INFINITY, f64::min)
+            .sqrt()
     };
     // how common each landmark is: the share of segments with a good match in reach
     let n_segments = norms.segments.unwrap_or(segments.len());
@@ -394,9 +398,13 @@ pub fn locate_normed(
         .map(|(cs, &li)| {
             let own = spots
                 .iter()
-                .filter(|sp| {
-                    cs.iter()
-                        .any(|&(i, g)| g > 0.5 && near_spots(sp, ground[i]) <= TOGETHER_M)
+                .zip(&spot_bounds)
+                .filter(|(sp, b)| {
+                    cs.iter().any(|&(i, g)| {
+                        g > 0.5
+                            && scene::area::box_gap(b, ground[i]) <= TOGETHER_M
+                            && near_spots(sp, ground[i]) <= TOGETHER_M
+                    })
                 })
                 .count();
             stats.hits[li] = own;
@@ -417,12 +425,18 @@ pub fn locate_normed(
         let kind_match = desc.segment.map(|c| c.admits(&s.kind));
         // only candidates in reach of the segment can count (at 25 m beyond the 15 m a
         // landmark keeps under 0.01 of its value)
+        // (the area's bounds first: the gap to them is a lower bound of the distance, and
+        // 1 cm of slack covers the f32 of a disc's distance)
+        let reach = s.area.bounds();
         let local: Vec<Vec<(usize, f64)>> = cands
             .iter()
             .map(|cs| {
                 cs.iter()
                     .copied()
-                    .filter(|&(i, _)| s.area.distance(ground[i]) <= TOGETHER_M + 25.0)
+                    .filter(|&(i, _)| {
+                        scene::area::box_gap(&reach, ground[i]) <= TOGETHER_M + 25.01
+                            && s.area.distance(ground[i]) <= TOGETHER_M + 25.0
+                    })
                     .collect()
             })
             .collect();
