@@ -66,15 +66,35 @@ void emit(ogeo::PathGeometric &path, double sample_step, PlanResult &out) {
   out.exact = true;
 }
 
-} // namespace
-
-PlanResult follow_se2(const FollowRequest &req, const Checker &checker) {
-  init(req.seed);
+// An unsolved result named `planner`, after seeding OMPL (once per process).
+PlanResult unsolved(std::uint32_t seed, const char *planner) {
+  init(seed);
   PlanResult out;
   out.solved = false;
   out.exact = false;
   out.length = 0.0;
-  out.planner = req.reverse_allowed ? "follow/ReedsShepp" : "follow/Dubins";
+  out.planner = planner;
+  return out;
+}
+
+// Asks `checker` whether each state is valid, every `check_step_m` along a motion. OMPL's
+// motion validator calls only this checker, so it must enforce bounds itself (the Rust side
+// does).
+void check_with(ob::SpaceInformation &si, const Checker &checker, double check_step_m) {
+  si.setStateValidityChecker([&checker](const ob::State *s) {
+    const auto *st = s->as<ob::SE2StateSpace::StateType>();
+    return checker.is_valid(st->getX(), st->getY(), st->getYaw());
+  });
+  // an absolute step along motions, whatever the size of the space
+  si.setStateValidityCheckingResolution(
+      std::min(1.0, check_step_m / si.getStateSpace()->getMaximumExtent()));
+}
+
+} // namespace
+
+PlanResult follow_se2(const FollowRequest &req, const Checker &checker) {
+  PlanResult out =
+      unsolved(req.seed, req.reverse_allowed ? "follow/ReedsShepp" : "follow/Dubins");
   const std::size_t lanes = req.lanes;
   const std::size_t n = lanes == 0 ? 0 : req.poses.size() / (3 * lanes);
   if (n < 2 || req.max_skip < 1) {
@@ -84,12 +104,7 @@ PlanResult follow_se2(const FollowRequest &req, const Checker &checker) {
   auto space = car_space(req.turning_radius, req.reverse_allowed, req.min_x, req.min_y,
                          req.max_x, req.max_y);
   auto si = std::make_shared<ob::SpaceInformation>(space);
-  si->setStateValidityChecker([&checker](const ob::State *s) {
-    const auto *st = s->as<ob::SE2StateSpace::StateType>();
-    return checker.is_valid(st->getX(), st->getY(), st->getYaw());
-  });
-  si->setStateValidityCheckingResolution(
-      std::min(1.0, req.check_step_m / space->getMaximumExtent()));
+  check_with(*si, checker, req.check_step_m);
   si->setup();
   // node (i, k): station i along the route, lateral offset k (0 is the route itself)
   std::vector<ob::ScopedState<ob::SE2StateSpace>> states;
@@ -164,25 +179,13 @@ PlanResult follow_se2(const FollowRequest &req, const Checker &checker) {
 }
 
 PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
-  init(req.seed);
-  PlanResult out;
-  out.solved = false;
-  out.exact = false;
-  out.length = 0.0;
-  out.planner = req.reverse_allowed ? "RRTstar/ReedsShepp" : "RRTstar/Dubins";
+  PlanResult out =
+      unsolved(req.seed, req.reverse_allowed ? "RRTstar/ReedsShepp" : "RRTstar/Dubins");
   auto space = car_space(req.turning_radius, req.reverse_allowed, req.min_x, req.min_y,
                          req.max_x, req.max_y);
 
   ogeo::SimpleSetup ss(space);
-  // OMPL's motion validator calls only this checker, so it must enforce bounds itself (the
-  // Rust side does).
-  ss.setStateValidityChecker([&checker](const ob::State *s) {
-    const auto *st = s->as<ob::SE2StateSpace::StateType>();
-    return checker.is_valid(st->getX(), st->getY(), st->getYaw());
-  });
-  // an absolute step along motions, whatever the size of the space
-  ss.getSpaceInformation()->setStateValidityCheckingResolution(
-      std::min(1.0, req.check_step_m / space->getMaximumExtent()));
+  check_with(*ss.getSpaceInformation(), checker, req.check_step_m);
   ob::ScopedState<ob::SE2StateSpace> start(space), goal(space);
   start->setXY(req.start_x, req.start_y);
   start->setYaw(req.start_yaw);
