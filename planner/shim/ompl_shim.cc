@@ -35,19 +35,18 @@ void init(std::uint32_t seed) {
 }
 
 // The car's state space: Reeds-Shepp (reverse allowed) or Dubins, within the bounds.
-ob::StateSpacePtr car_space(double turning_radius, bool reverse_allowed, double min_x,
-                            double min_y, double max_x, double max_y) {
+ob::StateSpacePtr car_space(const CarSpace &car) {
   ob::StateSpacePtr space;
-  if (reverse_allowed) {
-    space = std::make_shared<ob::ReedsSheppStateSpace>(turning_radius);
+  if (car.reverse_allowed) {
+    space = std::make_shared<ob::ReedsSheppStateSpace>(car.turning_radius);
   } else {
-    space = std::make_shared<ob::DubinsStateSpace>(turning_radius);
+    space = std::make_shared<ob::DubinsStateSpace>(car.turning_radius);
   }
   ob::RealVectorBounds bounds(2);
-  bounds.setLow(0, min_x);
-  bounds.setLow(1, min_y);
-  bounds.setHigh(0, max_x);
-  bounds.setHigh(1, max_y);
+  bounds.setLow(0, car.min_x);
+  bounds.setLow(1, car.min_y);
+  bounds.setHigh(0, car.max_x);
+  bounds.setHigh(1, car.max_y);
   space->as<ob::SE2StateSpace>()->setBounds(bounds);
   return space;
 }
@@ -94,17 +93,17 @@ void check_with(ob::SpaceInformation &si, const Checker &checker, double check_s
 
 PlanResult follow_se2(const FollowRequest &req, const Checker &checker) {
   PlanResult out =
-      unsolved(req.seed, req.reverse_allowed ? "follow/ReedsShepp" : "follow/Dubins");
+      unsolved(req.space.seed,
+               req.space.reverse_allowed ? "follow/ReedsShepp" : "follow/Dubins");
   const std::size_t lanes = req.lanes;
   const std::size_t n = lanes == 0 ? 0 : req.poses.size() / (3 * lanes);
   if (n < 2 || req.max_skip < 1) {
     return out;
   }
   const auto t0 = std::chrono::steady_clock::now();
-  auto space = car_space(req.turning_radius, req.reverse_allowed, req.min_x, req.min_y,
-                         req.max_x, req.max_y);
+  auto space = car_space(req.space);
   auto si = std::make_shared<ob::SpaceInformation>(space);
-  check_with(*si, checker, req.check_step_m);
+  check_with(*si, checker, req.space.check_step_m);
   si->setup();
   // node (i, k): station i along the route, lateral offset k (0 is the route itself)
   std::vector<ob::ScopedState<ob::SE2StateSpace>> states;
@@ -174,18 +173,18 @@ PlanResult follow_se2(const FollowRequest &req, const Checker &checker) {
   for (const Frame &f : stack) {
     path.append(states[f.v].get());
   }
-  emit(path, req.sample_step, out);
+  emit(path, req.space.sample_step, out);
   return out;
 }
 
 PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
   PlanResult out =
-      unsolved(req.seed, req.reverse_allowed ? "RRTstar/ReedsShepp" : "RRTstar/Dubins");
-  auto space = car_space(req.turning_radius, req.reverse_allowed, req.min_x, req.min_y,
-                         req.max_x, req.max_y);
+      unsolved(req.space.seed,
+               req.space.reverse_allowed ? "RRTstar/ReedsShepp" : "RRTstar/Dubins");
+  auto space = car_space(req.space);
 
   ogeo::SimpleSetup ss(space);
-  check_with(*ss.getSpaceInformation(), checker, req.check_step_m);
+  check_with(*ss.getSpaceInformation(), checker, req.space.check_step_m);
   ob::ScopedState<ob::SE2StateSpace> start(space), goal(space);
   start->setXY(req.start_x, req.start_y);
   start->setYaw(req.start_yaw);
@@ -215,7 +214,7 @@ PlanResult plan_se2(const PlanRequest &req, const Checker &checker) {
   if (left > 0.0) {
     ss.simplifySolution(left);
   }
-  emit(ss.getSolutionPath(), req.sample_step, out);
+  emit(ss.getSolutionPath(), req.space.sample_step, out);
   return out;
 }
 

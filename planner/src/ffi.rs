@@ -17,27 +17,37 @@ impl Checker {
 
 #[cxx::bridge(namespace = "og")]
 pub(crate) mod bridge {
-    /// One SE(2) planning problem.
-    struct PlanRequest {
-        start_x: f64,
-        start_y: f64,
-        start_yaw: f64,
-        goal_x: f64,
-        goal_y: f64,
-        goal_yaw: f64,
+    /// The car's state space and how paths in it are checked and sampled, shared by both
+    /// requests: Reeds-Shepp (reverse allowed) or Dubins curves of `turning_radius` metres
+    /// within the ground bounds, valid states asked of the [`Checker`] every `check_step_m`
+    /// along a motion, the answer's poses every `sample_step` metres, OMPL seeded once with
+    /// `seed`.
+    #[derive(Clone, Copy)]
+    struct CarSpace {
         min_x: f64,
         min_y: f64,
         max_x: f64,
         max_y: f64,
         turning_radius: f64,
         reverse_allowed: bool,
-        budget_secs: f64,
         check_step_m: f64,
+        sample_step: f64,
+        seed: u32,
+    }
+
+    /// One SE(2) planning problem.
+    struct PlanRequest {
+        space: CarSpace,
+        start_x: f64,
+        start_y: f64,
+        start_yaw: f64,
+        goal_x: f64,
+        goal_y: f64,
+        goal_yaw: f64,
+        budget_secs: f64,
         goal_tolerance: f64,
         range: f64,
-        sample_step: f64,
         cost_threshold: f64,
-        seed: u32,
     }
 
     /// Poses to follow: `lanes` poses (flattened x, y, yaw triples) at each station along
@@ -47,19 +57,11 @@ pub(crate) mod bridge {
     /// reaches through valid states (depth first, so a dead end is backed out of); the search
     /// gives up after `limit_secs`.
     struct FollowRequest {
+        space: CarSpace,
         poses: Vec<f64>,
         lanes: u32,
         limit_secs: f64,
-        min_x: f64,
-        min_y: f64,
-        max_x: f64,
-        max_y: f64,
-        turning_radius: f64,
-        reverse_allowed: bool,
-        check_step_m: f64,
-        sample_step: f64,
         max_skip: u32,
-        seed: u32,
     }
 
     /// What OMPL found: poses flattened as x, y, yaw triples.

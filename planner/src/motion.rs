@@ -398,32 +398,34 @@ pub fn plan_path_on(
             let [lo, hi] = scene::geom::bounds(&piece);
             let pad = cfg.corridor_half_width_m;
             let req = bridge::PlanRequest {
+                space: bridge::CarSpace {
+                    min_x: lo[0] - pad,
+                    min_y: lo[1] - pad,
+                    max_x: hi[0] + pad,
+                    max_y: hi[1] + pad,
+                    turning_radius: cfg.turning_radius_m,
+                    reverse_allowed: cfg.reverse_allowed,
+                    check_step_m: CHECK_STEP_M,
+                    sample_step: cfg.sample_step_m,
+                    seed: cfg.seed,
+                },
                 start_x: a[0],
                 start_y: a[1],
                 start_yaw: heading(poly, s0),
                 goal_x: b[0],
                 goal_y: b[1],
                 goal_yaw: heading(poly, s1),
-                min_x: lo[0] - pad,
-                min_y: lo[1] - pad,
-                max_x: hi[0] + pad,
-                max_y: hi[1] + pad,
-                turning_radius: cfg.turning_radius_m,
-                reverse_allowed: cfg.reverse_allowed,
                 budget_secs: 0.0,
-                check_step_m: CHECK_STEP_M,
                 // tight, so consecutive chunks join without a jump
                 goal_tolerance: 0.05,
                 range: (s1 - s0).clamp(5.0, 25.0),
-                sample_step: cfg.sample_step_m,
                 cost_threshold: cfg.good_enough_ratio * (s1 - s0),
-                seed: cfg.seed,
             };
             (s1 - s0, req)
         })
         .collect();
-    let checker = |req: &bridge::PlanRequest| {
-        let bounds = (req.min_x, req.min_y, req.max_x, req.max_y);
+    let checker = |space: &bridge::CarSpace| {
+        let bounds = (space.min_x, space.min_y, space.max_x, space.max_y);
         let val = validity.clone();
         Checker {
             f: Box::new(move |x, y, _yaw| {
@@ -445,8 +447,15 @@ pub fn plan_path_on(
             let req = &requests[k].1;
             // at most the chunk's share of the whole budget, by length
             let limit_ms = cfg.budget_ms * requests[k].0 / total.max(1e-9);
-            let follow = follow_request(poly, w[0], w[1], cfg.corridor_half_width_m, limit_ms, req);
-            let res = bridge::follow_se2(&follow, &checker(req));
+            let follow = follow_request(
+                poly,
+                w[0],
+                w[1],
+                cfg.corridor_half_width_m,
+                limit_ms,
+                &req.space,
+            );
+            let res = bridge::follow_se2(&follow, &checker(&req.space));
             follow_name.clone_from(&res.planner);
             if res.solved {
                 found[k] = Some(res);
@@ -494,7 +503,7 @@ pub fn plan_path_on(
             budget_secs: share / 1e3,
             ..*req
         };
-        let res = bridge::plan_se2(&req, &checker(&req));
+        let res = bridge::plan_se2(&req, &checker(&req.space));
         if !res.solved {
             return Ok(fallback(
                 route,
@@ -547,7 +556,7 @@ fn plural(n: usize) -> &'static str {
 
 /// The deterministic pass's request for the chunk `s0..s1` of `poly`: stations every
 /// [`FOLLOW_STEP_M`] (the chunk's ends exactly), at each the route's pose and its lateral
-/// offsets within `half_width_m - 1`, with the RRT* request's space and bounds; at most
+/// offsets within `half_width_m - 1`, in the RRT* request's car `space`; at most
 /// `limit_ms` of search.
 fn follow_request(
     poly: &[[f64; 2]],
@@ -555,7 +564,7 @@ fn follow_request(
     s1: f64,
     half_width_m: f64,
     limit_ms: f64,
-    req: &bridge::PlanRequest,
+    space: &bridge::CarSpace,
 ) -> bridge::FollowRequest {
     let n = ((s1 - s0) / FOLLOW_STEP_M).ceil().max(1.0) as usize;
     let offsets: Vec<f64> = std::iter::once(0.0)
@@ -575,19 +584,11 @@ fn follow_request(
         }
     }
     bridge::FollowRequest {
+        space: *space,
         poses,
         lanes: offsets.len() as u32,
         limit_secs: limit_ms.max(0.0) / 1e3,
-        min_x: req.min_x,
-        min_y: req.min_y,
-        max_x: req.max_x,
-        max_y: req.max_y,
-        turning_radius: req.turning_radius,
-        reverse_allowed: req.reverse_allowed,
-        check_step_m: req.check_step_m,
-        sample_step: req.sample_step,
         max_skip: (FOLLOW_REACH_M / ((s1 - s0) / n as f64)).floor().max(1.0) as u32,
-        seed: req.seed,
     }
 }
 
