@@ -20,6 +20,9 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         unreachable!("run dispatches only Command::Find here")
     };
     let store = open_read(&db)?;
+    // it searches the vector and spatial indexes: built now (opening builds none), so the answer's timings are the
+    // work of the request alone, as when served
+    store.warm_indexes()?;
     let r = store.read()?;
     let ranking = rank.ranking();
     let rerank_n = rank.rerank_n;
