@@ -1,7 +1,5 @@
 //! Point-set geometry for mapping: voxel down-sampling, 3D DBSCAN, axis-aligned boxes.
 
-use std::collections::HashMap;
-
 /// Integer voxel coordinates of a point.
 pub type VoxelKey = [i32; 3];
 
@@ -23,74 +21,247 @@ pub fn voxel_downsample_flagged(
     flags: &[bool],
     voxel_m: f32,
 ) -> (Vec<[f32; 3]>, Vec<bool>) {
-    let mut acc: HashMap<VoxelKey, ([f64; 3], u32, u32)> = HashMap::with_capacity(points.len() / 2);
-    for (i, p) in points.iter().enumerate() {
-        let e = acc
-            .entry(voxel_key(*p, voxel_m))
-            .or_insert(([0.0; 3], 0, 0));
-        for (s, c) in e.0.iter_mut().zip(p) {
-            *s += f64::from(*c);
-        }
-        e.1 += 1;
-        e.2 += u32::from(flags.get(i).copied().unwrap_or(false));
-    }
-    let mut cells: Vec<(VoxelKey, [f32; 3], bool)> = acc
-        .into_iter()
-        .map(|(k, (s, n, f))| (k, s.map(|c| (c / f64::from(n)) as f32), 2 * f >= n))
+    // sorted by voxel, then by input index, so each voxel's points are summed in input order
+    let mut keyed: Vec<(VoxelKey, u32)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (voxel_key(*p, voxel_m), i as u32))
         .collect();
-    cells.sort_unstable_by_key(|c| c.0);
-    cells.into_iter().map(|c| (c.1, c.2)).unzip()
+    keyed.sort_unstable();
+    let mut out = Vec::new();
+    let mut out_flags = Vec::new();
+    for run in keyed.chunk_by(|a, b| a.0 == b.0) {
+        let mut s = [0.0f64; 3];
+        let mut f = 0u32;
+        for (_, i) in run {
+            let p = points[*i as usize];
+            for (s, c) in s.iter_mut().zip(p) {
+                *s += f64::from(c);
+            }
+            f += u32::from(flags.get(*i as usize).copied().unwrap_or(false));
+        }
+        let n = run.len() as u32;
+        out.push(s.map(|c| (c / f64::from(n)) as f32));
+        out_flags.push(2 * f >= n);
+    }
+    (out, out_flags)
 }
+
+/// Points of a DBSCAN run in cells of `eps` metres, sorted by cell: coordinates in struct-of-
+/// arrays form and each cell's range, for neighbourhood queries without hashing.
+struct EpsCells {
+    keys: Vec<VoxelKey>,
+    /// `starts[c]..starts[c + 1]` are cell `c`'s positions.
+    starts: Vec<u32>,
+    /// The input index at each position.
+    index: Vec<u32>,
+    /// The position of each input index.
+    position: Vec<u32>,
+    xyz: [Vec<f32>; 3],
+}
+
+impl EpsCells {
+    fn new(points: &[[f32; 3]], cell_m: f32) -> EpsCells {
+        let mut keyed: Vec<(VoxelKey, u32)> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (voxel_key(*p, cell_m), i as u32))
+            .collect();
+        keyed.sort_unstable();
+        let mut keys = Vec::new();
+        let mut starts = Vec::new();
+        for (k, (key, _)) in keyed.iter().enumerate() {
+            if keys.last() != Some(key) {
+                keys.push(*key);
+                starts.push(k as u32);
+            }
+        }
+        starts.push(keyed.len() as u32);
+        let index: Vec<u32> = keyed.iter().map(|k| k.1).collect();
+        let mut position = vec![0u32; points.len()];
+        for (k, i) in index.iter().enumerate() {
+            position[*i as usize] = k as u32;
+        }
+        let xyz = [0, 1, 2].map(|a| index.iter().map(|i| points[*i as usize][a]).collect());
+        EpsCells {
+            keys,
+            starts,
+            index,
+            position,
+            xyz,
+        }
+    }
+
+    /// The cell at `key + offset`, if it holds points.
+    fn neighbour(&self, c: usize, offset: [i32; 3]) -> Option<usize> {
+        let k = self.keys[c];
+        let key = [
+            k[0].checked_add(offset[0])?,
+            k[1].checked_add(offset[1])?,
+            k[2].checked_add(offset[2])?,
+        ];
+        self.keys.binary_search(&key).ok()
+    }
+
+    fn range(&self, c: usize) -> std::ops::Range<usize> {
+        self.starts[c] as usize..self.starts[c + 1] as usize
+    }
+
+    /// Squared distance between two positions, summed as `dbscan3` has always summed it.
+    #[inline]
+    fn d2(&self, a: usize, b: usize) -> f32 {
+        let [x, y, z] = &self.xyz;
+        (x[b] - x[a]).powi(2) + (y[b] - y[a]).powi(2) + (z[b] - z[a]).powi(2)
+    }
+}
+
+/// The 13 cell offsets after `[0, 0, 0]` in lexicographic order: each pair of neighbouring
+/// cells is visited once, from the first.
+const FORWARD: [[i32; 3]; 13] = [
+    [0, 0, 1],
+    [0, 1, -1],
+    [0, 1, 0],
+    [0, 1, 1],
+    [1, -1, -1],
+    [1, -1, 0],
+    [1, -1, 1],
+    [1, 0, -1],
+    [1, 0, 0],
+    [1, 0, 1],
+    [1, 1, -1],
+    [1, 1, 0],
+    [1, 1, 1],
+];
+
+/// Above this many neighbour pairs DBSCAN does not keep them but asks each core point's
+/// neighbourhood again while it expands a cluster (8M pairs are 64 MB).
+const DBSCAN_MAX_PAIRS: usize = 8 << 20;
 
 /// DBSCAN over 3D points (`min_samples` counts the point itself, as scikit-learn does).
 /// Returns each point's cluster, `None` for noise; clusters are numbered in order of their
-/// first core point.
+/// first core point (in input order), and a border point belongs to the first cluster that
+/// reaches it, so the result does not depend on how neighbourhoods are searched.
+///
+/// Ester et al., "A density-based algorithm for discovering clusters", KDD 1996. Points go
+/// into cells of `eps_m` sorted by cell; each pair of points in neighbouring cells is
+/// measured once (13 forward cells and the cell itself), which counts every point's
+/// neighbours and, up to [`DBSCAN_MAX_PAIRS`], keeps the pairs for the expansion.
 pub fn dbscan3(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<Option<usize>> {
-    let cell = eps_m.max(1e-6);
-    let mut grid: HashMap<VoxelKey, Vec<u32>> = HashMap::new();
-    for (i, p) in points.iter().enumerate() {
-        grid.entry(voxel_key(*p, cell)).or_default().push(i as u32);
-    }
+    dbscan3_capped(points, eps_m, min_samples, DBSCAN_MAX_PAIRS)
+}
+
+/// [`dbscan3`] keeping at most `max_pairs` neighbour pairs.
+fn dbscan3_capped(
+    points: &[[f32; 3]],
+    eps_m: f32,
+    min_samples: usize,
+    max_pairs: usize,
+) -> Vec<Option<usize>> {
+    let n = points.len();
+    let cells = EpsCells::new(points, eps_m.max(1e-6));
     let eps2 = eps_m * eps_m;
-    let region = |i: usize, out: &mut Vec<u32>| {
+    // neighbours per position, the point itself included
+    let mut degree = vec![1u32; n];
+    let mut pairs: Option<Vec<(u32, u32)>> = Some(Vec::new());
+    for c in 0..cells.keys.len() {
+        let own = cells.range(c);
+        let mut others: Vec<std::ops::Range<usize>> = Vec::with_capacity(13);
+        others.extend(
+            FORWARD
+                .iter()
+                .filter_map(|o| cells.neighbour(c, *o).map(|d| cells.range(d))),
+        );
+        for a in own.clone() {
+            let mut visit = |b: usize| {
+                if cells.d2(a, b) <= eps2 {
+                    degree[a] += 1;
+                    degree[b] += 1;
+                    if let Some(p) = &mut pairs {
+                        if p.len() < max_pairs {
+                            p.push((a as u32, b as u32));
+                        } else {
+                            pairs = None;
+                        }
+                    }
+                }
+            };
+            for b in a + 1..own.end {
+                visit(b);
+            }
+            for r in &others {
+                for b in r.clone() {
+                    visit(b);
+                }
+            }
+        }
+    }
+    // the kept pairs as adjacency lists by position
+    let adjacency = pairs.map(|pairs| {
+        let mut offsets = vec![0u32; n + 1];
+        for (a, b) in &pairs {
+            offsets[*a as usize + 1] += 1;
+            offsets[*b as usize + 1] += 1;
+        }
+        for k in 0..n {
+            offsets[k + 1] += offsets[k];
+        }
+        let mut fill = offsets.clone();
+        let mut list = vec![0u32; offsets[n] as usize];
+        for (a, b) in pairs {
+            list[fill[a as usize] as usize] = b;
+            fill[a as usize] += 1;
+            list[fill[b as usize] as usize] = a;
+            fill[b as usize] += 1;
+        }
+        (offsets, list)
+    });
+    // the positions within eps of position `a`, itself left out
+    let region = |a: usize, out: &mut Vec<u32>| {
         out.clear();
-        let p = points[i];
-        let k = voxel_key(p, cell);
+        if let Some((offsets, list)) = &adjacency {
+            out.extend_from_slice(&list[offsets[a] as usize..offsets[a + 1] as usize]);
+            return;
+        }
+        let c = cells.starts.partition_point(|s| *s as usize <= a) - 1;
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
-                    if let Some(v) = grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
-                        out.extend(v.iter().copied().filter(|&j| {
-                            let q = points[j as usize];
-                            (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2)
-                                <= eps2
-                        }));
+                    if let Some(d) = cells.neighbour(c, [dx, dy, dz]) {
+                        out.extend(
+                            cells
+                                .range(d)
+                                .filter(|&b| b != a && cells.d2(a, b) <= eps2)
+                                .map(|b| b as u32),
+                        );
                     }
                 }
             }
         }
     };
-    let mut label: Vec<Option<usize>> = vec![None; points.len()];
-    let mut visited = vec![false; points.len()];
+    let is_core = |pos: usize| degree[pos] as usize >= min_samples;
+    let mut label: Vec<Option<usize>> = vec![None; n];
+    let mut visited = vec![false; n];
     let mut n_clusters = 0;
     let mut buf = Vec::new();
-    let mut queue = Vec::new();
-    for i in 0..points.len() {
+    let mut queue: Vec<u32> = Vec::new();
+    for i in 0..n {
         if visited[i] {
             continue;
         }
         visited[i] = true;
-        region(i, &mut buf);
-        if buf.len() < min_samples {
+        let p = cells.position[i] as usize;
+        if !is_core(p) {
             continue;
         }
         let c = n_clusters;
         n_clusters += 1;
         label[i] = Some(c);
+        region(p, &mut buf);
         queue.clear();
         queue.extend_from_slice(&buf);
-        while let Some(j) = queue.pop() {
-            let j = j as usize;
+        while let Some(q) = queue.pop() {
+            let q = q as usize;
+            let j = cells.index[q] as usize;
             if label[j].is_none() {
                 label[j] = Some(c);
             }
@@ -98,9 +269,13 @@ pub fn dbscan3(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<Optio
                 continue;
             }
             visited[j] = true;
-            region(j, &mut buf);
-            if buf.len() >= min_samples {
-                queue.extend(buf.iter().copied().filter(|&q| !visited[q as usize]));
+            if is_core(q) {
+                region(q, &mut buf);
+                queue.extend(
+                    buf.iter()
+                        .copied()
+                        .filter(|&b| !visited[cells.index[b as usize] as usize]),
+                );
             }
         }
     }
@@ -423,8 +598,74 @@ mod tests {
             .collect()
     }
 
+    /// DBSCAN as written before the cell search: every point's region by a scan of all points,
+    /// in input order, clusters expanded one at a time.
+    fn dbscan_reference(pts: &[[f32; 3]], eps: f32, min: usize) -> Vec<Option<usize>> {
+        let region = |i: usize| -> Vec<usize> {
+            (0..pts.len())
+                .filter(|&j| {
+                    (pts[j][0] - pts[i][0]).powi(2)
+                        + (pts[j][1] - pts[i][1]).powi(2)
+                        + (pts[j][2] - pts[i][2]).powi(2)
+                        <= eps * eps
+                })
+                .collect()
+        };
+        let mut label = vec![None; pts.len()];
+        let mut visited = vec![false; pts.len()];
+        let mut n = 0;
+        for i in 0..pts.len() {
+            if visited[i] {
+                continue;
+            }
+            visited[i] = true;
+            let r = region(i);
+            if r.len() < min {
+                continue;
+            }
+            label[i] = Some(n);
+            let mut queue = r;
+            while let Some(j) = queue.pop() {
+                if label[j].is_none() {
+                    label[j] = Some(n);
+                }
+                if visited[j] {
+                    continue;
+                }
+                visited[j] = true;
+                let r = region(j);
+                if r.len() >= min {
+                    queue.extend(r.into_iter().filter(|&q| !visited[q]));
+                }
+            }
+            n += 1;
+        }
+        label
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
+        /// The same labels as the reference, with the neighbour pairs kept and without
+        /// (neighbourhoods asked again), on lattice points (many at exactly eps) and on
+        /// scattered ones, negative coordinates included.
+        #[test]
+        fn dbscan_equals_the_region_scan(
+            lattice in proptest::collection::vec((-20i32..20, -20i32..20, -3i32..3), 0..150),
+            scattered in proptest::collection::vec((-3.0f32..3.0, -3.0f32..3.0, -1.0f32..1.0), 0..150),
+            min in 1usize..7,
+        ) {
+            let eps = 0.3f32;
+            let mut pts: Vec<[f32; 3]> = lattice
+                .iter()
+                .map(|(x, y, z)| [*x as f32 * 0.15, *y as f32 * 0.15, *z as f32 * 0.3])
+                .collect();
+            pts.extend(scattered.iter().map(|(x, y, z)| [*x, *y, *z]));
+            let want = dbscan_reference(&pts, eps, min);
+            prop_assert_eq!(&dbscan3(&pts, eps, min), &want);
+            prop_assert_eq!(&dbscan3_capped(&pts, eps, min, 0), &want);
+            prop_assert_eq!(&dbscan3_capped(&pts, eps, min, 7), &want);
+        }
+
         #[test]
         fn dbscan_matches_brute_force(pts in proptest::collection::vec(
             (0i32..40, 0i32..40, 0i32..4).prop_map(|(x, y, z)| [x as f32 * 0.13, y as f32 * 0.13, z as f32 * 0.13]), 1..120)) {
