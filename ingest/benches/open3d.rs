@@ -4,7 +4,8 @@
 //! The reference implementation (ConceptGraphs-style, Python on Open3D and numpy) maps each
 //! key frame's detections in four steps: voxel down-sample of the detection's points, DBSCAN
 //! keeping the largest cluster (then the transform to the world), association to the map's
-//! objects by 3D IoU of axis-aligned boxes plus feature cosine, greedy one-to-one, and fusion
+//! objects by 3D IoU of axis-aligned boxes plus feature cosine, greedy one-to-one (the caption
+//! term of opengraph's φ left out, since the reference has none), and fusion
 //! (the object's points plus the detection's, voxel down-sampled again; the feature a running
 //! mean). This bench
 //!
@@ -214,6 +215,9 @@ fn run(frames: &[Frame], cfg: &MappingConfig) -> (Vec<Times>, Vec<DetOut>, Vec<O
         }
         let s = Instant::now();
         let mut pairs = Vec::new();
+        // as the mapper does: when φ cannot pass without overlap (w_fea <= δ_sim), a pair of
+        // disjoint boxes is not scored
+        let need_overlap = cfg.w_fea <= cfg.sim_threshold + 1e-9;
         for (slot, (k, _, b)) in kept.iter().enumerate() {
             for (j, o) in objects.iter().enumerate() {
                 let iou = if o.bbox.intersects(b) {
@@ -221,6 +225,9 @@ fn run(frames: &[Frame], cfg: &MappingConfig) -> (Vec<Times>, Vec<DetOut>, Vec<O
                 } else {
                     0.0
                 };
+                if iou <= 0.0 && need_overlap {
+                    continue;
+                }
                 let fc = cosine(&f.dets[*k].feature, &o.feature);
                 pairs.push((slot, j, phi(w, iou, 0.0, fc)));
             }
