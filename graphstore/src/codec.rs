@@ -333,6 +333,27 @@ pub(crate) fn decode_node(buf: &[u8]) -> Result<(Vec<u32>, RawProps)> {
     Ok((labels, props))
 }
 
+/// [`decode_node`] keeping only the properties whose key is in `keep` (sorted); the others
+/// are stepped over without being decoded.
+pub(crate) fn decode_node_keys(buf: &[u8], keep: &[u32]) -> Result<(Vec<u32>, RawProps)> {
+    let mut r = Reader::new(buf, "node record");
+    let labels = read_labels(&mut r)?;
+    let n = r.len(2)?;
+    let mut props = Vec::with_capacity(keep.len().min(n));
+    for _ in 0..n {
+        let k = r.u32_varint()?;
+        if keep.binary_search(&k).is_ok() {
+            props.push((k, r.value()?));
+        } else {
+            r.skip_value_at(0)?;
+        }
+    }
+    if !r.is_empty() {
+        return Err(r.err("trailing bytes"));
+    }
+    Ok((labels, props))
+}
+
 /// Relationship record: type, start, end, properties.
 pub(crate) fn encode_rel(ty: u32, start: u64, end: u64, props: &[(u32, Value)]) -> Vec<u8> {
     let mut out = Vec::with_capacity(24 + props.len() * 12);
@@ -512,8 +533,31 @@ mod tests {
         }
 
         #[test]
+        fn a_node_decoded_for_some_keys_is_the_full_decode_filtered(
+            labels in prop::collection::btree_set(0u32..9, 0..4),
+            props in prop::collection::btree_map(0u32..12, arb_value(), 0..7),
+            keep in prop::collection::btree_set(0u32..14, 0..5),
+        ) {
+            let labels: Vec<u32> = labels.into_iter().collect();
+            let props: Vec<(u32, Value)> = props.into_iter().collect();
+            let keep: Vec<u32> = keep.into_iter().collect();
+            let buf = encode_node(&labels, &props);
+            let (l, all) = decode_node(&buf).unwrap();
+            let want: Vec<(u32, Value)> =
+                all.into_iter().filter(|(k, _)| keep.contains(k)).collect();
+            prop_assert_eq!(decode_node_keys(&buf, &keep).unwrap(), (l, want));
+            // a cut record is an error, never a panic
+            for cut in [buf.len() / 2, buf.len().saturating_sub(1)] {
+                if cut < buf.len() {
+                    prop_assert!(decode_node_keys(&buf[..cut], &keep).is_err());
+                }
+            }
+        }
+
+        #[test]
         fn decode_never_panics(bytes in prop::collection::vec(any::<u8>(), 0..64), key in 0u32..4) {
             let _ = decode_node(&bytes);
+            let _ = decode_node_keys(&bytes, &[1, 3]);
             let _ = decode_rel(&bytes);
             let _ = rel_prop(&bytes, key);
             let _ = Reader::new(&bytes, "fuzz").value();

@@ -274,6 +274,13 @@ impl NodeRec {
         let (labels, props) = codec::decode_node(bytes).map_err(in_record("node", id))?;
         Ok(NodeRec { labels, props })
     }
+
+    /// [`NodeRec::decode`] with only the properties whose key is in `keep` (sorted).
+    pub(crate) fn decode_keys(bytes: &[u8], id: u64, keep: &[u32]) -> Result<NodeRec> {
+        let (labels, props) =
+            codec::decode_node_keys(bytes, keep).map_err(in_record("node", id))?;
+        Ok(NodeRec { labels, props })
+    }
 }
 
 /// Names the record in a codec's corruption error ("node 7", "relationship 9").

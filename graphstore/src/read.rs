@@ -25,6 +25,8 @@ pub(crate) trait Raw {
     fn token(&self, kind: TokenKind, name: &str) -> Option<u32>;
     fn token_name(&self, id: u32) -> Option<String>;
     fn load_rec(&self, id: u64) -> Result<Option<NodeRec>>;
+    /// [`Raw::load_rec`] with only the properties whose key is in `keep` (sorted).
+    fn load_rec_keys(&self, id: u64, keep: &[u32]) -> Result<Option<NodeRec>>;
     fn load_rel(&self, id: u64) -> Result<Option<Relationship>>;
     /// One property of a relationship (None when it or the property is missing).
     fn load_rel_prop(&self, id: u64, key: u32) -> Result<Option<Value>>;

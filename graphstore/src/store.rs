@@ -497,13 +497,26 @@ pub(crate) fn build_mem(r: &ReadTxn) -> Result<Mem> {
         .collect();
     labels.sort_unstable();
     labels.dedup();
+    // only the indexed properties are decoded (an instance's other properties, its points'
+    // hull and boxes, are stepped over)
+    let mut keep: Vec<u32> = c
+        .spatial
+        .iter()
+        .flat_map(|s| std::iter::once(s.position).chain(s.bbox))
+        .chain(c.vector.iter().map(|v| v.key))
+        .chain(c.text.iter().map(|t| t.key))
+        .collect();
+    keep.sort_unstable();
+    keep.dedup();
     let mut seen = std::collections::HashSet::new();
     for l in labels {
         for id in r.label_scan(crate::LabelId(l))? {
             if !seen.insert(id) {
                 continue;
             }
-            let Some(rec) = r.load_rec(id)? else { continue };
+            let Some(rec) = r.load_rec_keys(id, &keep)? else {
+                continue;
+            };
             lists.add(&c, id, &rec);
         }
     }

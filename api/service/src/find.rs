@@ -281,6 +281,14 @@ impl Finder {
         Ok(scene)
     }
 
+    /// Keeps `scene`, loaded from `r`, as this finder's scene for `r`'s commit (a one-shot
+    /// command loads it beside the embedder). Inside a write transaction it is not kept.
+    pub fn keep_scene(&mut self, r: &impl GraphRead, scene: Arc<MapView>) {
+        if let Some(seq) = r.commit_seq() {
+            self.scene = Some((seq, scene));
+        }
+    }
+
     /// Shares loaded scenes with every other finder given `shared` (a server's workers):
     /// one load per commit instead of one per worker.
     pub fn share_scene(&mut self, shared: Arc<SharedScene>) {

@@ -20,13 +20,10 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         unreachable!("run dispatches only Command::Find here")
     };
     let store = open_read(&db)?;
-    // it searches the vector and spatial indexes: built now (opening builds none), so the answer's timings are the
-    // work of the request alone, as when served
-    store.warm_indexes()?;
-    let r = store.read()?;
     let ranking = rank.ranking();
     let rerank_n = rank.rerank_n;
-    let mut finder = finder_for(&r, embedder, needs_llm(ranking), &llm)?;
+    let mut finder = open_finder(&store, embedder, needs_llm(ranking), &llm)?;
+    let r = store.read()?;
     let req = api::find::FindRequest {
         text,
         k: k as usize,

@@ -17,12 +17,9 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         unreachable!("run dispatches only Command::Locate here")
     };
     let store = open_read(&db)?;
-    // it searches the vector index: built now (opening builds none), so the answer's timings are the
-    // work of the request alone, as when served
-    store.warm_indexes()?;
-    let r = store.read()?;
     let parser = parser_of(&parser);
-    let mut finder = finder_for(&r, None, parser == api::find::ParserKind::Llm, &llm)?;
+    let mut finder = open_finder(&store, None, parser == api::find::ParserKind::Llm, &llm)?;
+    let r = store.read()?;
     let a = finder.locate(
         &r,
         &api::find::LocateRequest {

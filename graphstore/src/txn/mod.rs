@@ -110,6 +110,19 @@ macro_rules! raw_reads {
             }
         }
 
+        fn load_rec_keys(&self, id: u64, keep: &[u32]) -> Result<Option<NodeRec>> {
+            if let Some(hot) = self.hot_records(true) {
+                return hot
+                    .get(id)
+                    .map(|b| NodeRec::decode_keys(b, id, keep))
+                    .transpose();
+            }
+            match self.nodes.get(&id).map_err(storage)? {
+                Some(g) => Ok(Some(NodeRec::decode_keys(g.value(), id, keep)?)),
+                None => Ok(None),
+            }
+        }
+
         fn load_rel(&self, id: u64) -> Result<Option<Relationship>> {
             if let Some(hot) = self.hot_records(false) {
                 return hot.get(id).map(|b| decode_rel(b, id)).transpose();
