@@ -40,6 +40,7 @@ use ingest::mapping::geometry::{Aabb, dbscan3, voxel_downsample};
 use ingest::mapping::project::{Camera, points_in_mask};
 use ingest::sources::kitti::{read_labels, read_scan};
 use ingest::sources::oracle::{OracleConfig, oracle_detections};
+use llm_tools::embed::cosine;
 use llm_tools::{Embedder, HashEmbedder};
 use scene::classes;
 
@@ -153,20 +154,6 @@ fn largest_cluster(points: &[[f32; 3]], eps_m: f32, min_points: usize) -> Vec<[f
             .map(|(p, _)| *p)
             .collect(),
         None => Vec::new(),
-    }
-}
-
-fn cosine(a: &[f32], b: &[f32]) -> f64 {
-    let (mut d, mut na, mut nb) = (0.0f64, 0.0f64, 0.0f64);
-    for (x, y) in a.iter().zip(b) {
-        d += f64::from(*x) * f64::from(*y);
-        na += f64::from(*x) * f64::from(*x);
-        nb += f64::from(*y) * f64::from(*y);
-    }
-    if na > 0.0 && nb > 0.0 {
-        d / (na.sqrt() * nb.sqrt())
-    } else {
-        0.0
     }
 }
 
