@@ -59,32 +59,27 @@ pub fn obb_value(b: &OrientedBox) -> Value {
     Value::List(b.to_values().into_iter().map(Value::Float).collect())
 }
 
-/// A node's properties by name.
-struct Props {
+/// A node's properties by name (each name looked up as a token when asked, so reading a
+/// record makes no string per property).
+struct Props<'r, R> {
     node: graphstore::Node,
-    keys: Vec<(String, graphstore::PropKey)>,
+    r: &'r R,
 }
 
-impl Props {
+impl<'r, R: GraphRead> Props<'r, R> {
     /// Node `id` when it exists and carries `label`.
-    fn of(r: &impl GraphRead, id: u64, label: &str) -> Result<Option<Props>> {
+    fn of(r: &'r R, id: u64, label: &str) -> Result<Option<Props<'r, R>>> {
         let Some(node) = r.node(id)? else {
             return Ok(None);
         };
         if !r.label(label).is_some_and(|l| node.labels.contains(&l)) {
             return Ok(None);
         }
-        let keys = node
-            .props
-            .iter()
-            .filter_map(|(k, _)| Some((r.name_of(k.0)?, *k)))
-            .collect();
-        Ok(Some(Props { node, keys }))
+        Ok(Some(Props { node, r }))
     }
 
     fn get(&self, name: &str) -> Option<&Value> {
-        let (_, k) = self.keys.iter().find(|(n, _)| n == name)?;
-        self.node.get(*k)
+        self.node.get(self.r.prop_key(name)?)
     }
 
     fn str(&self, name: &str) -> Option<String> {
