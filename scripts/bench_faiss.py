@@ -28,28 +28,13 @@ import sys
 import tempfile
 import time
 
+from peer import need
+
 FAISS = "faiss-cpu==1.15.1"
 
 
 def need_faiss():
-    try:
-        import faiss  # noqa: F401
-
-        return True
-    except ImportError:
-        pass
-    print(f"installing {FAISS} into {sys.executable} ...", flush=True)
-    r = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", FAISS]
-    )
-    if r.returncode != 0:
-        return False
-    try:
-        import faiss  # noqa: F401
-
-        return True
-    except ImportError:
-        return False
+    return need("faiss", FAISS)
 
 
 def vectors(np, kind, n, dim, seed):

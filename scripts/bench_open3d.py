@@ -23,9 +23,10 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import time
+
+from peer import need
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -33,24 +34,7 @@ OPEN3D = "open3d==0.20.0"
 
 
 def need_open3d():
-    try:
-        import open3d  # noqa: F401
-
-        return True
-    except ImportError:
-        pass
-    print(f"installing {OPEN3D} into {sys.executable} ...", flush=True)
-    r = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", OPEN3D]
-    )
-    if r.returncode != 0:
-        return False
-    try:
-        import open3d  # noqa: F401
-
-        return True
-    except ImportError:
-        return False
+    return need("open3d", OPEN3D)
 
 
 def load(d, np):
