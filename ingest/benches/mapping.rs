@@ -6,16 +6,13 @@
 //! Only frames 0-2 of the six scans have SemanticKITTI labels, so the oracle can run on those
 //! three; each repetition maps them in order into a fresh map.
 
-use std::path::PathBuf;
 use std::time::Instant;
 
-use ingest::build::Sequence;
-use ingest::mapping::project::Camera;
 use ingest::mapping::{FrameInput, Mapper, MappingConfig, StageTimes};
-use ingest::sources::kitti::{read_labels, read_scan};
-use ingest::sources::oracle::{OracleConfig, oracle_detections};
-use llm_tools::{Embedder, HashEmbedder, MiniLm};
+use llm_tools::{Embedder, MiniLm};
 use scene::GroundFrame;
+
+mod common;
 
 fn pct(v: &mut [f64], p: f64) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -29,39 +26,27 @@ fn peak_rss_mib() -> Option<f64> {
 }
 
 fn main() -> anyhow::Result<()> {
-    let dir =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/kitti/sequences/00");
-    if !dir.join("labels").is_dir() {
-        println!("skipping: {} is absent", dir.display());
-        return Ok(());
-    }
     let quick = !std::env::args().any(|a| a == "--bench");
     let reps = if quick { 3 } else { 100 };
-    let seq = Sequence::open(&dir, None)?;
     let cfg = MappingConfig::default();
-    let camera = Camera::kitti_p2(&seq.calib, cfg.image_size[0], cfg.image_size[1]);
-    let mut hash = HashEmbedder::new(384);
-    let mut frames = Vec::new();
-    let mut oracle_ms = Vec::new();
-    for i in 0..3u32 {
-        let scan = read_scan(&seq.scan_path(i))?;
-        let labels = read_labels(&seq.label_path(i), scan.points.len())?;
-        let pose = seq.world_from_velo(i);
-        let t = Instant::now();
-        let (dets, truth) = oracle_detections(
-            i,
-            &scan.points,
-            &labels,
-            &camera,
-            Some(&pose),
-            &OracleConfig::default(),
-        )?;
-        oracle_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        let caps: Vec<&str> = dets.detections.iter().map(|d| d.caption.as_str()).collect();
-        let features = hash.embed(&caps)?;
-        let classes: Vec<u8> = truth.iter().map(|t| t.class).collect();
-        frames.push((i, pose, scan.points, dets, features, classes));
-    }
+    let Some((camera, oracle)) = common::seq00_oracle_frames(&cfg)? else {
+        return Ok(());
+    };
+    let oracle_ms: Vec<f64> = oracle.iter().map(|f| f.oracle_ms).collect();
+    let frames: Vec<_> = oracle
+        .into_iter()
+        .map(|f| {
+            let classes: Vec<u8> = f.truth.iter().map(|t| t.class).collect();
+            (
+                f.index,
+                f.world_from_velo,
+                f.points,
+                f.detections,
+                f.features,
+                classes,
+            )
+        })
+        .collect();
     let n_dets: usize = frames.iter().map(|f| f.3.detections.len()).sum();
     println!(
         "seq 00 frames 0-2, {} points/scan, {n_dets} oracle detections in all; oracle {:.1} ms/frame",

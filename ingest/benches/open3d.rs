@@ -33,16 +33,14 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use ingest::build::Sequence;
 use ingest::mapping::MappingConfig;
 use ingest::mapping::associate::{Weights, greedy_assign, phi};
 use ingest::mapping::geometry::{Aabb, dbscan3, voxel_downsample};
-use ingest::mapping::project::{Camera, points_in_mask};
-use ingest::sources::kitti::{read_labels, read_scan};
-use ingest::sources::oracle::{OracleConfig, oracle_detections};
+use ingest::mapping::project::points_in_mask;
 use llm_tools::embed::cosine;
-use llm_tools::{Embedder, HashEmbedder};
 use scene::classes;
+
+mod common;
 
 /// One object detection of one key frame: its points inside the mask (velodyne frame) and
 /// its caption feature.
@@ -321,43 +319,26 @@ fn venv_python() -> PathBuf {
 
 fn main() -> anyhow::Result<()> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let seq_dir = root.join("../shared/data/kitti/sequences/00");
-    if !seq_dir.join("labels").is_dir() {
-        println!("skipping: {} is absent", seq_dir.display());
-        return Ok(());
-    }
     let quick = !std::env::args().any(|a| a == "--bench");
     let reps = if quick { 3 } else { 100 };
     let cfg = MappingConfig::default();
-    let seq = Sequence::open(&seq_dir, None)?;
-    let camera = Camera::kitti_p2(&seq.calib, cfg.image_size[0], cfg.image_size[1]);
-    let mut hash = HashEmbedder::new(384);
+    let Some((camera, oracle)) = common::seq00_oracle_frames(&cfg)? else {
+        return Ok(());
+    };
+    let oracle_ms = oracle.iter().map(|f| f.oracle_ms).sum::<f64>() / oracle.len() as f64;
     let mut frames = Vec::new();
-    for i in 0..3u32 {
-        let scan = read_scan(&seq.scan_path(i))?;
-        let labels = read_labels(&seq.label_path(i), scan.points.len())?;
-        let pose = seq.world_from_velo(i);
-        let (dets, truth) = oracle_detections(
-            i,
-            &scan.points,
-            &labels,
-            &camera,
-            Some(&pose),
-            &OracleConfig::default(),
-        )?;
-        let mut projected = camera.project_all(&scan.points);
+    for f in oracle {
+        let mut projected = camera.project_all(&f.points);
         projected.sort_unstable_by_key(|p| (p.pixel, p.point));
-        let caps: Vec<&str> = dets.detections.iter().map(|d| d.caption.as_str()).collect();
-        let features = hash.embed(&caps)?;
         let mut out = Vec::new();
-        for ((d, t), feature) in dets.detections.iter().zip(&truth).zip(features) {
+        for ((d, t), feature) in f.detections.detections.iter().zip(&f.truth).zip(f.features) {
             if classes::is_surface(t.class) {
                 continue;
             }
             let points: Vec<[f32; 3]> = points_in_mask(&projected, &d.mask.counts)
                 .into_iter()
                 .map(|k| {
-                    let p = scan.points[k as usize];
+                    let p = f.points[k as usize];
                     [p[0], p[1], p[2]]
                 })
                 .collect();
@@ -369,7 +350,7 @@ fn main() -> anyhow::Result<()> {
                 });
             }
         }
-        let h = pose.to_homogeneous();
+        let h = f.world_from_velo.to_homogeneous();
         let mut m = [0.0; 16];
         for r in 0..4 {
             for c in 0..4 {
@@ -377,7 +358,7 @@ fn main() -> anyhow::Result<()> {
             }
         }
         frames.push(Frame {
-            index: i,
+            index: f.index,
             world_from_velo: m,
             dets: out,
         });
@@ -402,7 +383,7 @@ fn main() -> anyhow::Result<()> {
         .map(|d| d.points.len())
         .sum();
     println!(
-        "seq 00 frames 0-2 (SemanticKITTI label oracle): {n_dets} object detections, {n_pts} points in their masks"
+        "seq 00 frames 0-2 (SemanticKITTI label oracle, {oracle_ms:.1} ms/frame): {n_dets} object detections, {n_pts} points in their masks"
     );
 
     let mut per_frame: Vec<Vec<f64>> = vec![Vec::new(); frames.len()];
