@@ -168,6 +168,11 @@ fn graph_aware_find_beats_plain_ranking_on_the_small_city() {
     // only through such a far join. Below the goal, and said so in docs/build.md.
     assert!(e["all"]["top1"].as_f64().unwrap() >= 0.79, "{e}");
     assert!(e["all"]["top3"].as_f64().unwrap() >= 0.9, "{e}");
+    // the first answer's position (issue 29: within 10 m for >= 0.8, within 5 m for >= 0.5):
+    // measured 0.735 / 0.456 with the weighted mean over the segment, 0.662 / 0.324 when
+    // the position was the best of the coarse standing spots. Below the goal; docs/find.md.
+    assert!(e["within_10m"].as_f64().unwrap() >= 0.7, "{e}");
+    assert!(e["within_5m"].as_f64().unwrap() >= 0.42, "{e}");
 
     // navigate: both ends from words; the route ends at the instance `find` resolved
     let png = dir.path().join("nav.png");

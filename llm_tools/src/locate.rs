@@ -14,7 +14,9 @@
 //! `g_L(b) · together(|b − p|)` (1 at the spot, 0.9 at 15 m, fading as `exp(-(d − 15) / 5)`
 //! beyond), weighted by how rare the landmark is (`1.1 −` the share of segments with a good
 //! match within 15 m of a spot). The segment's score is its best spot's weighted mean, plus
-//! 0.5 when its kind is the said one; the position estimate is that spot.
+//! 0.5 when its kind is the said one. The position on a returned segment is the mean of its
+//! places weighted by the same `together` of every matched landmark, with its spread as the
+//! uncertainty ([`estimate_position`]).
 
 use crate::chat::ChatModel;
 use crate::embed::Embedder;
@@ -22,6 +24,7 @@ use crate::error::{Error, Result};
 use crate::graph_find::{MapView, SceneObject, similarity_gates_relative};
 use crate::request::{self, SegmentConstraint};
 use crate::vocab::{colour_agreement, names_surface, without_colours};
+use scene::area::SegmentArea;
 
 /// A landmark's match at a spot: (object index, value, similarity gate).
 type Pick = (usize, f64, f64);
@@ -38,7 +41,36 @@ pub struct Description {
     pub segment: Option<SegmentConstraint>,
     /// Landmark phrases ("a bus stop", "a red car parked").
     pub landmarks: Vec<String>,
+    /// Those of `landmarks` said to stand right by the speaker ("a bench next to me", "I'm
+    /// standing by a post box"): the position estimate keeps them within [`BESIDE_M`].
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub beside: Vec<String>,
 }
+
+/// A landmark said to stand right by the speaker stands within this distance, metres.
+pub const BESIDE_M: f64 = 5.0;
+
+/// Says that the landmark next to it stands right by the speaker, whichever side of it the
+/// words are on; replaced by [`BESIDE_MARK`] before clauses are split, since "next to" also
+/// splits two landmarks ("a bench next to a bus stop").
+const BESIDE_WORDS: [&str; 13] = [
+    "right next to me",
+    "right beside me",
+    "right by me",
+    "next to me",
+    "beside me",
+    "by my side",
+    "at my feet",
+    "i'm standing right next to",
+    "i'm standing next to",
+    "i'm standing beside",
+    "i'm standing by",
+    "i'm right next to",
+    "i'm next to",
+];
+
+/// The word [`BESIDE_WORDS`] become while a description is read.
+const BESIDE_MARK: &str = "besideme";
 
 /// Clause openers that say nothing about the place.
 const OPENERS: [&str; 22] = [
@@ -122,13 +154,25 @@ pub fn parse_description_rules(text: &str) -> Result<Description> {
     // commas as words, so that phrases end at them
     t = t.replace(',', " , ");
     let (segment, rest) = request::take_segment(&t);
-    t = rest;
+    t = format!(" {rest} ");
+    for w in BESIDE_WORDS {
+        for w in [w.to_string(), w.replace("i'm", "i am")] {
+            t = t.replace(&format!(" {w} "), &format!(" {BESIDE_MARK} "));
+        }
+    }
     for s in SPLITTERS {
         t = t.replace(s, ",");
     }
     let mut landmarks = Vec::new();
+    let mut beside = Vec::new();
     for clause in t.split(',') {
-        let mut c = clause.split_whitespace().collect::<Vec<_>>().join(" ");
+        let words: Vec<&str> = clause.split_whitespace().collect();
+        let is_beside = words.contains(&BESIDE_MARK);
+        let mut c = words
+            .into_iter()
+            .filter(|w| *w != BESIDE_MARK)
+            .collect::<Vec<_>>()
+            .join(" ");
         loop {
             let before = c.len();
             for o in OPENERS {
@@ -164,9 +208,16 @@ pub fn parse_description_rules(text: &str) -> Result<Description> {
         {
             continue;
         }
+        if is_beside {
+            beside.push(c.clone());
+        }
         landmarks.push(c);
     }
-    Ok(Description { segment, landmarks })
+    Ok(Description {
+        segment,
+        landmarks,
+        beside,
+    })
 }
 
 /// The same with a language model: its request parse ([`request::parse_llm`]) gives the
@@ -186,6 +237,7 @@ pub fn parse_description_llm(model: &mut dyn ChatModel, text: &str) -> Result<De
     Ok(Description {
         segment: r.segment,
         landmarks,
+        beside: Vec::new(),
     })
 }
 
@@ -216,9 +268,13 @@ pub struct Located {
     pub score: f64,
     /// Whether the kind fits the said one (None when none was said).
     pub kind_match: Option<bool>,
-    /// Estimated ground-plane position: the score-weighted mean of the matched landmarks,
-    /// or the segment's centroid when none matched.
+    /// Estimated ground-plane position of the speaker (map ground axes, metres): the mean of
+    /// the places on the segment weighted by how well each fits the matched landmarks
+    /// (`llm_tools::locate::estimate_position`); the segment's centroid when none matched.
     pub position: [f64; 2],
+    /// Uncertainty of `position`: the root-mean-square distance of those weighted places
+    /// from it, metres (about the radius within which the speaker stands).
+    pub position_uncertainty_m: f64,
     /// The best instance per landmark.
     pub evidence: Vec<LandmarkEvidence>,
 }
@@ -441,28 +497,33 @@ pub fn locate_normed(
             })
             .collect();
         // the best place to stand on the segment, with its landmark picks
-        let mut best: Option<(f64, [f64; 2], Vec<Option<Pick>>)> = None;
+        let mut best: Option<(f64, Vec<Option<Pick>>)> = None;
         for &p in spots {
             let (sum, picks) = assign(&local, &weights, |i| {
                 let q = ground[i];
                 together((q[0] - p[0]).hypot(q[1] - p[1]))
             });
             if best.as_ref().is_none_or(|b| sum > b.0 + 1e-12) {
-                best = Some((sum, p, picks));
+                best = Some((sum, picks));
             }
         }
         let mut evidence = Vec::new();
         let mut support = 0.0;
-        let mut position = s.centroid;
-        if let Some((sum, p, picks)) = best
+        let mut seen_at = Vec::new();
+        if let Some((sum, picks)) = best
             && sum > 0.0
         {
             support = sum / total_w;
-            position = p;
             for (l, pick) in kept.landmarks.iter().zip(picks) {
                 if let Some((i, v, g)) = pick
                     && v > 0.05
                 {
+                    let reach = if desc.beside.contains(l) {
+                        BESIDE_M
+                    } else {
+                        TOGETHER_M
+                    };
+                    seen_at.push((ground[i], reach));
                     let o = &scene.objects[i];
                     evidence.push(LandmarkEvidence {
                         landmark: l.clone(),
@@ -474,18 +535,101 @@ pub fn locate_normed(
                 }
             }
         }
-        out.push(Located {
-            segment: s.id,
-            kind: s.kind.clone(),
-            score: if kind_match == Some(true) { 0.5 } else { 0.0 } + support,
-            kind_match,
-            position,
-            evidence,
-        });
+        out.push((
+            Located {
+                segment: s.id,
+                kind: s.kind.clone(),
+                score: if kind_match == Some(true) { 0.5 } else { 0.0 } + support,
+                kind_match,
+                position: s.centroid,
+                position_uncertainty_m: 0.0,
+                evidence,
+            },
+            &s.area,
+            seen_at,
+        ));
     }
-    out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.segment.cmp(&b.segment)));
+    out.sort_by(|a, b| {
+        (b.0.score)
+            .total_cmp(&a.0.score)
+            .then(a.0.segment.cmp(&b.0.segment))
+    });
     out.truncate(k);
+    // where on each returned segment the speaker stands
+    let out = out
+        .into_iter()
+        .map(|(mut l, area, seen_at)| {
+            if let Some((p, u)) = estimate_position(area, &seen_at) {
+                l.position = p;
+                l.position_uncertainty_m = u;
+            }
+            l
+        })
+        .collect();
     Ok((out, unmatched, stats))
+}
+
+/// Spacing of the places on a segment where [`estimate_position`] weighs the speaker.
+const ESTIMATE_STEP_M: f64 = 1.0;
+
+/// Where on a segment the speaker stands, given the ground positions of the landmarks the
+/// description matched there, each with the distance from the speaker it was said to stand
+/// within (metres: [`TOGETHER_M`], or [`BESIDE_M`] for "next to me"): the places the
+/// speaker may stand (a junction's disc on a 1 m grid, a road's centreline every 1 m, as in
+/// [`SegmentArea::standing_spots`]) are weighted by `∏ within(|landmark − place|, reach)`
+/// (the model of the score: each landmark stands within its reach of the speaker, nearer ones
+/// a little likelier, fading beyond as `exp(-3 (d − reach) / reach)`), and the
+/// estimate is the weighted mean (the posterior mean under a uniform prior over the segment,
+/// which minimises the expected squared error). The uncertainty is the weighted root-mean-
+/// square distance from it. With no landmark the weights are uniform: the segment's middle
+/// and its spread. None when the area has no place (an empty centreline).
+pub fn estimate_position(
+    area: &SegmentArea,
+    landmarks: &[([f64; 2], f64)],
+) -> Option<([f64; 2], f64)> {
+    let places: Vec<[f64; 2]> = match area {
+        SegmentArea::Disc { centre, radius_m } => {
+            let r = radius_m.max(0.0);
+            let n = (r / ESTIMATE_STEP_M).floor() as i64;
+            let mut v = Vec::new();
+            for i in -n..=n {
+                for j in -n..=n {
+                    let (dx, dy) = (i as f64 * ESTIMATE_STEP_M, j as f64 * ESTIMATE_STEP_M);
+                    if dx.hypot(dy) <= r {
+                        v.push([centre[0] + dx, centre[1] + dy]);
+                    }
+                }
+            }
+            v
+        }
+        SegmentArea::Corridor { .. } => area.standing_spots(ESTIMATE_STEP_M),
+    };
+    // weights in logs: a dozen far landmarks must not underflow to a 0/0 mean
+    let logw: Vec<f64> = places
+        .iter()
+        .map(|p| {
+            landmarks
+                .iter()
+                .map(|(q, reach)| within((q[0] - p[0]).hypot(q[1] - p[1]), *reach).ln())
+                .sum()
+        })
+        .collect();
+    let top = logw.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if !top.is_finite() {
+        return None;
+    }
+    let w: Vec<f64> = logw.iter().map(|l| (l - top).exp()).collect();
+    let total: f64 = w.iter().sum();
+    let mean = places.iter().zip(&w).fold([0.0, 0.0], |m, (p, w)| {
+        [m[0] + w * p[0] / total, m[1] + w * p[1] / total]
+    });
+    let var: f64 = places
+        .iter()
+        .zip(&w)
+        .map(|(p, w)| w * ((p[0] - mean[0]).powi(2) + (p[1] - mean[1]).powi(2)))
+        .sum::<f64>()
+        / total;
+    Some((mean, var.sqrt()))
 }
 
 /// Spacing of the places along a road where the speaker may stand.
@@ -495,10 +639,17 @@ const SPOT_STEP_M: f64 = 5.0;
 /// [`TOGETHER_M`] (nearer things are the likelier ones to be named), fading as
 /// `0.9 · exp(-(d − 15) / 5)` beyond.
 fn together(d: f64) -> f64 {
-    if d <= TOGETHER_M {
-        1.0 - 0.1 * d / TOGETHER_M
+    within(d, TOGETHER_M)
+}
+
+/// How much a landmark `d` metres away counts when it was said to stand within `reach_m`:
+/// 1 at the speaker to 0.9 at the reach, fading as `0.9 · exp(-3 (d − reach) / reach)`
+/// beyond (a reach of 15 m fades over 5 m).
+fn within(d: f64, reach_m: f64) -> f64 {
+    if d <= reach_m {
+        1.0 - 0.1 * d / reach_m
     } else {
-        0.9 * (-(d - TOGETHER_M) / 5.0).exp()
+        0.9 * (-3.0 * (d - reach_m) / reach_m).exp()
     }
 }
 
@@ -548,7 +699,6 @@ fn assign(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use scene::area::SegmentArea;
 
     #[test]
     fn descriptions_become_a_segment_and_landmarks() {
@@ -580,6 +730,22 @@ mod tests {
             assert!(d.segment.is_some(), "{t}");
             assert!(d.landmarks.is_empty(), "{t}: {:?}", d.landmarks);
         }
+        // what is said to stand right by the speaker, on either side of the words
+        let d = parse_description_rules(
+            "I'm at a crossroads with a red post box right next to me and a bench opposite.",
+        )
+        .unwrap();
+        assert_eq!(d.landmarks, vec!["a red post box", "a bench"]);
+        assert_eq!(d.beside, vec!["a red post box"]);
+        let d =
+            parse_description_rules("I'm standing next to a bus shelter, there's a hydrant nearby")
+                .unwrap();
+        assert_eq!(d.landmarks, vec!["a bus shelter", "a hydrant"]);
+        assert_eq!(d.beside, vec!["a bus shelter"]);
+        // "next to" between two things places them, not the speaker
+        let d = parse_description_rules("I can see a bench next to a bus stop").unwrap();
+        assert_eq!(d.landmarks, vec!["a bench", "a bus stop"]);
+        assert!(d.beside.is_empty());
         let d = parse_description_rules("I'm at the crossroads").unwrap();
         assert_eq!(d.segment, Some(SegmentConstraint::Crossroads));
         assert!(d.landmarks.is_empty());
@@ -701,6 +867,71 @@ mod tests {
         let d = parse_description_rules("I'm at a crossroads with a purple elephant").unwrap();
         let (ranked, _) = locate_with_floor(&scene, &segs, &mut emb, &d, 3, 0.4).unwrap();
         assert_eq!(ranked.len(), 2);
+    }
+
+    #[test]
+    fn the_position_is_where_the_landmarks_are_in_reach() {
+        const EPS: f64 = 1e-9;
+        let disc = SegmentArea::Disc {
+            centre: [10.0, 20.0],
+            radius_m: 12.0,
+        };
+        // no landmark: the middle of the disc, spread about r / sqrt(2)
+        let (p, u) = estimate_position(&disc, &[]).unwrap();
+        assert!(
+            (p[0] - 10.0).abs() < EPS && (p[1] - 20.0).abs() < EPS,
+            "{p:?}"
+        );
+        assert!((u - 12.0 / 2f64.sqrt()).abs() < 0.3, "{u}");
+        // landmarks placed symmetrically keep the middle
+        let sym = [[-5.0, 20.0], [25.0, 20.0], [10.0, 5.0], [10.0, 35.0]].map(|p| (p, TOGETHER_M));
+        let (p, _) = estimate_position(&disc, &sym).unwrap();
+        assert!(
+            (p[0] - 10.0).abs() < 1e-6 && (p[1] - 20.0).abs() < 1e-6,
+            "{p:?}"
+        );
+        // a landmark 20 m east: the speaker stands on the east side, and is surer of it
+        let (p, u1) = estimate_position(&disc, &[([30.0, 20.0], TOGETHER_M)]).unwrap();
+        assert!(p[0] > 13.0 && (p[1] - 20.0).abs() < 1e-6, "{p:?}");
+        assert!(u1 < u, "{u1} vs {u}");
+        // and a second one north of that narrows it further
+        let (_, u2) = estimate_position(
+            &disc,
+            &[([30.0, 20.0], TOGETHER_M), ([22.0, 36.0], TOGETHER_M)],
+        )
+        .unwrap();
+        assert!(u2 < u1, "{u2} vs {u1}");
+        // a road: along the centreline, between landmarks 100 m apart beside it
+        let road = SegmentArea::Corridor {
+            centreline: vec![[0.0, 0.0], [200.0, 0.0]],
+            half_width_m: 6.0,
+        };
+        let (p, u) = estimate_position(
+            &road,
+            &[([90.0, 8.0], TOGETHER_M), ([110.0, -8.0], TOGETHER_M)],
+        )
+        .unwrap();
+        assert!((p[0] - 100.0).abs() < 1e-6 && p[1].abs() < EPS, "{p:?}");
+        assert!(u < 8.0, "{u}");
+        // a landmark far beyond the road's end pulls to that end, without a 0/0
+        let (p, _) = estimate_position(&road, &[([900.0, 0.0], TOGETHER_M); 12]).unwrap();
+        assert!(p[0] > 190.0 && p[0].is_finite(), "{p:?}");
+        // nowhere to stand
+        let empty = SegmentArea::Corridor {
+            centreline: vec![],
+            half_width_m: 6.0,
+        };
+        assert!(estimate_position(&empty, &[([0.0, 0.0], TOGETHER_M)]).is_none());
+        // a landmark said to stand right by the speaker holds the estimate near it, surer
+        let far = [([60.0, 8.0], TOGETHER_M), ([75.0, -8.0], TOGETHER_M)];
+        let (p, u) = estimate_position(&road, &far).unwrap();
+        let (q, v) = estimate_position(
+            &road,
+            &[([60.0, 8.0], BESIDE_M), ([75.0, -8.0], TOGETHER_M)],
+        )
+        .unwrap();
+        assert!((q[0] - 60.0).abs() < (p[0] - 60.0).abs(), "{q:?} vs {p:?}");
+        assert!(v < u, "{v} vs {u}");
     }
 
     #[test]

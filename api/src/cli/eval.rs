@@ -239,7 +239,10 @@ pub(crate) fn locate(cmd: Command) -> anyhow::Result<()> {
             )
             .map_err(|e| ingest::Error::Invalid(format!("{text:?}: {e}")))?;
         latencies.push(t.elapsed().as_secs_f64() * 1e3);
-        let pos = a.results.first().map(|l| l.position);
+        let pos = a
+            .results
+            .first()
+            .map(|l| (l.position, l.position_uncertainty_m));
         Ok((a.results.into_iter().map(|l| l.segment).collect(), pos))
     })?;
     let p50 = median(&mut latencies);
@@ -273,7 +276,12 @@ pub(crate) fn locate(cmd: Command) -> anyhow::Result<()> {
             outln!("{k:<12} {:>6} {:>6.3} {:>6.3}", a.cases, a.top1, a.top3);
         }
         if let Some(e) = report.median_position_error_m {
-            outln!("median position error {e:.1} m");
+            outln!(
+                "position of the first answer: median error {e:.1} m, within 5 m {:.3}, within 10 m {:.3}, truth within 2x its uncertainty {:.3}",
+                report.within_5m,
+                report.within_10m,
+                report.within_2_sigma
+            );
         }
         if verbose {
             for o in &report.outcomes {

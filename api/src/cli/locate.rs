@@ -49,13 +49,14 @@ pub(crate) fn run(cmd: Command) -> anyhow::Result<()> {
         }
         for (i, l) in a.results.iter().enumerate() {
             outln!(
-                "{}. segment {} ({}), score {:.3}, position [{:.1}, {:.1}]{}",
+                "{}. segment {} ({}), score {:.3}, position [{:.1}, {:.1}] ± {:.1} m{}",
                 i + 1,
                 l.segment,
                 l.kind,
                 l.score,
                 l.position[0],
                 l.position[1],
+                l.position_uncertainty_m,
                 match l.kind_match {
                     Some(false) => ", kind differs from the description",
                     _ => "",

@@ -254,6 +254,8 @@ pub struct LocateOutcome {
     pub returned: Vec<u64>,
     /// Distance from the estimated position to the true spot, metres.
     pub position_error_m: Option<f64>,
+    /// The uncertainty `locate` reported with the position, metres.
+    pub position_uncertainty_m: Option<f64>,
 }
 
 /// The result of [`eval_locate`].
@@ -265,25 +267,38 @@ pub struct LocateEval {
     pub per_kind: std::collections::BTreeMap<String, Accuracy>,
     /// Median distance from the estimated position to the true spot, metres.
     pub median_position_error_m: Option<f64>,
+    /// Share of the scored cases whose first answer's position lies within 5 m of the true
+    /// spot (a case without a position counts as outside).
+    pub within_5m: f64,
+    /// The same within 10 m.
+    pub within_10m: f64,
+    /// Share of the cases with a position whose true spot lies within twice the reported
+    /// uncertainty of it (calibration: near 0.95 for a Gaussian-like spread).
+    pub within_2_sigma: f64,
     /// Cases whose spot lies in no map segment (not scored).
     pub unmatched: usize,
     /// Every scored case.
     pub outcomes: Vec<LocateOutcome>,
 }
 
-/// Runs every case through `locate` (which returns segment ids, best first, and the
-/// estimated ground position) and scores them against the segment that holds the spot.
+/// What `locate` answered for one description: segment ids, best first, and the first's
+/// estimated ground position and its uncertainty (metres).
+pub type LocateAnswer = (Vec<u64>, Option<([f64; 2], f64)>);
+
+/// Runs every case through `locate` and scores the answers against the segment that holds
+/// the spot, and the positions against the spot.
 ///
 /// # Errors
 /// `locate` fails.
 pub fn eval_locate(
     cases: &[LocateCase],
     segments: &[SegmentInfo],
-    mut locate: impl FnMut(&str) -> Result<(Vec<u64>, Option<[f64; 2]>)>,
+    mut locate: impl FnMut(&str) -> Result<LocateAnswer>,
 ) -> Result<LocateEval> {
     let mut out = LocateEval::default();
     let mut tally: std::collections::BTreeMap<String, [usize; 3]> = Default::default();
     let mut errors = Vec::new();
+    let mut covered = 0usize;
     for c in cases {
         let Some(truth) = true_segment(segments, c.spot) else {
             out.unmatched += 1;
@@ -297,9 +312,12 @@ pub fn eval_locate(
             t[1] += usize::from(rank == Some(0));
             t[2] += usize::from(rank.is_some_and(|r| r < 3));
         }
-        let err = pos.map(|p| (p[0] - c.spot[0]).hypot(p[1] - c.spot[1]));
+        let err = pos.map(|(p, _)| (p[0] - c.spot[0]).hypot(p[1] - c.spot[1]));
         if let Some(e) = err {
             errors.push(e);
+        }
+        if let (Some(e), Some((_, u))) = (err, pos) {
+            covered += usize::from(e <= 2.0 * u);
         }
         out.outcomes.push(LocateOutcome {
             text: c.text.clone(),
@@ -307,6 +325,7 @@ pub fn eval_locate(
             truth,
             returned: ranked.into_iter().take(3).collect(),
             position_error_m: err,
+            position_uncertainty_m: pos.map(|p| p.1),
         });
     }
     for (k, t) in tally {
@@ -322,6 +341,10 @@ pub fn eval_locate(
             out.per_kind.insert(k, a);
         }
     }
+    let scored = out.outcomes.len().max(1) as f64;
+    out.within_5m = errors.iter().filter(|e| **e <= 5.0).count() as f64 / scored;
+    out.within_10m = errors.iter().filter(|e| **e <= 10.0).count() as f64 / scored;
+    out.within_2_sigma = covered as f64 / errors.len().max(1) as f64;
     errors.sort_by(f64::total_cmp);
     out.median_position_error_m = errors.get(errors.len() / 2).copied();
     Ok(out)
