@@ -70,6 +70,14 @@ pub fn spec_in_words(text: &str) -> Option<String> {
     ) {
         w.pop();
     }
+    // a clause after the id ("segment 2345, giving its node id")
+    if let Some(k) = w
+        .iter()
+        .rposition(|x| x.trim_start_matches('#').parse::<u64>().is_ok())
+        && w.get(k + 1).is_some_and(|x| x.ends_with("ing"))
+    {
+        w.truncate(k + 1);
+    }
     // "segment:12" and "segment: 12" as written
     let joined = w.join(" ");
     if let Some((kind, id)) = joined.rsplit_once(':') {
@@ -237,6 +245,16 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
             )
         })
         .collect();
+    // the survey vehicle is the drive's ("where the survey vehicle commenced its recording")
+    let words: Vec<&str> = words
+        .into_iter()
+        .filter(|w| {
+            !matches!(
+                *w,
+                "which" | "when" | "that" | "it" | "vehicle" | "car" | "robot" | "platform"
+            )
+        })
+        .collect();
     let start = [
         "start",
         "starts",
@@ -262,11 +280,15 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
         "stopped",
         "terminated",
     ];
-    match words.as_slice() {
-        [a] if start.contains(a) => Some("start"),
-        [a] if end.contains(a) => Some("end"),
-        [a, b] | [b, a] if DRIVE_WORDS.contains(b) && start.contains(a) => Some("start"),
-        [a, b] | [b, a] if DRIVE_WORDS.contains(b) && end.contains(a) => Some("end"),
+    // one word of starting or ending, and the rest words for the drive
+    let starts = words.iter().filter(|w| start.contains(w)).count();
+    let ends = words.iter().filter(|w| end.contains(w)).count();
+    let rest_is_drive = words
+        .iter()
+        .all(|w| start.contains(w) || end.contains(w) || DRIVE_WORDS.contains(w));
+    match (starts, ends) {
+        (1, 0) if rest_is_drive && words.len() <= 3 => Some("start"),
+        (0, 1) if rest_is_drive && words.len() <= 3 => Some("end"),
         _ => None,
     }
 }
@@ -292,6 +314,11 @@ mod tests {
                 Some("segment:2406"),
             ),
             ("segment:2406", Some("segment:2406")),
+            (
+                "the centre of the segment 2345, giving its",
+                Some("segment:2345"),
+            ),
+            ("segment 12 heading north", Some("segment:12")),
             ("segment: 12", Some("segment:12")),
             ("lane node 2425", Some("lane:2425")),
             ("lane:7", Some("lane:7")),
@@ -340,6 +367,17 @@ mod tests {
             ("the starting point", Some("start")),
             ("the end", Some("end")),
             ("where the drive set off", Some("start")),
+            (
+                "the position at which the survey vehicle commenced its recording",
+                Some("start"),
+            ),
+            (
+                "the point at which the survey vehicle started recording",
+                Some("start"),
+            ),
+            ("where the vehicle stopped", Some("end")),
+            ("where the red truck started", None),
+            ("the start and the end of the drive", None),
             ("where the run stopped", Some("end")),
             ("the bus stop", None),
             ("the end of the road", None),

@@ -486,6 +486,10 @@ fn whole_map(place: &str) -> bool {
                     | "got"
                     | "shows"
                     | "holds"
+                    | "its"
+                    | "entirety"
+                    | "altogether"
+                    | "overall"
             )
     })
 }
@@ -1692,6 +1696,9 @@ fn cut_segment_choices(t: &str) -> String {
         "corner",
         "roundabout",
         "l-bend",
+        // bare, only among choices: "straight, bend, T or crossroads"
+        "straight",
+        "t",
     ];
     let mut first: Option<usize> = None;
     for k in kinds {
@@ -2483,8 +2490,15 @@ fn two_places(t: &str) -> Option<(String, String)> {
         if let Some((a, b)) = split(rest, "to") {
             return Some(plural_ids(&a, &b));
         }
-        // "A from B"
-        let before = phrase(&t[..i]);
+        // "A from B": A is the last phrase of its clause, after a verb that separates the
+        // two ("the distance that separates A from B")
+        let head = t[..i].rsplit(", ").next().unwrap_or("");
+        let head = [" separates ", " separate ", " between "]
+            .iter()
+            .filter_map(|v| head.rfind(v).map(|j| &head[j + v.len()..]))
+            .min_by_key(|h| h.len())
+            .unwrap_or(head);
+        let before = phrase(head);
         let after = phrase(rest);
         if !before.is_empty() && !after.is_empty() {
             return Some((before, after));
@@ -2825,8 +2839,21 @@ fn metres_asked(t: &str) -> bool {
     )
 }
 
-/// The words of a straight-line distance.
+/// The words of a straight-line distance ("distance", "how far", "apart"), but
+/// not a distance said as an idiom ("spot it from a distance", "in the distance").
 fn distance_asked(t: &str) -> bool {
+    let mut t = format!(" {t} ");
+    for idiom in [
+        " from a distance ",
+        " at a distance ",
+        " in the distance ",
+        " keep my distance ",
+        " keep a distance ",
+        " walking distance ",
+    ] {
+        t = t.replace(idiom, " ");
+    }
+    let t = t.trim();
     has_any(
         t,
         &[
@@ -3515,6 +3542,39 @@ mod tests {
         }
         assert_eq!(parse_question("  "), None);
         assert_eq!(parse_question("Tell me a joke"), None);
+    }
+
+    /// Idioms that name no task, the subject of "separates A from B", and the whole map in
+    /// other words.
+    #[test]
+    fn idioms_straight_lines_and_the_whole_map() {
+        let q = "What colour is the bench, so I can find it from a distance?";
+        assert!(
+            matches!(parse_question(q), Some(Task::Colour { .. })),
+            "{q}: {:?}",
+            parse_question(q)
+        );
+        let q = "Kindly state, for the record, the distance that separates the bench with node \
+                 id 77 from segment 9.";
+        match parse_question(q) {
+            Some(Task::Distance { from, to }) => {
+                assert_eq!(
+                    super::super::spec_in_words(&from).as_deref(),
+                    Some("node:77")
+                );
+                assert_eq!(
+                    super::super::spec_in_words(&to).as_deref(),
+                    Some("segment:9")
+                );
+            }
+            other => panic!("{q}: {other:?}"),
+        }
+        let q = "How many benches are on the map in its entirety?";
+        assert_eq!(
+            parse_question(q),
+            Some(count("benches", None, None, None)),
+            "{q}"
+        );
     }
 
     /// Questions written by someone who had not seen the parser (the tuning half of an
