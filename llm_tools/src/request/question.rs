@@ -1183,10 +1183,11 @@ fn named_in(context: &str) -> Vec<Named> {
     };
     let mut i = 0;
     while i < w.len() {
-        if taken[i]
-            || !matches!(w[i], "a" | "an" | "the" | "one")
-            || (w[i] == "one" && w.get(i + 1) == Some(&"of"))
-        {
+        // a demonstrative opens a thing at the start of a sentence ("that heavy blue scooter
+        // up on its kickstand, which bin is closest to it")
+        let opens = matches!(w[i], "a" | "an" | "the" | "one")
+            || (i == 0 && matches!(w[i], "that" | "this"));
+        if taken[i] || !opens || (w[i] == "one" && w.get(i + 1) == Some(&"of")) {
             i += 1;
             continue;
         }
@@ -1346,8 +1347,33 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
         .collect();
     let mentions = |h: &str| said.iter().filter(|w| *w == h).count();
     let thing = |head: Option<&str>| {
+        // a reference is never the speaker or another pronoun ("i'd rather cross", "it")
+        let pronoun = |words: &str| {
+            words.split(' ').next().is_none_or(|f| {
+                f.is_empty()
+                    || matches!(
+                        f.trim_end_matches(','),
+                        "i" | "i'd"
+                            | "i'm"
+                            | "i'll"
+                            | "me"
+                            | "my"
+                            | "we"
+                            | "you"
+                            | "it"
+                            | "its"
+                            | "they"
+                            | "he"
+                            | "she"
+                            | "that"
+                            | "this"
+                    )
+            })
+        };
         let things = named.iter().filter_map(|n| match n {
-            Named::Thing(words, h, subject) if head.is_none_or(|x| stem(x) == *h) => {
+            Named::Thing(words, h, subject)
+                if head.is_none_or(|x| stem(x) == *h) && !pronoun(words) =>
+            {
                 Some((words, h, *subject))
             }
             _ => None,
@@ -3554,6 +3580,15 @@ mod tests {
             "{q}: {:?}",
             parse_question(q)
         );
+        // a thing fronted with a demonstrative is what "it" means
+        let q = "That heavy blue scooter up on its kickstand, which bin is closest to it?";
+        match parse_question(q) {
+            Some(Task::Nearest { kind, near }) => {
+                assert_eq!(kind, "bin");
+                assert!(near.starts_with("the heavy blue scooter"), "{near}");
+            }
+            other => panic!("{q}: {other:?}"),
+        }
         let q = "Kindly state, for the record, the distance that separates the bench with node \
                  id 77 from segment 9.";
         match parse_question(q) {
