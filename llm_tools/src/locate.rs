@@ -52,8 +52,22 @@ pub const BESIDE_M: f64 = 5.0;
 
 /// Says that the landmark next to it stands right by the speaker, whichever side of it the
 /// words are on; replaced by [`BESIDE_MARK`] before clauses are split, since "next to" also
-/// splits two landmarks ("a bench next to a bus stop").
-const BESIDE_WORDS: [&str; 13] = [
+/// splits two landmarks ("a bench next to a bus stop"). "Next to" with no thing before it (at
+/// the start or after a comma: "I'm at a T-junction next to a bus stop", "..., right by a
+/// post box") has the speaker as its subject.
+const BESIDE_WORDS: [&str; 25] = [
+    ", right next to",
+    ", next to",
+    ", right beside",
+    ", beside",
+    ", right by",
+    ", standing right next to",
+    ", standing next to",
+    ", standing beside",
+    ", standing by",
+    "i'm beside",
+    "i'm right beside",
+    "i'm right by",
     "right next to me",
     "right beside me",
     "right by me",
@@ -99,7 +113,12 @@ const OPENERS: [&str; 22] = [
 ];
 
 /// Clause endings that only place the landmark relative to the speaker.
-const ENDINGS: [&str; 20] = [
+const ENDINGS: [&str; 25] = [
+    "is close to me",
+    "close to me",
+    "immediately",
+    "is",
+    "right here",
     "on my left",
     "on my right",
     "to my left",
@@ -154,7 +173,8 @@ pub fn parse_description_rules(text: &str) -> Result<Description> {
     // commas as words, so that phrases end at them
     t = t.replace(',', " , ");
     let (segment, rest) = request::take_segment(&t);
-    t = format!(" {rest} ");
+    // the start is a clause's start, like a comma
+    t = format!(" , {rest} ");
     for w in BESIDE_WORDS {
         for w in [w.to_string(), w.replace("i'm", "i am")] {
             t = t.replace(&format!(" {w} "), &format!(" {BESIDE_MARK} "));
@@ -273,7 +293,8 @@ pub struct Located {
     /// (`llm_tools::locate::estimate_position`); the segment's centroid when none matched.
     pub position: [f64; 2],
     /// Uncertainty of `position`: the root-mean-square distance of those weighted places
-    /// from it, metres (about the radius within which the speaker stands).
+    /// from it, widened by how far the landmarks stand beyond where they were said to be,
+    /// metres (about the radius within which the speaker stands, if the segment is right).
     pub position_uncertainty_m: f64,
     /// The best instance per landmark.
     pub evidence: Vec<LandmarkEvidence>,
@@ -581,8 +602,11 @@ const ESTIMATE_STEP_M: f64 = 1.0;
 /// a little likelier, fading beyond as `exp(-3 (d − reach) / reach)`), and the
 /// estimate is the weighted mean (the posterior mean under a uniform prior over the segment,
 /// which minimises the expected squared error). The uncertainty is the weighted root-mean-
-/// square distance from it. With no landmark the weights are uniform: the segment's middle
-/// and its spread. None when the area has no place (an empty centreline).
+/// square distance from it, combined (root of the sum of squares) with the largest distance
+/// by which a landmark stands beyond its reach of the estimate: when the landmarks cannot
+/// all be where they were said to be, the spread alone would be falsely small. With no
+/// landmark the weights are uniform: the segment's middle and its spread. None when the area
+/// has no place (an empty centreline).
 pub fn estimate_position(
     area: &SegmentArea,
     landmarks: &[([f64; 2], f64)],
@@ -629,7 +653,11 @@ pub fn estimate_position(
         .map(|(p, w)| w * ((p[0] - mean[0]).powi(2) + (p[1] - mean[1]).powi(2)))
         .sum::<f64>()
         / total;
-    Some((mean, var.sqrt()))
+    let miss = landmarks
+        .iter()
+        .map(|(q, reach)| ((q[0] - mean[0]).hypot(q[1] - mean[1]) - reach).max(0.0))
+        .fold(0.0, f64::max);
+    Some((mean, (var + miss * miss).sqrt()))
 }
 
 /// Spacing of the places along a road where the speaker may stand.
@@ -746,6 +774,33 @@ mod tests {
         let d = parse_description_rules("I can see a bench next to a bus stop").unwrap();
         assert_eq!(d.landmarks, vec!["a bench", "a bus stop"]);
         assert!(d.beside.is_empty());
+        // "next to" with the speaker as its subject, and endings that only place a thing
+        for (text, landmarks, beside) in [
+            (
+                "I'm at a T-junction next to a bus stop",
+                vec!["a bus stop"],
+                vec!["a bus stop"],
+            ),
+            (
+                "standing right next to a red post box at a crossroads",
+                vec!["a red post box"],
+                vec!["a red post box"],
+            ),
+            (
+                "I'm at a crossroads, next to a red post box, and a bench is close to me",
+                vec!["a red post box", "a bench"],
+                vec!["a red post box"],
+            ),
+            (
+                "I'm beside a bus stop at a T junction",
+                vec!["a bus stop"],
+                vec!["a bus stop"],
+            ),
+        ] {
+            let d = parse_description_rules(text).unwrap();
+            assert_eq!(d.landmarks, landmarks, "{text}");
+            assert_eq!(d.beside, beside, "{text}");
+        }
         let d = parse_description_rules("I'm at the crossroads").unwrap();
         assert_eq!(d.segment, Some(SegmentConstraint::Crossroads));
         assert!(d.landmarks.is_empty());
@@ -932,6 +987,11 @@ mod tests {
         .unwrap();
         assert!((q[0] - 60.0).abs() < (p[0] - 60.0).abs(), "{q:?} vs {p:?}");
         assert!(v < u, "{v} vs {u}");
+        // one said to be beside the speaker but 20 m off the road: the estimate cannot
+        // honour it, and the uncertainty says so instead of shrinking
+        let (p, u) = estimate_position(&road, &[([100.0, 20.0], BESIDE_M)]).unwrap();
+        assert!((p[0] - 100.0).abs() < 1e-6, "{p:?}");
+        assert!(u >= 20.0 - BESIDE_M, "{u}");
     }
 
     #[test]

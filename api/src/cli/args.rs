@@ -383,8 +383,9 @@ pub(crate) enum Command {
         parser: String,
         #[command(flatten)]
         llm: LlmArgs,
-        /// Print the answer as JSON: {"description", "parsed_by", "results": [{"segment",
-        /// "kind", "score", "kind_match", "position", "evidence"}], "timings_ms"}.
+        /// Print the answer as JSON: {"description": {"segment", "landmarks", "beside"},
+        /// "parsed_by", "results": [{"segment", "kind", "score", "kind_match", "position",
+        /// "position_uncertainty_m", "evidence"}], "unmatched", "timings_ms": [parse, rank]}.
         #[arg(long)]
         json: bool,
     },
