@@ -266,7 +266,7 @@ pub(crate) fn finder_for(
     let model = if needs_llm {
         Some(open_llm(
             &llm.config(llm_tools::LlmConfig::default(), "local"),
-            "--parser llm and --rerank llm",
+            "--parser llm (or find's --rerank llm)",
         )?)
     } else {
         None

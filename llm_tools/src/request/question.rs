@@ -1465,10 +1465,14 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
                 continue;
             }
         }
-        // "how many hatchbacks in there": the segment said before
+        // "how many hatchbacks in there", "bins within 25 m of there": the segment or lane
+        // node said before, as the place itself
         if word == "there"
             && i > 0
-            && matches!(w[i - 1], "in" | "at" | "on")
+            && matches!(
+                w[i - 1],
+                "in" | "at" | "on" | "of" | "near" | "around" | "by" | "from" | "to"
+            )
             && let Some(r) = road()
         {
             out.push(format!("{r}{comma}"));
@@ -3579,6 +3583,13 @@ mod tests {
             matches!(parse_question(q), Some(Task::Colour { .. })),
             "{q}: {:?}",
             parse_question(q)
+        );
+        // "there" after a preposition is the place said before
+        let q = "Pulling in at lane node 7. Mailboxes inside 25 m of there - count?";
+        assert_eq!(
+            parse_question(q),
+            Some(count("mailboxes", None, Some("lane node 7"), Some(25.0))),
+            "{q}"
         );
         // a thing fronted with a demonstrative is what "it" means
         let q = "That heavy blue scooter up on its kickstand, which bin is closest to it?";
