@@ -42,12 +42,14 @@ pub struct Description {
     /// Landmark phrases ("a bus stop", "a red car parked").
     pub landmarks: Vec<String>,
     /// Those of `landmarks` said to stand right by the speaker ("a bench next to me", "I'm
-    /// standing by a post box"): the position estimate keeps them within [`BESIDE_M`].
+    /// standing by a post box"): the position estimate weighs them as standing within
+    /// [`BESIDE_M`] of the speaker (instead of 15 m).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub beside: Vec<String>,
 }
 
-/// A landmark said to stand right by the speaker stands within this distance, metres.
+/// A landmark said to stand right by the speaker is weighed as standing within this distance
+/// of the speaker, metres.
 pub const BESIDE_M: f64 = 5.0;
 
 /// Says that the landmark next to it stands right by the speaker, whichever side of it the
