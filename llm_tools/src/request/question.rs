@@ -2616,7 +2616,21 @@ pub fn parse_question(text: &str) -> Option<Task> {
             )
             || matches!(x, "it" | "is it" | "here")
     };
-    read_prepared(p.question.trim(), text)
+    // "as the crow flies" says a straight-line distance is asked, though the preparation
+    // drops it to free the places: a question read as no distance is read again as one
+    let straight = has_any(
+        &text.to_lowercase(),
+        &["as the crow flies", "in a straight line", "straight-line"],
+    );
+    let first = read_prepared(p.question.trim(), text);
+    let first = match first {
+        Some(Task::Distance { .. } | Task::RouteLength { .. }) => first,
+        _ if straight => read_prepared(&format!("how far {}", p.question.trim()), text)
+            .filter(|t| matches!(t, Task::Distance { .. }))
+            .or(first),
+        _ => first,
+    };
+    first
         .filter(|t| match t {
             Task::RouteLength { from, to } | Task::Distance { from, to } => {
                 !(muddled(from) || muddled(to)) || ends_in_context(&p).is_none()
@@ -3583,6 +3597,16 @@ mod tests {
             matches!(parse_question(q), Some(Task::Colour { .. })),
             "{q}: {:?}",
             parse_question(q)
+        );
+        // a straight line said as the only cue of a distance
+        let q = "Post box 12 to segment 40, as the crow flies, metres?";
+        assert_eq!(
+            parse_question(q),
+            Some(Task::Distance {
+                from: "post box 12".into(),
+                to: "segment 40".into()
+            }),
+            "{q}"
         );
         // "there" after a preposition is the place said before
         let q = "Pulling in at lane node 7. Mailboxes inside 25 m of there - count?";
