@@ -242,16 +242,16 @@ pub fn drive_end_of(text: &str) -> Option<&'static str> {
                     | "location"
                     | "spot"
                     | "pose"
-            )
-        })
-        .collect();
-    // the survey vehicle is the drive's ("where the survey vehicle commenced its recording")
-    let words: Vec<&str> = words
-        .into_iter()
-        .filter(|w| {
-            !matches!(
-                *w,
-                "which" | "when" | "that" | "it" | "vehicle" | "car" | "robot" | "platform"
+                    // the survey vehicle is the drive's ("where the survey vehicle
+                    // commenced its recording")
+                    | "which"
+                    | "when"
+                    | "that"
+                    | "it"
+                    | "vehicle"
+                    | "car"
+                    | "robot"
+                    | "platform"
             )
         })
         .collect();

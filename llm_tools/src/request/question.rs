@@ -2523,7 +2523,8 @@ fn two_places(t: &str) -> Option<(String, String)> {
         // "A from B": A is the last phrase of its clause, after a verb that separates the
         // two ("the distance that separates A from B")
         let head = t[..i].rsplit(", ").next().unwrap_or("");
-        let head = [" separates ", " separate ", " between "]
+        // ("between" never reaches here: it is read above)
+        let head = [" separates ", " separate "]
             .iter()
             .filter_map(|v| head.rfind(v).map(|j| &head[j + v.len()..]))
             .min_by_key(|h| h.len())
