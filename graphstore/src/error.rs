@@ -36,8 +36,12 @@ pub enum Error {
     },
     /// The store was written by another on-disk format version.
     #[error(
-        "{path} has store format version {found}, this build reads version {expected}; \
-         export it with the matching opengraph version and re-import"
+        "{path} has store format version {found}, this build reads version {expected}; {}",
+        if found < expected {
+            "opening it for writing (`Store::open`; any `opengraph` command) converts it in place"
+        } else {
+            "export it with the matching opengraph version and re-import"
+        }
     )]
     FormatVersion {
         /// The file.

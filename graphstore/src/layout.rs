@@ -19,17 +19,18 @@ use crate::model::{Relationship, typed_props};
 use crate::tokens::{RelType, Tokens};
 use crate::value::Value;
 
-/// On-disk format version; bump on any incompatible change to tables or encodings.
-pub const FORMAT_VERSION: u32 = 1;
+/// On-disk format version; bump on any incompatible change to tables or encodings. Version 2
+/// packs the adjacency into chunks ([`crate::adjacency`]); a store of version 1 is converted
+/// when it is opened for writing ([`crate::Store::open`]).
+pub const FORMAT_VERSION: u32 = 2;
 pub(crate) const MAGIC: &[u8] = b"opengraph-graphstore";
 
 pub(crate) const META: TableDefinition<'static, &str, &[u8]> = TableDefinition::new("og_meta");
 pub(crate) const TOKENS: TableDefinition<'static, u32, &str> = TableDefinition::new("og_tokens");
 pub(crate) const NODES: TableDefinition<'static, u64, &[u8]> = TableDefinition::new("og_nodes");
 pub(crate) const RELS: TableDefinition<'static, u64, &[u8]> = TableDefinition::new("og_rels");
-/// (node, direction 0=out 1=in, type, rel) -> other node
-pub(crate) const ADJ: TableDefinition<'static, (u64, u8, u32, u64), u64> =
-    TableDefinition::new("og_adj");
+/// (node, direction 0=out 1=in, first rel) -> packed chunk (see [`crate::adjacency`])
+pub(crate) use crate::adjacency::ADJ;
 /// (label, node)
 pub(crate) const LABELS: TableDefinition<'static, (u32, u64), ()> =
     TableDefinition::new("og_labels");

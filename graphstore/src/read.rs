@@ -13,7 +13,7 @@ use crate::tokens::{LabelId, PropKey, RelType, TokenKind};
 use crate::value::Value;
 
 /// An adjacency row: `(node, direction, type, rel)` and the node at the other end.
-pub(crate) type AdjRow = ((u64, u8, u32, u64), u64);
+pub(crate) use crate::adjacency::AdjRow;
 
 /// Low-level access implemented by both transaction kinds.
 pub(crate) trait Raw {

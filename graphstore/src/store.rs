@@ -57,6 +57,35 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// Converts a store of an older format this build can convert (format 1: one adjacency row per
+/// relationship end, see [`crate::adjacency`]) in one write transaction: all or nothing. A store
+/// of this build's format, or of one it cannot convert, is left for [`Store::finish_open`] to
+/// check. Whether it converted.
+fn upgrade(db: &Database, path: &Path) -> Result<bool> {
+    let found = {
+        let rtx = db.begin_read().map_err(storage)?;
+        let Ok(meta) = rtx.open_table(META) else {
+            return Ok(false);
+        };
+        let v = meta.get(K_VERSION).map_err(storage)?;
+        v.and_then(|g| <[u8; 4]>::try_from(g.value()).ok())
+            .map(u32::from_le_bytes)
+    };
+    if found != Some(1) {
+        return Ok(false);
+    }
+    let wtx = db.begin_write().map_err(storage)?;
+    let ends = crate::adjacency::convert_v1(&wtx)?;
+    {
+        let mut meta = wtx.open_table(META).map_err(storage)?;
+        meta.insert(K_VERSION, FORMAT_VERSION.to_le_bytes().as_slice())
+            .map_err(storage)?;
+    }
+    wtx.commit().map_err(storage)?;
+    tracing::info!(path = %path.display(), ends, "store converted from format 1 to {FORMAT_VERSION}");
+    Ok(true)
+}
+
 fn open_error(path: &Path, e: redb::DatabaseError) -> Error {
     match e {
         redb::DatabaseError::DatabaseAlreadyOpen => Error::InUse {
@@ -185,7 +214,7 @@ impl Store {
                 builder.open(path)
             }
         });
-        let db = match opened {
+        let mut db = match opened {
             Ok(r) => r.map_err(|e| open_error(path, e))?,
             Err(_) => {
                 return Err(Error::Corrupt {
@@ -236,6 +265,9 @@ impl Store {
                 wtx.open_table(PAYLOADS).map_err(storage)?;
             }
             wtx.commit().map_err(storage)?;
+        } else if upgrade(&db, path)? {
+            // the old rows' pages are free now: give them back to the file system
+            db.compact().map_err(storage)?;
         }
         Self::finish_open(Db::Rw(db), path)
     }

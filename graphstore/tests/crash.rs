@@ -325,7 +325,7 @@ fn wrong_format_version_is_refused() {
             e,
             Error::FormatVersion {
                 found: 99,
-                expected: 1,
+                expected: 2,
                 ..
             }
         ),

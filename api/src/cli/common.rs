@@ -150,7 +150,19 @@ pub(crate) fn open_store(
     let opened = if writable {
         graphstore::Store::open(db)
     } else {
-        graphstore::Store::open_read_only(db)
+        match graphstore::Store::open_read_only(db) {
+            // written by an older build: converted in place once (all or nothing), then read
+            Err(graphstore::Error::FormatVersion {
+                found, expected, ..
+            }) if found < expected && graphstore::Store::open(db).is_ok() => {
+                eprintln!(
+                    "note: converted {} from store format {found} to {expected} (once)",
+                    db.display()
+                );
+                graphstore::Store::open_read_only(db)
+            }
+            other => other,
+        }
     };
     match opened {
         Err(e @ graphstore::Error::InUse { .. }) => {

@@ -32,7 +32,7 @@ pub struct ReadTxn {
     meta: ReadOnlyTable<&'static str, &'static [u8]>,
     nodes: ReadOnlyTable<u64, &'static [u8]>,
     rels: ReadOnlyTable<u64, &'static [u8]>,
-    adj: ReadOnlyTable<(u64, u8, u32, u64), u64>,
+    adj: ReadOnlyTable<crate::adjacency::ChunkKey, &'static [u8]>,
     labels: ReadOnlyTable<(u32, u64), ()>,
     propidx: ReadOnlyTable<&'static [u8], ()>,
     counts: ReadOnlyTable<(u8, u32), u64>,
@@ -81,7 +81,7 @@ pub struct WriteTxn<'a> {
     tokens: Table<'a, u32, &'static str>,
     nodes: Table<'a, u64, &'static [u8]>,
     rels: Table<'a, u64, &'static [u8]>,
-    adj: Table<'a, (u64, u8, u32, u64), u64>,
+    adj: Table<'a, crate::adjacency::ChunkKey, &'static [u8]>,
     labels: Table<'a, (u32, u64), ()>,
     propidx: Table<'a, &'static [u8], ()>,
     counts: Table<'a, (u8, u32), u64>,
@@ -150,18 +150,7 @@ macro_rules! raw_reads {
             if let Some(hot) = self.hot_adjacency() {
                 return Ok(hot.get(node, dir, ty));
             }
-            let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
-            let mut out = Vec::new();
-            for row in self
-                .adj
-                .range((node, dir, t0, 0u64)..=(node, dir, t1, u64::MAX))
-                .map_err(storage)?
-            {
-                let (k, v) = row.map_err(storage)?;
-                let (_, _, t, rel) = k.value();
-                out.push((rel, t, v.value()));
-            }
-            Ok(out)
+            crate::adjacency::read(&self.adj, node, dir, ty)
         }
 
         fn label_nodes(&self, label: u32) -> Result<Vec<u64>> {
@@ -246,12 +235,7 @@ macro_rules! raw_reads {
         }
 
         fn raw_adjacency_rows(&self) -> Result<Vec<crate::read::AdjRow>> {
-            let mut out = Vec::new();
-            for row in self.adj.iter().map_err(storage)? {
-                let (k, v) = row.map_err(storage)?;
-                out.push((k.value(), v.value()));
-            }
-            Ok(out)
+            crate::adjacency::Rows::new(&self.adj)?.collect()
         }
 
         fn raw_label_rows(&self) -> Result<Vec<(u32, u64)>> {
@@ -352,10 +336,7 @@ impl ReadTxn {
 
     /// The adjacency table read into memory in one pass (None: too large, or unreadable).
     fn copy_adjacency(&self) -> Option<crate::hot::AdjMem> {
-        let rows = self.adj.iter().ok()?.map(|row| {
-            let (k, v) = row.map_err(storage)?;
-            Ok((k.value(), v.value()))
-        });
+        let rows = crate::adjacency::Rows::new(&self.adj).ok()?;
         match crate::hot::AdjMem::from_rows(rows) {
             Ok(m) => m,
             Err(e) => {

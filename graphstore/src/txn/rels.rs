@@ -2,9 +2,10 @@
 //! clouds beside a node.
 
 use super::*;
+use crate::adjacency;
 
-/// An adjacency row as stored: `(node, direction 0 out 1 in, type, rel)` and the other end.
-pub(crate) type AdjEntry = ((u64, u8, u32, u64), u64);
+/// An adjacency row: `(node, direction 0 out 1 in, type, rel)` and the other end.
+pub(crate) type AdjEntry = crate::adjacency::AdjRow;
 
 /// Ends whose labels [`WriteTxn::create_rels`] keeps at once (a few tens of MB at most).
 const MAX_CACHED_ENDS: usize = 1 << 20;
@@ -29,12 +30,8 @@ impl WriteTxn<'_> {
         let id = self.next_rel;
         let bytes = codec::encode_rel(ty.0, start, end, &props);
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
-        self.adj
-            .insert(&(start, 0u8, ty.0, id), &end)
-            .map_err(storage)?;
-        self.adj
-            .insert(&(end, 1u8, ty.0, id), &start)
-            .map_err(storage)?;
+        adjacency::insert(&mut self.adj, start, 0, (id, ty.0, end))?;
+        adjacency::insert(&mut self.adj, end, 1, (id, ty.0, start))?;
         self.bump(1, ty.0, 1)?;
         self.bump(2, 1, 1)?;
         self.next_rel += 1;
@@ -118,15 +115,11 @@ impl WriteTxn<'_> {
         Ok(ids)
     }
 
-    /// Writes adjacency rows, sorted here and inserted in key order (into an empty table
-    /// that appends, and the B-tree's pages come out full). `rows` keeps them: the caller
-    /// clears it once the transaction has committed.
+    /// Writes adjacency rows, sorted here and packed into each node's chunks
+    /// ([`adjacency::insert_many`]; into an empty table, fresh chunks in key order). `rows`
+    /// keeps them: the caller clears it once the transaction has committed.
     pub(crate) fn insert_adjacency(&mut self, rows: &mut [AdjEntry]) -> Result<()> {
-        rows.sort_unstable();
-        for (key, other) in rows.iter() {
-            self.adj.insert(key, other).map_err(storage)?;
-        }
-        Ok(())
+        adjacency::insert_many(&mut self.adj, rows)
     }
 
     /// Re-creates a deleted relationship under its old id (for undoing an edit exactly).
@@ -157,12 +150,8 @@ impl WriteTxn<'_> {
         self.check_rel(ty.0, &s.labels, &e.labels, &props)?;
         let bytes = codec::encode_rel(ty.0, start, end, &props);
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
-        self.adj
-            .insert(&(start, 0u8, ty.0, id), &end)
-            .map_err(storage)?;
-        self.adj
-            .insert(&(end, 1u8, ty.0, id), &start)
-            .map_err(storage)?;
+        adjacency::insert(&mut self.adj, start, 0, (id, ty.0, end))?;
+        adjacency::insert(&mut self.adj, end, 1, (id, ty.0, start))?;
         self.bump(1, ty.0, 1)?;
         self.bump(2, 1, 1)?;
         Ok(())
@@ -224,12 +213,8 @@ impl WriteTxn<'_> {
     pub fn delete_rel(&mut self, id: u64) -> Result<()> {
         let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
         self.rels.remove(&id).map_err(storage)?;
-        self.adj
-            .remove(&(rel.start, 0u8, rel.ty.0, id))
-            .map_err(storage)?;
-        self.adj
-            .remove(&(rel.end, 1u8, rel.ty.0, id))
-            .map_err(storage)?;
+        adjacency::remove(&mut self.adj, rel.start, 0, id)?;
+        adjacency::remove(&mut self.adj, rel.end, 1, id)?;
         self.bump(1, rel.ty.0, -1)?;
         self.bump(2, 1, -1)?;
         Ok(())
