@@ -318,6 +318,9 @@ struct Kernel {
     pred_cols: Vec<Col>,
     /// The predicates' values, fixed when the statement starts.
     pred_vals: Vec<Option<Val>>,
+    /// Per predicate, a numeric comparison decided on f64 when both sides are exact in it
+    /// ([`numeric_pred`]).
+    pred_num: Vec<Option<(Ordering, bool, f64)>>,
     /// Per stage (0: the scanned node; h: after hop h), the predicates it checks.
     pred_stage: Vec<Vec<usize>>,
     key_cols: Vec<Col>,
@@ -404,16 +407,19 @@ impl Columnar {
         };
         let mut pred_cols = Vec::new();
         let mut pred_vals = Vec::new();
+        let mut pred_num = Vec::new();
         let mut pred_stage = vec![Vec::new(); s.hops.len() + 1];
         for (i, p) in s.preds.iter().enumerate() {
             let Some(c) = col(&p.col) else {
                 return Ok(None);
             };
             pred_cols.push(c);
-            pred_vals.push(match &p.op {
+            let v = match &p.op {
                 PredOp::Cmp { value, .. } => Some(value.eval(ex, row, &[])?),
                 PredOp::IsNull(_) => None,
-            });
+            };
+            pred_num.push(v.as_ref().and_then(|v| numeric_pred(&p.op, v)));
+            pred_vals.push(v);
             pred_stage[stage_of(p.col.elem)].push(i);
         }
         let (mut key_cols, mut arg_cols, mut top_col) = (Vec::new(), Vec::new(), None);
@@ -509,6 +515,7 @@ impl Columnar {
             rdir: vec![0; s.hops.len()],
             pred_cols,
             pred_vals,
+            pred_num,
             pred_stage,
             key_cols,
             arg_cols,
@@ -571,6 +578,47 @@ fn pred_holds(op: &PredOp, cell: Cell<'_>, value: Option<&Val>) -> bool {
     }
 }
 
+/// Integers up to this magnitude are exact as f64.
+const EXACT: u64 = 1 << 53;
+
+/// `prop OP value` as "the ordering of prop against `x` is `want`" (negated when the bool is
+/// true): for a numeric value exact as f64 (not NaN) and an ordering operator, with the sides
+/// put back in order when the value was on the left. None: decided by [`pred_holds`].
+fn numeric_pred(op: &PredOp, value: &Val) -> Option<(Ordering, bool, f64)> {
+    let PredOp::Cmp { op, flipped, .. } = op else {
+        return None;
+    };
+    let x = match *value {
+        Val::Float(f) if !f.is_nan() => f,
+        Val::Int(n) if n.unsigned_abs() <= EXACT => n as f64,
+        _ => return None,
+    };
+    // `value OP prop` is `prop OP' value`, OP' the mirror of OP
+    let op = match (op, flipped) {
+        (BinOp::Lt, true) => BinOp::Gt,
+        (BinOp::Gt, true) => BinOp::Lt,
+        (BinOp::Le, true) => BinOp::Ge,
+        (BinOp::Ge, true) => BinOp::Le,
+        (op, _) => *op,
+    };
+    Some(match op {
+        BinOp::Lt => (Ordering::Less, false),
+        BinOp::Ge => (Ordering::Less, true),
+        BinOp::Gt => (Ordering::Greater, false),
+        BinOp::Le => (Ordering::Greater, true),
+        BinOp::Eq => (Ordering::Equal, false),
+        BinOp::Ne => (Ordering::Equal, true),
+        _ => return None,
+    })
+    .map(|(o, neg)| (o, neg, x))
+}
+
+/// [`numeric_pred`]'s test on a property value `f` (neither side NaN).
+#[inline(always)]
+fn num_holds((want, negated, x): (Ordering, bool, f64), f: f64) -> bool {
+    (f.partial_cmp(&x) == Some(want)) != negated
+}
+
 #[inline]
 fn cmp_sided(op: BinOp, prop: &Val, value: &Val, flipped: bool) -> Val {
     if flipped {
@@ -591,7 +639,13 @@ impl Kernel {
                 Elem::Node(n) => nodes[n],
                 Elem::Rel(h) => rows[h],
             };
-            if !pred_holds(&p.op, self.pred_cols[i].get(id), self.pred_vals[i].as_ref()) {
+            let cell = self.pred_cols[i].get(id);
+            let holds = match (self.pred_num[i], cell) {
+                (Some(num), Cell::Float(f)) if !f.is_nan() => num_holds(num, f),
+                (Some(num), Cell::Int(n)) if n.unsigned_abs() <= EXACT => num_holds(num, n as f64),
+                _ => pred_holds(&p.op, cell, self.pred_vals[i].as_ref()),
+            };
+            if !holds {
                 return false;
             }
             self.stats.passed[i] += 1;
