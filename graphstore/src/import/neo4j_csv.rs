@@ -674,6 +674,8 @@ fn import_relationships(
 ) -> Result<()> {
     // the adjacency of the batch being written; moved to `deferred` once it has committed
     let batch_adj: std::cell::RefCell<Vec<AdjEntry>> = Default::default();
+    // the ends' labels, read once for the whole load
+    let end_labels: std::cell::RefCell<crate::txn::EndLabels> = Default::default();
     let defer = deferred.is_some();
     let mut flush_err: Option<Error> = None;
     for f in &files.relationships {
@@ -711,24 +713,26 @@ fn import_relationships(
             let mut adj = batch_adj.borrow_mut();
             adj.clear();
             let into = defer.then_some(&mut *adj);
-            tx.create_rels_into(rows, into).map_err(|(i, err)| {
-                let detail = match err {
-                    Error::NodeNotFound(id) => format!(
-                        "column {}: no node has the :ID \"{id}\"",
-                        if ends.get(i).is_some_and(|(s, _)| *s == id) {
-                            sc + 1
-                        } else {
-                            ec + 1
-                        }
-                    ),
-                    other => other.to_string(),
-                };
-                Error::Import {
-                    path: path.clone(),
-                    line: lines.get(i).copied().unwrap_or(0),
-                    detail,
-                }
-            })?;
+            let mut cache = end_labels.borrow_mut();
+            tx.create_rels_into(rows, into, &mut cache)
+                .map_err(|(i, err)| {
+                    let detail = match err {
+                        Error::NodeNotFound(id) => format!(
+                            "column {}: no node has the :ID \"{id}\"",
+                            if ends.get(i).is_some_and(|(s, _)| *s == id) {
+                                sc + 1
+                            } else {
+                                ec + 1
+                            }
+                        ),
+                        other => other.to_string(),
+                    };
+                    Error::Import {
+                        path: path.clone(),
+                        line: lines.get(i).copied().unwrap_or(0),
+                        detail,
+                    }
+                })?;
             Ok(())
         };
         let mut row = |tx: &mut WriteTxn<'_>, r: &Reader| -> Result<()> {

@@ -234,6 +234,8 @@ pub fn import_node_link(
         progress(out.nodes, total);
     }
     let mut types: HashMap<String, RelType> = HashMap::new();
+    // the ends' labels, read once for the whole load
+    let mut end_labels = crate::txn::EndLabels::default();
     for (b, chunk) in edges.chunks(batch_rows).enumerate() {
         store.write(|tx| {
             let mut rows: Vec<NewRel> = Vec::with_capacity(chunk.len());
@@ -280,7 +282,7 @@ pub fn import_node_link(
                 }
                 rows.push((s, ty, t, props));
             }
-            tx.create_rels(rows)
+            tx.create_rels_into(rows, None, &mut end_labels)
                 .map_err(|(j, e)| err(format!("edges[{}]: {e}", b * batch_rows + j)))?;
             Ok(())
         })?;

@@ -10,6 +10,16 @@ pub(crate) type AdjEntry = crate::adjacency::AdjRow;
 /// Ends whose labels [`WriteTxn::create_rels`] keeps at once (a few tens of MB at most).
 const MAX_CACHED_ENDS: usize = 1 << 20;
 
+/// The labels of relationship ends, read once and kept across the batches (transactions) of a
+/// bulk load: valid only while every commit to the store is the load's own, so each batch
+/// checks that its base is the commit the previous batch made, and starts afresh otherwise.
+#[derive(Debug, Default)]
+pub(crate) struct EndLabels {
+    /// The commit the labels are valid for: the one the last batch made.
+    seq: Option<u64>,
+    map: HashMap<u64, Vec<u32>>,
+}
+
 impl WriteTxn<'_> {
     /// Creates a relationship `start -[ty]-> end`.
     pub fn create_rel(
@@ -52,21 +62,29 @@ impl WriteTxn<'_> {
         &mut self,
         rows: Vec<crate::NewRel>,
     ) -> std::result::Result<Vec<u64>, (usize, Error)> {
-        self.create_rels_into(rows, None)
+        self.create_rels_into(rows, None, &mut EndLabels::default())
     }
 
     /// [`WriteTxn::create_rels`], with the adjacency rows appended to `deferred` instead of
     /// written when it is given: the caller writes them later with
     /// [`WriteTxn::insert_adjacency`] (a bulk import into an empty store, whose adjacency
     /// then goes in once, in key order).
+    ///
+    /// `cache`: the ends' labels, read once (only the labels are decoded) and kept for the
+    /// next batch of the same load (see [`EndLabels`]).
     pub(crate) fn create_rels_into(
         &mut self,
         rows: Vec<crate::NewRel>,
         deferred: Option<&mut Vec<AdjEntry>>,
+        cache: &mut EndLabels,
     ) -> std::result::Result<Vec<u64>, (usize, Error)> {
         let n = rows.len();
-        // an end's labels, read once per call (only the labels are decoded)
-        let mut ends: HashMap<u64, Vec<u32>> = HashMap::new();
+        if cache.seq != Some(self.base.seq) {
+            cache.map.clear();
+        }
+        // valid again only once this batch has gone in without an error
+        cache.seq = None;
+        let ends = &mut cache.map;
         let mut encoded = Vec::with_capacity(n);
         for (i, (start, ty, end, props)) in rows.into_iter().enumerate() {
             if ends.len() >= MAX_CACHED_ENDS {
@@ -91,7 +109,6 @@ impl WriteTxn<'_> {
                 codec::encode_rel(ty.0, start, end, &props),
             ));
         }
-        drop(ends);
         let store = |e| (n, e);
         let first = self.next_rel;
         let mut adj = Vec::with_capacity(2 * n);
@@ -112,6 +129,8 @@ impl WriteTxn<'_> {
         }
         self.bump(2, 1, n as i64).map_err(store)?;
         self.next_rel = first + n as u64;
+        // the commit this transaction makes, if it commits
+        cache.seq = Some(self.base.seq + 1);
         Ok(ids)
     }
 
@@ -241,5 +260,58 @@ impl WriteTxn<'_> {
     pub fn put_point_cloud(&mut self, node: u64, key: &str, cloud: &PointCloud) -> Result<()> {
         let bytes = cloud.encode()?;
         self.put_payload(node, key, &bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{RelRule, Schema, Store};
+
+    /// The end labels kept across batches are used only while the batches' commits follow one
+    /// another: a commit in between (here one that takes a label away) makes the next batch
+    /// read them again, so the schema's rule still holds.
+    #[test]
+    fn end_labels_are_read_again_after_another_commit() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::create(dir.path().join("e.og")).unwrap();
+        let mut schema = Schema::default();
+        schema.relationships.insert(
+            "R".into(),
+            RelRule {
+                from_labels: vec!["X".into()],
+                ..RelRule::default()
+            },
+        );
+        store.set_schema(schema).unwrap();
+        let (a, b) = store
+            .write(|tx| {
+                Ok((
+                    tx.create_node_named(&["X"], &[])?,
+                    tx.create_node_named(&["X"], &[])?,
+                ))
+            })
+            .unwrap();
+        let mut cache = EndLabels::default();
+        let batch = |tx: &mut WriteTxn<'_>, cache: &mut EndLabels| {
+            let r = tx.rel_type_id("R")?;
+            tx.create_rels_into(vec![(a, r, b, vec![])], None, cache)
+                .map_err(|(_, e)| e)
+        };
+        store.write(|tx| batch(tx, &mut cache)).unwrap();
+        assert_eq!(cache.seq, Some(store.commit_seq()));
+        // the next batch right after: the labels are not read again
+        store.write(|tx| batch(tx, &mut cache)).unwrap();
+        assert!(cache.map.contains_key(&a));
+        // another commit takes X away from `a`: the next batch must see it
+        store
+            .write(|tx| {
+                let x = tx.label_id("X")?;
+                tx.remove_label(a, x)
+            })
+            .unwrap();
+        let e = store.write(|tx| batch(tx, &mut cache)).unwrap_err();
+        assert!(e.to_string().contains('X'), "{e}");
+        assert_eq!(store.counts().unwrap().total_relationships, 2);
     }
 }
