@@ -192,8 +192,8 @@ enum Starts {
     Sparse(HashMap<u64, (u32, u32)>),
 }
 
-/// The adjacency table `(node, direction, type, relationship) → other node` in memory, in its
-/// key order, as columns.
+/// The adjacency's rows `(node, direction, type, relationship) → other node` in memory, in that
+/// order (as [`crate::adjacency::Rows`] reads them from the chunks), as columns.
 #[derive(Debug)]
 pub(crate) struct AdjMem {
     starts: Starts,
