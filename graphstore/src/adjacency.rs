@@ -345,6 +345,60 @@ impl Iterator for Rows<'_> {
     }
 }
 
+/// The adjacency as a reader sees it, whatever the table's format.
+pub(crate) trait AdjRead {
+    /// As [`read`].
+    fn adj_read(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<Entry>>;
+    /// Every end, in format 1's key order, as [`Rows`] gives them.
+    fn adj_rows(&self) -> Result<Box<dyn Iterator<Item = Result<AdjRow>> + '_>>;
+}
+
+impl AdjRead for Table<'_, ChunkKey, &'static [u8]> {
+    fn adj_read(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<Entry>> {
+        read(self, node, dir, ty)
+    }
+    fn adj_rows(&self) -> Result<Box<dyn Iterator<Item = Result<AdjRow>> + '_>> {
+        Ok(Box::new(Rows::new(self)?))
+    }
+}
+
+/// A read transaction's adjacency table: format 2's chunks, or, in a store of format 1 opened
+/// read-only (which is never converted: the file is not written), format 1's rows.
+pub(crate) enum AdjTable {
+    Chunks(redb::ReadOnlyTable<ChunkKey, &'static [u8]>),
+    V1(redb::ReadOnlyTable<(u64, u8, u32, u64), u64>),
+}
+
+impl AdjRead for AdjTable {
+    fn adj_read(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<Entry>> {
+        match self {
+            AdjTable::Chunks(t) => read(t, node, dir, ty),
+            AdjTable::V1(t) => {
+                let (t0, t1) = ty.map_or((0, u32::MAX), |t| (t, t));
+                let mut out = Vec::new();
+                for row in t
+                    .range((node, dir, t0, 0u64)..=(node, dir, t1, u64::MAX))
+                    .map_err(storage)?
+                {
+                    let (k, v) = row.map_err(storage)?;
+                    let (_, _, ty, rel) = k.value();
+                    out.push((rel, ty, v.value()));
+                }
+                Ok(out)
+            }
+        }
+    }
+    fn adj_rows(&self) -> Result<Box<dyn Iterator<Item = Result<AdjRow>> + '_>> {
+        match self {
+            AdjTable::Chunks(t) => Ok(Box::new(Rows::new(t)?)),
+            AdjTable::V1(t) => Ok(Box::new(t.iter().map_err(storage)?.map(|row| {
+                let (k, v) = row.map_err(storage)?;
+                Ok((k.value(), v.value()))
+            }))),
+        }
+    }
+}
+
 /// Converts format 1's table (one row per end) into chunks, in the write transaction `wtx`, and
 /// deletes it; the number of ends moved.
 pub(crate) fn convert_v1(wtx: &redb::WriteTransaction) -> Result<u64> {
@@ -475,10 +529,11 @@ mod tests {
         }
     }
 
-    /// A store of format 1 (one adjacency row per end) is refused read-only, converted when
-    /// opened for writing, and then reads the same relationships.
+    /// A store of format 1 (one adjacency row per end) is read as it is when opened read-only
+    /// (the file untouched), converted when opened for writing, and reads the same
+    /// relationships each way.
     #[test]
-    fn a_format_1_store_is_converted_on_a_writable_open() {
+    fn a_format_1_store_is_read_as_it_is_and_converted_on_a_writable_open() {
         use crate::{Direction, GraphRead, Store};
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("old.og");
@@ -524,20 +579,29 @@ mod tests {
             }
             w.commit().unwrap();
         }
-        let e = Store::open_read_only(&path).unwrap_err();
+        // read-only: read as it is, the file not written
+        let bytes = std::fs::read(&path).unwrap();
+        {
+            let store = Store::open_read_only(&path).unwrap();
+            assert_eq!(store.format_version(), 1);
+            assert_eq!(store.converted_from(), None);
+            let r = store.read().unwrap();
+            for (n, want) in before.iter().enumerate() {
+                assert_eq!(
+                    &r.neighbours(n as u64, Direction::Both, None).unwrap(),
+                    want
+                );
+            }
+            assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new());
+        }
         assert!(
-            matches!(
-                e,
-                crate::Error::FormatVersion {
-                    found: 1,
-                    expected: 2,
-                    ..
-                }
-            ),
-            "{e}"
+            std::fs::read(&path).unwrap() == bytes,
+            "a read-only open wrote the file"
         );
-        assert!(e.to_string().contains("converts it in place"), "{e}");
+        // writable: converted
         let store = Store::open(&path).unwrap();
+        assert_eq!(store.converted_from(), Some(1));
+        assert_eq!(store.format_version(), 2);
         assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new());
         let r = store.read().unwrap();
         for (n, want) in before.iter().enumerate() {
@@ -548,8 +612,11 @@ mod tests {
         }
         drop(r);
         drop(store);
-        // converted once: now read-only opens work
-        assert!(Store::open_read_only(&path).is_ok());
+        // converted once
+        let again = Store::open(&path).unwrap();
+        assert_eq!(again.converted_from(), None);
+        drop(again);
+        assert_eq!(Store::open_read_only(&path).unwrap().format_version(), 2);
     }
 
     #[test]

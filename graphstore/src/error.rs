@@ -38,7 +38,7 @@ pub enum Error {
     #[error(
         "{path} has store format version {found}, this build reads version {expected}; {}",
         if found < expected {
-            "opening it for writing (`Store::open`; any `opengraph` command) converts it in place"
+            "opening it for writing converts it in place"
         } else {
             "export it with the matching opengraph version and re-import"
         }

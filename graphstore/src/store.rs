@@ -43,6 +43,11 @@ impl Db {
 struct Inner {
     db: Db,
     path: PathBuf,
+    /// The file's format version: [`FORMAT_VERSION`], or 1 for a store of format 1 opened
+    /// read-only (read as it is, never converted).
+    format: u32,
+    /// The format the file had before this open converted it, if it did.
+    converted_from: Option<u32>,
     writer: Mutex<()>,
     state: Mutex<Arc<Committed>>,
 }
@@ -193,7 +198,7 @@ impl Store {
                 });
             }
         };
-        Self::finish_open(Db::Ro(db), path)
+        Self::finish_open(Db::Ro(db), path, None)
     }
 
     fn open_inner(path: &Path, create: bool, options: &StoreOptions) -> Result<Store> {
@@ -265,15 +270,19 @@ impl Store {
                 wtx.open_table(PAYLOADS).map_err(storage)?;
             }
             wtx.commit().map_err(storage)?;
+            Self::finish_open(Db::Rw(db), path, None)
         } else if upgrade(&db, path)? {
             // the old rows' pages are free now: give them back to the file system
             db.compact().map_err(storage)?;
+            Self::finish_open(Db::Rw(db), path, Some(1))
+        } else {
+            Self::finish_open(Db::Rw(db), path, None)
         }
-        Self::finish_open(Db::Rw(db), path)
     }
 
-    /// Reads the header, tokens and schema, and builds the in-memory indexes.
-    fn finish_open(db: Db, path: &Path) -> Result<Store> {
+    /// Reads the header, tokens and schema, and builds the in-memory indexes; `converted_from`:
+    /// the format this open converted the file from.
+    fn finish_open(db: Db, path: &Path, converted_from: Option<u32>) -> Result<Store> {
         let rtx = match db.begin_read() {
             Ok(t) => t,
             Err(e) => return Err(storage(e)),
@@ -296,7 +305,10 @@ impl Store {
         let found = <[u8; 4]>::try_from(vb.as_slice())
             .map(u32::from_le_bytes)
             .map_err(|_| codec_err("format version", "not 4 bytes"))?;
-        if found != FORMAT_VERSION {
+        // a store of format 1 is read as it is when opened read-only (a writable open has
+        // converted it before this)
+        let readable = found == FORMAT_VERSION || (found == 1 && matches!(db, Db::Ro(_)));
+        if !readable {
             return Err(Error::FormatVersion {
                 path: path.to_path_buf(),
                 found,
@@ -323,6 +335,8 @@ impl Store {
             inner: Arc::new(Inner {
                 db,
                 path: path.to_path_buf(),
+                format: found,
+                converted_from,
                 writer: Mutex::new(()),
                 state: Mutex::new(Arc::new(Committed {
                     tokens: Arc::new(tokens),
@@ -336,6 +350,18 @@ impl Store {
         };
         tracing::debug!(path = %path.display(), "store opened");
         Ok(store)
+    }
+
+    /// The file's store format version: [`FORMAT_VERSION`], or 1 for a store of format 1
+    /// opened read-only, which is read as it is (a writable open converts it).
+    pub fn format_version(&self) -> u32 {
+        self.inner.format
+    }
+
+    /// The format version the file had before this handle's open converted it to
+    /// [`FORMAT_VERSION`], if it did ([`Store::open`] converts a store of format 1).
+    pub fn converted_from(&self) -> Option<u32> {
+        self.inner.converted_from
     }
 
     /// Whether this handle was opened read-only ([`Store::open_read_only`]).
@@ -380,7 +406,7 @@ impl Store {
         let rtx = self.inner.db.begin_read().map_err(storage)?;
         let base = st.clone();
         drop(st);
-        ReadTxn::new(rtx, base)
+        ReadTxn::new(rtx, base, self.inner.format)
     }
 
     /// Builds the in-memory spatial, vector and text indexes now rather than on their first

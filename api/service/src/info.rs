@@ -25,9 +25,14 @@ pub fn table(store: &Store) -> graphstore::Result<String> {
     let mut o = String::new();
     writeln!(
         o,
-        "store {} (format v{})",
+        "store {} (format v{}{})",
         store.path().display(),
-        graphstore::FORMAT_VERSION
+        store.format_version(),
+        if store.format_version() < graphstore::FORMAT_VERSION {
+            "; an older format, read as it is: a command that writes converts it"
+        } else {
+            ""
+        }
     )
     .map_err(fmt_err)?;
     writeln!(o, "nodes: {}", c.total_nodes).map_err(fmt_err)?;

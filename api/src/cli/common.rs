@@ -150,20 +150,15 @@ pub(crate) fn open_store(
     let opened = if writable {
         graphstore::Store::open(db)
     } else {
-        match graphstore::Store::open_read_only(db) {
-            // written by an older build: converted in place once (all or nothing), then read
-            Err(graphstore::Error::FormatVersion {
-                found, expected, ..
-            }) if found < expected && graphstore::Store::open(db).is_ok() => {
-                eprintln!(
-                    "note: converted {} from store format {found} to {expected} (once)",
-                    db.display()
-                );
-                graphstore::Store::open_read_only(db)
-            }
-            other => other,
-        }
+        graphstore::Store::open_read_only(db)
     };
+    if let Ok(Some(from)) = opened.as_ref().map(graphstore::Store::converted_from) {
+        eprintln!(
+            "note: converted {} from store format {from} to {} (once; builds before 2026-12-07 cannot open it now)",
+            db.display(),
+            graphstore::FORMAT_VERSION
+        );
+    }
     match opened {
         Err(e @ graphstore::Error::InUse { .. }) => {
             // a marker left by a killed server (its process is gone) says nothing

@@ -32,7 +32,7 @@ pub struct ReadTxn {
     meta: ReadOnlyTable<&'static str, &'static [u8]>,
     nodes: ReadOnlyTable<u64, &'static [u8]>,
     rels: ReadOnlyTable<u64, &'static [u8]>,
-    adj: ReadOnlyTable<crate::adjacency::ChunkKey, &'static [u8]>,
+    adj: crate::adjacency::AdjTable,
     labels: ReadOnlyTable<(u32, u64), ()>,
     propidx: ReadOnlyTable<&'static [u8], ()>,
     counts: ReadOnlyTable<(u8, u32), u64>,
@@ -46,12 +46,20 @@ impl std::fmt::Debug for ReadTxn {
 }
 
 impl ReadTxn {
-    pub(crate) fn new(txn: ReadTransaction, base: Arc<Committed>) -> Result<ReadTxn> {
+    /// `format`: the store's format version (1: format 1's adjacency, read as it is).
+    pub(crate) fn new(txn: ReadTransaction, base: Arc<Committed>, format: u32) -> Result<ReadTxn> {
+        let adj = if format == 1 {
+            crate::adjacency::AdjTable::V1(
+                txn.open_table(crate::adjacency::ADJ_V1).map_err(storage)?,
+            )
+        } else {
+            crate::adjacency::AdjTable::Chunks(txn.open_table(ADJ).map_err(storage)?)
+        };
         Ok(ReadTxn {
+            adj,
             meta: txn.open_table(META).map_err(storage)?,
             nodes: txn.open_table(NODES).map_err(storage)?,
             rels: txn.open_table(RELS).map_err(storage)?,
-            adj: txn.open_table(ADJ).map_err(storage)?,
             labels: txn.open_table(LABELS).map_err(storage)?,
             propidx: txn.open_table(PROPIDX).map_err(storage)?,
             counts: txn.open_table(COUNTS).map_err(storage)?,
@@ -150,7 +158,7 @@ macro_rules! raw_reads {
             if let Some(hot) = self.hot_adjacency() {
                 return Ok(hot.get(node, dir, ty));
             }
-            crate::adjacency::read(&self.adj, node, dir, ty)
+            crate::adjacency::AdjRead::adj_read(&self.adj, node, dir, ty)
         }
 
         fn label_nodes(&self, label: u32) -> Result<Vec<u64>> {
@@ -235,7 +243,7 @@ macro_rules! raw_reads {
         }
 
         fn raw_adjacency_rows(&self) -> Result<Vec<crate::read::AdjRow>> {
-            crate::adjacency::Rows::new(&self.adj)?.collect()
+            crate::adjacency::AdjRead::adj_rows(&self.adj)?.collect()
         }
 
         fn raw_label_rows(&self) -> Result<Vec<(u32, u64)>> {
@@ -336,7 +344,7 @@ impl ReadTxn {
 
     /// The adjacency table read into memory in one pass (None: too large, or unreadable).
     fn copy_adjacency(&self) -> Option<crate::hot::AdjMem> {
-        let rows = crate::adjacency::Rows::new(&self.adj).ok()?;
+        let rows = crate::adjacency::AdjRead::adj_rows(&self.adj).ok()?;
         match crate::hot::AdjMem::from_rows(rows) {
             Ok(m) => m,
             Err(e) => {
