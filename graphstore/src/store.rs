@@ -175,9 +175,16 @@ impl Store {
         let db = match opened {
             Ok(Ok(db)) => db,
             Ok(Err(redb::DatabaseError::RepairAborted)) => {
-                // a writer was killed: recover once with a read-write open (the only write a
-                // read may cause), then open read-only
-                if let Err(e) = Store::open(path) {
+                // a writer was killed: recover once with a read-write open of the file (the only
+                // write a read may cause; the store's format is left as it is), then open
+                // read-only
+                let recovered = std::panic::catch_unwind(|| Database::open(path))
+                    .map_err(|_| Error::Corrupt {
+                        what: path.display().to_string(),
+                        detail: "the storage engine could not read the file header".into(),
+                    })
+                    .and_then(|r| r.map(drop).map_err(|e| open_error(path, e)));
+                if let Err(e) = recovered {
                     return Err(Error::Open {
                         path: path.to_path_buf(),
                         reason: format!(
