@@ -124,6 +124,23 @@ pub(crate) fn read<T: ReadableTable<ChunkKey, &'static [u8]>>(
     Ok(all)
 }
 
+/// A row of the table as its key and its entries, decoded and checked ([`decode`]).
+type ChunkRow<'a> = std::result::Result<
+    (
+        redb::AccessGuard<'a, ChunkKey>,
+        redb::AccessGuard<'a, &'static [u8]>,
+    ),
+    redb::StorageError,
+>;
+
+fn decoded(row: ChunkRow<'_>) -> Result<(ChunkKey, Vec<Entry>)> {
+    let (k, v) = row.map_err(storage)?;
+    let key = k.value();
+    let mut entries = Vec::new();
+    decode(key, v.value(), &mut entries)?;
+    Ok((key, entries))
+}
+
 /// The chunk holding `rel` if it is there: the chunk with the greatest key at or before it.
 fn chunk_at(
     t: &Table<'_, ChunkKey, &'static [u8]>,
@@ -131,19 +148,11 @@ fn chunk_at(
     dir: u8,
     rel: u64,
 ) -> Result<Option<(ChunkKey, Vec<Entry>)>> {
-    let mut range = t
-        .range((node, dir, 0u64)..=(node, dir, rel))
-        .map_err(storage)?;
-    match range.next_back() {
-        Some(row) => {
-            let (k, v) = row.map_err(storage)?;
-            let key = k.value();
-            let mut entries = Vec::new();
-            decode(key, v.value(), &mut entries)?;
-            Ok(Some((key, entries)))
-        }
-        None => Ok(None),
-    }
+    t.range((node, dir, 0u64)..=(node, dir, rel))
+        .map_err(storage)?
+        .next_back()
+        .map(decoded)
+        .transpose()
 }
 
 /// Adds one end: relationship `rel` of type `ty` at `node`, direction `dir`, `other` at the far
@@ -162,14 +171,7 @@ pub(crate) fn insert(
                 .range((node, dir, rel)..=(node, dir, u64::MAX))
                 .map_err(storage)?
                 .next()
-                .transpose()
-                .map_err(storage)?
-                .map(|(k, v)| -> Result<_> {
-                    let key = k.value();
-                    let mut entries = Vec::new();
-                    decode(key, v.value(), &mut entries)?;
-                    Ok((key, entries))
-                })
+                .map(decoded)
                 .transpose()?;
             match first {
                 Some(found) => found,
@@ -282,16 +284,7 @@ impl<'a> Rows<'a> {
         if let Some(c) = self.ahead.take() {
             return Ok(Some(c));
         }
-        match self.range.next() {
-            None => Ok(None),
-            Some(row) => {
-                let (k, v) = row.map_err(storage)?;
-                let key = k.value();
-                let mut entries = Vec::new();
-                decode(key, v.value(), &mut entries)?;
-                Ok(Some((key, entries)))
-            }
-        }
+        self.range.next().map(decoded).transpose()
     }
 
     /// Reads the next (node, direction)'s chunks into `buf`; false at the end.

@@ -73,8 +73,7 @@ fn upgrade(db: &Database, path: &Path) -> Result<bool> {
             return Ok(false);
         };
         let v = meta.get(K_VERSION).map_err(storage)?;
-        v.and_then(|g| <[u8; 4]>::try_from(g.value()).ok())
-            .map(u32::from_le_bytes)
+        v.and_then(|g| format_of(g.value()).ok())
     };
     if found != Some(1) {
         return Ok(false);
@@ -89,6 +88,22 @@ fn upgrade(db: &Database, path: &Path) -> Result<bool> {
     wtx.commit().map_err(storage)?;
     tracing::info!(path = %path.display(), ends, "store converted from format 1 to {FORMAT_VERSION}");
     Ok(true)
+}
+
+/// The format version as the meta table stores it (4 bytes, little-endian).
+fn format_of(bytes: &[u8]) -> Result<u32> {
+    <[u8; 4]>::try_from(bytes)
+        .map(u32::from_le_bytes)
+        .map_err(|_| codec_err("format version", "not 4 bytes"))
+}
+
+/// The storage engine panicked reading the file's header (caught: a hostile file may only
+/// ever produce an error).
+fn header_unreadable(path: &Path) -> Error {
+    Error::Corrupt {
+        what: path.display().to_string(),
+        detail: "the storage engine could not read the file header".into(),
+    }
 }
 
 fn open_error(path: &Path, e: redb::DatabaseError) -> Error {
@@ -179,10 +194,7 @@ impl Store {
                 // write a read may cause; the store's format is left as it is), then open
                 // read-only
                 let recovered = std::panic::catch_unwind(|| Database::open(path))
-                    .map_err(|_| Error::Corrupt {
-                        what: path.display().to_string(),
-                        detail: "the storage engine could not read the file header".into(),
-                    })
+                    .map_err(|_| header_unreadable(path))
                     .and_then(|r| r.map(drop).map_err(|e| open_error(path, e)));
                 if let Err(e) = recovered {
                     return Err(Error::Open {
@@ -198,12 +210,7 @@ impl Store {
                 }
             }
             Ok(Err(e)) => return Err(open_error(path, e)),
-            Err(_) => {
-                return Err(Error::Corrupt {
-                    what: path.display().to_string(),
-                    detail: "the storage engine could not read the file header".into(),
-                });
-            }
+            Err(_) => return Err(header_unreadable(path)),
         };
         Self::finish_open(Db::Ro(db), path, None)
     }
@@ -228,12 +235,7 @@ impl Store {
         });
         let mut db = match opened {
             Ok(r) => r.map_err(|e| open_error(path, e))?,
-            Err(_) => {
-                return Err(Error::Corrupt {
-                    what: path.display().to_string(),
-                    detail: "the storage engine could not read the file header".into(),
-                });
-            }
+            Err(_) => return Err(header_unreadable(path)),
         };
         // look with a read transaction: opening a store that is already one writes nothing
         let fresh = {
@@ -309,9 +311,7 @@ impl Store {
             });
         }
         let vb = get(K_VERSION)?;
-        let found = <[u8; 4]>::try_from(vb.as_slice())
-            .map(u32::from_le_bytes)
-            .map_err(|_| codec_err("format version", "not 4 bytes"))?;
+        let found = format_of(&vb)?;
         // a store of format 1 is read as it is when opened read-only (a writable open has
         // converted it before this)
         let readable = found == FORMAT_VERSION || (found == 1 && matches!(db, Db::Ro(_)));

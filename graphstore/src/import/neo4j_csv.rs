@@ -28,11 +28,12 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use crate::adjacency::AdjRow;
 use crate::error::{Error, Result};
 use crate::export::neo4j_csv::ARRAY_DELIMITER;
 use crate::store::Store;
 use crate::tokens::{LabelId, PropKey, RelType};
-use crate::txn::{AdjEntry, WriteTxn};
+use crate::txn::WriteTxn;
 use crate::value::{Value, ValueType};
 
 /// One file to import, with the labels (node files) or the type (relationship files) given
@@ -631,7 +632,7 @@ pub fn import_neo4j_csv(
     // empty table, its B-tree pages come out full, and the inserts cost a fraction of merging
     // each batch's rows into the table. The batches committed before an error get theirs
     // before the error is returned.
-    let mut deferred: Option<Vec<AdjEntry>> =
+    let mut deferred: Option<Vec<AdjRow>> =
         (store.counts()?.total_relationships == 0).then(Vec::new);
     let result = import_relationships(
         store,
@@ -666,14 +667,14 @@ fn import_relationships(
     batch_rows: usize,
     ids: &Ids,
     rel_types: &Typed,
-    deferred: &mut Option<Vec<AdjEntry>>,
+    deferred: &mut Option<Vec<AdjRow>>,
     out: &mut CsvImport,
     done_bytes: &mut u64,
     total: u64,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<()> {
     // the adjacency of the batch being written; moved to `deferred` once it has committed
-    let batch_adj: std::cell::RefCell<Vec<AdjEntry>> = Default::default();
+    let batch_adj: std::cell::RefCell<Vec<AdjRow>> = Default::default();
     // the ends' labels, read once for the whole load
     let end_labels: std::cell::RefCell<crate::txn::EndLabels> = Default::default();
     let defer = deferred.is_some();

@@ -22,7 +22,7 @@ use crate::value::Value;
 
 mod install;
 mod rels;
-pub(crate) use rels::{AdjEntry, EndLabels};
+pub(crate) use rels::EndLabels;
 mod validate;
 
 /// A read snapshot. Holds the redb read transaction and the matching index state.

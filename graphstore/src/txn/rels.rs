@@ -2,10 +2,7 @@
 //! clouds beside a node.
 
 use super::*;
-use crate::adjacency;
-
-/// An adjacency row: `(node, direction 0 out 1 in, type, rel)` and the other end.
-pub(crate) type AdjEntry = crate::adjacency::AdjRow;
+use crate::adjacency::{self, AdjRow};
 
 /// Ends whose labels [`WriteTxn::create_rels`] keeps at once (a few tens of MB at most).
 const MAX_CACHED_ENDS: usize = 1 << 20;
@@ -75,7 +72,7 @@ impl WriteTxn<'_> {
     pub(crate) fn create_rels_into(
         &mut self,
         rows: Vec<crate::NewRel>,
-        deferred: Option<&mut Vec<AdjEntry>>,
+        deferred: Option<&mut Vec<AdjRow>>,
         cache: &mut EndLabels,
     ) -> std::result::Result<Vec<u64>, (usize, Error)> {
         let n = rows.len();
@@ -137,7 +134,7 @@ impl WriteTxn<'_> {
     /// Writes adjacency rows, sorted here and packed into each node's chunks
     /// ([`adjacency::insert_many`]; into an empty table, fresh chunks in key order). `rows`
     /// keeps them: the caller clears it once the transaction has committed.
-    pub(crate) fn insert_adjacency(&mut self, rows: &mut [AdjEntry]) -> Result<()> {
+    pub(crate) fn insert_adjacency(&mut self, rows: &mut [AdjRow]) -> Result<()> {
         adjacency::insert_many(&mut self.adj, rows)
     }
 
