@@ -606,6 +606,7 @@ fn run_statement(
     ctx: &mut exec::Ctx<'_, '_>,
     stmt: &ast::Statement,
     opts: &QueryOptions,
+    plans: Option<&pipeline::PlanCache>,
 ) -> R<QueryResult> {
     let mut columns = Vec::new();
     let mut rows: Vec<Vec<Val>> = Vec::new();
@@ -616,7 +617,7 @@ fn run_statement(
     let mut profiled: Vec<Option<String>> = Vec::new();
     for (i, part) in stmt.parts.iter().enumerate() {
         let piped = match opts.engine {
-            Engine::Auto => pipeline::try_run(ctx, part, stmt.profile),
+            Engine::Auto => pipeline::try_run(ctx, part, stmt.profile, plans.map(|p| (p, i))),
             Engine::Interpreter => None,
         };
         let run = match piped {
@@ -739,18 +740,29 @@ const STATEMENT_CACHE: std::num::NonZeroUsize = std::num::NonZeroUsize::new(128)
 const STATEMENT_CACHE_MAX_TEXT: usize = 4096;
 
 thread_local! {
-    static STATEMENTS: std::cell::RefCell<lru::LruCache<String, std::rc::Rc<ast::Statement>>> =
+    static STATEMENTS: std::cell::RefCell<lru::LruCache<String, std::rc::Rc<Prepared>>> =
         std::cell::RefCell::new(lru::LruCache::new(STATEMENT_CACHE));
 }
 
+/// A statement parsed and checked, and the physical plans of its parts for the last commit
+/// they ran on.
+#[derive(Debug)]
+struct Prepared {
+    stmt: ast::Statement,
+    plans: pipeline::PlanCache,
+}
+
 /// `text` parsed and semantically checked, from this thread's cache when it was seen lately.
-fn checked(text: &str) -> Result<std::rc::Rc<ast::Statement>, QueryError> {
+fn checked(text: &str) -> Result<std::rc::Rc<Prepared>, QueryError> {
     if let Some(s) = STATEMENTS.with(|c| c.borrow_mut().get(text).cloned()) {
         return Ok(s);
     }
     let stmt = parser::parse(text)?;
     check::check(&stmt)?;
-    let stmt = std::rc::Rc::new(stmt);
+    let stmt = std::rc::Rc::new(Prepared {
+        stmt,
+        plans: pipeline::PlanCache::default(),
+    });
     if text.len() <= STATEMENT_CACHE_MAX_TEXT {
         STATEMENTS.with(|c| c.borrow_mut().put(text.to_string(), stmt.clone()));
     }
@@ -906,8 +918,8 @@ impl Store {
         if let Some(cmd) = index_cmd::parse(text)? {
             return self.index_command(cmd, opts);
         }
-        let stmt = checked(text)?;
-        let stmt = &*stmt;
+        let prepared = checked(text)?;
+        let stmt = &prepared.stmt;
         let deadline = opts.timeout.map(|t| Instant::now() + t);
         let writes = stmt
             .parts
@@ -943,7 +955,7 @@ impl Store {
                 ctx.max_rows = opts.max_intermediate_rows;
                 ctx.max_memory = opts.max_memory_bytes;
                 ctx.ground_axes = opts.ground_axes;
-                let res = run_statement(&mut ctx, stmt, opts);
+                let res = run_statement(&mut ctx, stmt, opts, Some(&prepared.plans));
                 let peak = ctx.mem_peak();
                 drop(ctx);
                 let mut res = after_statement(res, peak)?;
@@ -956,7 +968,7 @@ impl Store {
             ctx.max_rows = opts.max_intermediate_rows;
             ctx.max_memory = opts.max_memory_bytes;
             ctx.ground_axes = opts.ground_axes;
-            let res = run_statement(&mut ctx, stmt, opts);
+            let res = run_statement(&mut ctx, stmt, opts, Some(&prepared.plans));
             let peak = ctx.mem_peak();
             drop(ctx);
             let mut res = after_statement(res, peak)?;

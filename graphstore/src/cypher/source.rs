@@ -85,6 +85,11 @@ pub(crate) trait Source {
     fn node_count(&self) -> u64;
 }
 
+/// The property keys behind a source's handles, in handle order (node properties, then
+/// relationship properties). A plan holds handles, not keys, so a plan built over one source
+/// runs over another only when that one is [`StoreSource::primed`] with the first one's keys.
+pub(crate) type HandleKeys = (Vec<Option<u32>>, Vec<Option<u32>>);
+
 /// One property's state for one statement: the commit's column once it is built.
 #[derive(Debug)]
 struct PropState {
@@ -128,6 +133,24 @@ impl<'t> StoreSource<'t> {
             adj: RefCell::new(None),
             label_counts: std::cell::OnceCell::new(),
         }
+    }
+
+    /// A source over `txn` whose property handles are `keys`' (see [`HandleKeys`]).
+    pub(crate) fn primed(txn: &'t ReadTxn, keys: &HandleKeys) -> Self {
+        let s = StoreSource::new(txn);
+        for k in &keys.0 {
+            s.handle(true, *k);
+        }
+        for k in &keys.1 {
+            s.handle(false, *k);
+        }
+        s
+    }
+
+    /// The property keys behind this source's handles so far.
+    pub(crate) fn handle_keys(&self) -> HandleKeys {
+        let keys = |v: &RefCell<Vec<PropState>>| v.borrow().iter().map(|p| p.key).collect();
+        (keys(&self.node_props), keys(&self.rel_props))
     }
 
     fn handle(&self, nodes: bool, key: Option<u32>) -> usize {

@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 use std::ops::Bound;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use redb::{ReadOnlyTable, ReadTransaction, ReadableTable, Table, WriteTransaction};
 
@@ -26,17 +26,48 @@ pub(crate) use rels::EndLabels;
 mod validate;
 
 /// A read snapshot. Holds the redb read transaction and the matching index state.
+///
+/// Its tables are opened on first use (a statement that reads one index and a few records
+/// opens two, not eight: opening a table is a B-tree lookup in redb's table of tables).
 pub struct ReadTxn {
-    _txn: ReadTransaction,
+    txn: ReadTransaction,
     base: Arc<Committed>,
-    meta: ReadOnlyTable<&'static str, &'static [u8]>,
-    nodes: ReadOnlyTable<u64, &'static [u8]>,
-    rels: ReadOnlyTable<u64, &'static [u8]>,
-    adj: crate::adjacency::AdjTable,
-    labels: ReadOnlyTable<(u32, u64), ()>,
-    propidx: ReadOnlyTable<&'static [u8], ()>,
-    counts: ReadOnlyTable<(u8, u32), u64>,
-    payloads: ReadOnlyTable<(u64, &'static str), &'static [u8]>,
+    format: u32,
+    meta: OnceLock<ReadOnlyTable<&'static str, &'static [u8]>>,
+    nodes: OnceLock<ReadOnlyTable<u64, &'static [u8]>>,
+    rels: OnceLock<ReadOnlyTable<u64, &'static [u8]>>,
+    adj: OnceLock<crate::adjacency::AdjTable>,
+    labels: OnceLock<ReadOnlyTable<(u32, u64), ()>>,
+    propidx: OnceLock<ReadOnlyTable<&'static [u8], ()>>,
+    counts: OnceLock<ReadOnlyTable<(u8, u32), u64>>,
+    payloads: OnceLock<ReadOnlyTable<(u64, &'static str), &'static [u8]>>,
+}
+
+/// `ReadTxn::t_NAME()`: table `NAME`, opened on its first use.
+macro_rules! lazy_tables {
+    ($($name:ident: $field:ident = $def:expr => $ty:ty;)*) => {
+        impl ReadTxn {
+            $(
+                fn $name(&self) -> Result<&$ty> {
+                    if let Some(t) = self.$field.get() {
+                        return Ok(t);
+                    }
+                    let t = self.txn.open_table($def).map_err(storage)?;
+                    Ok(self.$field.get_or_init(|| t))
+                }
+            )*
+        }
+    };
+}
+
+lazy_tables! {
+    t_meta: meta = META => ReadOnlyTable<&'static str, &'static [u8]>;
+    t_nodes: nodes = NODES => ReadOnlyTable<u64, &'static [u8]>;
+    t_rels: rels = RELS => ReadOnlyTable<u64, &'static [u8]>;
+    t_labels: labels = LABELS => ReadOnlyTable<(u32, u64), ()>;
+    t_propidx: propidx = PROPIDX => ReadOnlyTable<&'static [u8], ()>;
+    t_counts: counts = COUNTS => ReadOnlyTable<(u8, u32), u64>;
+    t_payloads: payloads = PAYLOADS => ReadOnlyTable<(u64, &'static str), &'static [u8]>;
 }
 
 impl std::fmt::Debug for ReadTxn {
@@ -48,25 +79,36 @@ impl std::fmt::Debug for ReadTxn {
 impl ReadTxn {
     /// `format`: the store's format version (1: format 1's adjacency, read as it is).
     pub(crate) fn new(txn: ReadTransaction, base: Arc<Committed>, format: u32) -> Result<ReadTxn> {
-        let adj = if format == 1 {
+        Ok(ReadTxn {
+            txn,
+            base,
+            format,
+            meta: OnceLock::new(),
+            nodes: OnceLock::new(),
+            rels: OnceLock::new(),
+            adj: OnceLock::new(),
+            labels: OnceLock::new(),
+            propidx: OnceLock::new(),
+            counts: OnceLock::new(),
+            payloads: OnceLock::new(),
+        })
+    }
+
+    /// The adjacency table, opened on first use (format 1's as it is).
+    fn t_adj(&self) -> Result<&crate::adjacency::AdjTable> {
+        if let Some(t) = self.adj.get() {
+            return Ok(t);
+        }
+        let t = if self.format == 1 {
             crate::adjacency::AdjTable::V1(
-                txn.open_table(crate::adjacency::ADJ_V1).map_err(storage)?,
+                self.txn
+                    .open_table(crate::adjacency::ADJ_V1)
+                    .map_err(storage)?,
             )
         } else {
-            crate::adjacency::AdjTable::Chunks(txn.open_table(ADJ).map_err(storage)?)
+            crate::adjacency::AdjTable::Chunks(self.txn.open_table(ADJ).map_err(storage)?)
         };
-        Ok(ReadTxn {
-            adj,
-            meta: txn.open_table(META).map_err(storage)?,
-            nodes: txn.open_table(NODES).map_err(storage)?,
-            rels: txn.open_table(RELS).map_err(storage)?,
-            labels: txn.open_table(LABELS).map_err(storage)?,
-            propidx: txn.open_table(PROPIDX).map_err(storage)?,
-            counts: txn.open_table(COUNTS).map_err(storage)?,
-            payloads: txn.open_table(PAYLOADS).map_err(storage)?,
-            _txn: txn,
-            base,
-        })
+        Ok(self.adj.get_or_init(|| t))
     }
 
     pub(crate) fn base(&self) -> &Arc<Committed> {
@@ -105,6 +147,34 @@ impl std::fmt::Debug for WriteTxn<'_> {
     }
 }
 
+/// The writer's tables under the reader's accessor names (open for the whole transaction).
+impl<'a> WriteTxn<'a> {
+    fn t_meta(&self) -> Result<&Table<'a, &'static str, &'static [u8]>> {
+        Ok(&self.meta)
+    }
+    fn t_nodes(&self) -> Result<&Table<'a, u64, &'static [u8]>> {
+        Ok(&self.nodes)
+    }
+    fn t_rels(&self) -> Result<&Table<'a, u64, &'static [u8]>> {
+        Ok(&self.rels)
+    }
+    fn t_adj(&self) -> Result<&Table<'a, crate::adjacency::ChunkKey, &'static [u8]>> {
+        Ok(&self.adj)
+    }
+    fn t_labels(&self) -> Result<&Table<'a, (u32, u64), ()>> {
+        Ok(&self.labels)
+    }
+    fn t_propidx(&self) -> Result<&Table<'a, &'static [u8], ()>> {
+        Ok(&self.propidx)
+    }
+    fn t_counts(&self) -> Result<&Table<'a, (u8, u32), u64>> {
+        Ok(&self.counts)
+    }
+    fn t_payloads(&self) -> Result<&Table<'a, (u64, &'static str), &'static [u8]>> {
+        Ok(&self.payloads)
+    }
+}
+
 /// The low-level reads are the same code over read-only and writable redb tables.
 macro_rules! raw_reads {
     () => {
@@ -112,7 +182,7 @@ macro_rules! raw_reads {
             if let Some(hot) = self.hot_records(true) {
                 return hot.get(id).map(|b| NodeRec::decode(b, id)).transpose();
             }
-            match self.nodes.get(&id).map_err(storage)? {
+            match self.t_nodes()?.get(&id).map_err(storage)? {
                 Some(g) => Ok(Some(NodeRec::decode(g.value(), id)?)),
                 None => Ok(None),
             }
@@ -125,7 +195,7 @@ macro_rules! raw_reads {
                     .map(|b| NodeRec::decode_keys(b, id, keep))
                     .transpose();
             }
-            match self.nodes.get(&id).map_err(storage)? {
+            match self.t_nodes()?.get(&id).map_err(storage)? {
                 Some(g) => Ok(Some(NodeRec::decode_keys(g.value(), id, keep)?)),
                 None => Ok(None),
             }
@@ -135,7 +205,7 @@ macro_rules! raw_reads {
             if let Some(hot) = self.hot_records(false) {
                 return hot.get(id).map(|b| decode_rel(b, id)).transpose();
             }
-            match self.rels.get(&id).map_err(storage)? {
+            match self.t_rels()?.get(&id).map_err(storage)? {
                 Some(g) => Ok(Some(decode_rel(g.value(), id)?)),
                 None => Ok(None),
             }
@@ -148,7 +218,7 @@ macro_rules! raw_reads {
                     None => Ok(None),
                 };
             }
-            match self.rels.get(&id).map_err(storage)? {
+            match self.t_rels()?.get(&id).map_err(storage)? {
                 Some(g) => codec::rel_prop(g.value(), key).map_err(in_record("relationship", id)),
                 None => Ok(None),
             }
@@ -158,13 +228,13 @@ macro_rules! raw_reads {
             if let Some(hot) = self.hot_adjacency() {
                 return Ok(hot.get(node, dir, ty));
             }
-            crate::adjacency::AdjRead::adj_read(&self.adj, node, dir, ty)
+            crate::adjacency::AdjRead::adj_read(self.t_adj()?, node, dir, ty)
         }
 
         fn label_nodes(&self, label: u32) -> Result<Vec<u64>> {
             let mut out = Vec::new();
             for row in self
-                .labels
+                .t_labels()?
                 .range((label, 0u64)..=(label, u64::MAX))
                 .map_err(storage)?
             {
@@ -176,7 +246,11 @@ macro_rules! raw_reads {
 
         fn propidx(&self, lo: Bound<&[u8]>, hi: Bound<&[u8]>) -> Result<Vec<u64>> {
             let mut out = Vec::new();
-            for row in self.propidx.range::<&[u8]>((lo, hi)).map_err(storage)? {
+            for row in self
+                .t_propidx()?
+                .range::<&[u8]>((lo, hi))
+                .map_err(storage)?
+            {
                 let (k, _) = row.map_err(storage)?;
                 let key = k.value();
                 let tail = key.len().checked_sub(8).map(|s| &key[s..]);
@@ -191,7 +265,7 @@ macro_rules! raw_reads {
 
         fn count_rows(&self) -> Result<Vec<((u8, u32), u64)>> {
             let mut out = std::collections::BTreeMap::new();
-            for row in self.counts.iter().map_err(storage)? {
+            for row in self.t_counts()?.iter().map_err(storage)? {
                 let (k, v) = row.map_err(storage)?;
                 out.insert(k.value(), v.value());
             }
@@ -204,7 +278,7 @@ macro_rules! raw_reads {
 
         fn payload(&self, node: u64, key: &str) -> Result<Option<Vec<u8>>> {
             Ok(self
-                .payloads
+                .t_payloads()?
                 .get(&(node, key))
                 .map_err(storage)?
                 .map(|g| g.value().to_vec()))
@@ -213,7 +287,7 @@ macro_rules! raw_reads {
         fn payload_keys(&self, node: u64) -> Result<Vec<String>> {
             let mut out = Vec::new();
             for row in self
-                .payloads
+                .t_payloads()?
                 .range((node, "")..(node.saturating_add(1), ""))
                 .map_err(storage)?
             {
@@ -228,7 +302,7 @@ macro_rules! raw_reads {
 
         fn all_nodes(&self) -> Result<Vec<u64>> {
             let mut out = Vec::new();
-            for row in self.nodes.iter().map_err(storage)? {
+            for row in self.t_nodes()?.iter().map_err(storage)? {
                 out.push(row.map_err(storage)?.0.value());
             }
             Ok(out)
@@ -236,19 +310,19 @@ macro_rules! raw_reads {
 
         fn all_rels(&self) -> Result<Vec<u64>> {
             let mut out = Vec::new();
-            for row in self.rels.iter().map_err(storage)? {
+            for row in self.t_rels()?.iter().map_err(storage)? {
                 out.push(row.map_err(storage)?.0.value());
             }
             Ok(out)
         }
 
         fn raw_adjacency_rows(&self) -> Result<Vec<crate::read::AdjRow>> {
-            crate::adjacency::AdjRead::adj_rows(&self.adj)?.collect()
+            crate::adjacency::AdjRead::adj_rows(self.t_adj()?)?.collect()
         }
 
         fn raw_label_rows(&self) -> Result<Vec<(u32, u64)>> {
             let mut out = Vec::new();
-            for row in self.labels.iter().map_err(storage)? {
+            for row in self.t_labels()?.iter().map_err(storage)? {
                 out.push(row.map_err(storage)?.0.value());
             }
             Ok(out)
@@ -256,15 +330,15 @@ macro_rules! raw_reads {
 
         fn raw_propidx_rows(&self) -> Result<Vec<Vec<u8>>> {
             let mut out = Vec::new();
-            for row in self.propidx.iter().map_err(storage)? {
+            for row in self.t_propidx()?.iter().map_err(storage)? {
                 out.push(row.map_err(storage)?.0.value().to_vec());
             }
             Ok(out)
         }
 
         fn next_ids(&self) -> Result<(u64, u64)> {
-            let n = self.meta.get(K_NEXT_NODE).map_err(storage)?;
-            let r = self.meta.get(K_NEXT_REL).map_err(storage)?;
+            let n = self.t_meta()?.get(K_NEXT_NODE).map_err(storage)?;
+            let r = self.t_meta()?.get(K_NEXT_REL).map_err(storage)?;
             Ok((
                 u64_meta(n.as_ref().map(|g| g.value()), K_NEXT_NODE)?,
                 u64_meta(r.as_ref().map(|g| g.value()), K_NEXT_REL)?,
@@ -327,7 +401,10 @@ impl Raw for WriteTxn<'_> {
 impl ReadTxn {
     /// How many nodes (`which` 0) or relationships (1) the store holds (0 if unreadable).
     fn total(&self, which: u32) -> u64 {
-        match self.counts.get((2u8, which)) {
+        match self
+            .t_counts()
+            .and_then(|t| t.get((2u8, which)).map_err(storage))
+        {
             Ok(Some(g)) => g.value(),
             _ => 0,
         }
@@ -344,7 +421,7 @@ impl ReadTxn {
 
     /// The adjacency table read into memory in one pass (None: too large, or unreadable).
     fn copy_adjacency(&self) -> Option<crate::hot::AdjMem> {
-        let rows = crate::adjacency::AdjRead::adj_rows(&self.adj).ok()?;
+        let rows = crate::adjacency::AdjRead::adj_rows(self.t_adj().ok()?).ok()?;
         match crate::hot::AdjMem::from_rows(rows) {
             Ok(m) => m,
             Err(e) => {
@@ -357,16 +434,21 @@ impl ReadTxn {
     /// The commit's node (`nodes`) or relationship records in memory, once enough reads made
     /// it worth copying them (see [`crate::hot`]).
     fn hot_records(&self, nodes: bool) -> Option<Arc<crate::hot::RecordsMem>> {
-        let (lazy, table, which) = if nodes {
-            (&self.base.hot.nodes, &self.nodes, 0)
+        let (lazy, which) = if nodes {
+            (&self.base.hot.nodes, 0)
         } else {
-            (&self.base.hot.rels, &self.rels, 1)
+            (&self.base.hot.rels, 1)
         };
         lazy.get(
             || self.total(which),
             || {
                 let mut m = crate::hot::RecordsMem::new();
-                for row in table.iter().ok()? {
+                let rows = if nodes {
+                    self.t_nodes().ok()?.iter()
+                } else {
+                    self.t_rels().ok()?.iter()
+                };
+                for row in rows.ok()? {
                     match row {
                         Ok((k, v)) if m.push(k.value(), v.value()) => {}
                         Ok(_) => return None,
@@ -468,8 +550,12 @@ impl ReadTxn {
                 }
             }
         } else {
-            let table = if nodes { &self.nodes } else { &self.rels };
-            for row in table.iter().ok()? {
+            let rows = if nodes {
+                self.t_nodes().ok()?.iter()
+            } else {
+                self.t_rels().ok()?.iter()
+            };
+            for row in rows.ok()? {
                 let (k, v) = row.ok()?;
                 if !b.push(k.value(), one(v.value()).ok()?) {
                     return None;
@@ -490,7 +576,7 @@ impl ReadTxn {
         if let Some(hot) = self.hot_records(true) {
             return hot.get(id).map(one).transpose().map(Option::flatten);
         }
-        match self.nodes.get(&id).map_err(storage)? {
+        match self.t_nodes()?.get(&id).map_err(storage)? {
             Some(g) => one(g.value()),
             None => Ok(None),
         }
@@ -502,7 +588,7 @@ impl ReadTxn {
         if let Some(hot) = self.hot_records(true) {
             return hot.get(id).map_or(Ok(false), one);
         }
-        match self.nodes.get(&id).map_err(storage)? {
+        match self.t_nodes()?.get(&id).map_err(storage)? {
             Some(g) => one(g.value()),
             None => Ok(false),
         }

@@ -61,6 +61,14 @@ impl Operator for Expand {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        // a hub's expansion is not held on to between runs
+        if self.buf.capacity() > 4096 {
+            self.buf = Vec::new();
+        }
+        true
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let Val::Node(from) = row[self.from] else {
             return Ok(Flow::Go);

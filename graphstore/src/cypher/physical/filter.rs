@@ -16,6 +16,10 @@ impl Operator for Filter {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        true
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         if self.pred.holds(ex, row)? {
             next(row)

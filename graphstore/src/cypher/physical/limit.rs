@@ -19,6 +19,11 @@ impl Operator for Skip {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        self.left = None;
+        true
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let left = match self.left {
             Some(l) => l,
@@ -57,6 +62,11 @@ pub(crate) struct Limit {
 impl Operator for Limit {
     fn as_any(&self) -> &dyn std::any::Any {
         self
+    }
+
+    fn reset(&mut self) -> bool {
+        self.left = None;
+        true
     }
 
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {

@@ -100,6 +100,13 @@ pub(crate) trait Operator: std::fmt::Debug {
     fn finish(&mut self, _ex: &Exec<'_>, _next: &mut Next<'_>) -> R<Flow> {
         Ok(Flow::Go)
     }
+    /// Makes the operator ready to run again, on the same commit, in a plan kept for the
+    /// statement's next run ([`super::pipeline::PlanCache`]): true when it is (it holds nothing
+    /// of the last run but scratch space), false when it cannot be (an operator that holds
+    /// rows or columns); the plan is then built afresh next time.
+    fn reset(&mut self) -> bool {
+        false
+    }
     /// Its line in EXPLAIN.
     fn describe(&self) -> String;
     /// Operators nested inside it (OPTIONAL MATCH's), for EXPLAIN.
@@ -282,6 +289,13 @@ impl Plan {
         push_chain(&mut self.ops, &self.pos, ex, &mut row)?;
         finish_chain(&mut self.ops, &self.pos, ex)?;
         Ok(std::mem::take(&mut *self.out.borrow_mut()))
+    }
+
+    /// Makes the plan ready to run again on the same commit: false when an operator cannot be
+    /// (see [`Operator::reset`]).
+    pub(crate) fn reset(&mut self) -> bool {
+        self.out.borrow_mut().clear();
+        self.ops.iter_mut().all(|op| op.reset())
     }
 
     /// Wraps every operator in a [`Profiled`], for PROFILE.

@@ -18,6 +18,10 @@ impl Operator for Optional {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        self.inner.iter_mut().all(|op| op.reset())
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let mut matched = false;
         let mut stop = false;

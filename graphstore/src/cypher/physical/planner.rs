@@ -371,7 +371,8 @@ impl<'m> MatchPlan<'m> {
                     value: c.compile(value)?,
                     shown: show(value),
                 },
-                None,
+                // the label's index holds only nodes that carry the label
+                Some(label.clone()),
             ),
             AnchorSource::IndexRange {
                 label,
@@ -402,7 +403,7 @@ impl<'m> MatchPlan<'m> {
                         upper: b(upper)?,
                         shown,
                     },
-                    None,
+                    Some(label.clone()),
                 )
             }
             AnchorSource::Label(l) => (

@@ -20,6 +20,10 @@ impl Operator for Produce {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        true
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         let n = {
             let mut rows = self.rows.borrow_mut();

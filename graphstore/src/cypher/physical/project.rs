@@ -18,6 +18,11 @@ impl Operator for Project {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        self.vals.clear();
+        true
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         ex.host.tick()?;
         let mut vals = std::mem::take(&mut self.vals);
@@ -49,6 +54,10 @@ pub(crate) struct SetPath {
 impl Operator for SetPath {
     fn as_any(&self) -> &dyn std::any::Any {
         self
+    }
+
+    fn reset(&mut self) -> bool {
+        true
     }
 
     fn push(&mut self, _ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {

@@ -81,6 +81,10 @@ impl Operator for NodeScan {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        true
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         match &self.source {
             ScanSource::Argument { name } => match row[self.check.slot] {

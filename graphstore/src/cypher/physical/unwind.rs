@@ -18,6 +18,10 @@ impl Operator for Unwind {
         self
     }
 
+    fn reset(&mut self) -> bool {
+        true
+    }
+
     fn push(&mut self, ex: &Exec<'_>, row: &mut Slots, next: &mut Next<'_>) -> R<Flow> {
         match self.expr.eval(ex, row, &[])? {
             Val::Null => Ok(Flow::Go),
