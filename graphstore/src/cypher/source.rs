@@ -121,6 +121,8 @@ pub(crate) struct StoreSource<'t> {
     labels: RefCell<Vec<LabelState>>,
     adj: RefCell<Option<Arc<AdjMem>>>,
     label_counts: std::cell::OnceCell<std::collections::BTreeMap<String, u64>>,
+    /// The last node record read for a property (a filter, then a projection, of one node).
+    record_memo: RefCell<crate::txn::RecordMemo>,
 }
 
 impl<'t> StoreSource<'t> {
@@ -132,6 +134,7 @@ impl<'t> StoreSource<'t> {
             labels: RefCell::new(Vec::new()),
             adj: RefCell::new(None),
             label_counts: std::cell::OnceCell::new(),
+            record_memo: RefCell::default(),
         }
     }
 
@@ -204,8 +207,10 @@ impl<'t> StoreSource<'t> {
         if let Some(c) = &st.col {
             return Ok(cell_val(c.get(id)));
         }
+        drop(v);
         let v = if nodes {
-            self.txn.node_prop_only(id, key)?
+            self.txn
+                .node_prop_memo(id, key, &mut self.record_memo.borrow_mut())?
         } else {
             self.txn.rel_prop(id, crate::PropKey(key))?
         };

@@ -116,6 +116,15 @@ impl ReadTxn {
     }
 }
 
+/// The last node record a statement read from the node table (see
+/// [`ReadTxn::node_prop_memo`]).
+#[derive(Debug, Default)]
+pub(crate) struct RecordMemo {
+    id: Option<u64>,
+    present: bool,
+    bytes: Vec<u8>,
+}
+
 /// A write transaction, alive inside [`crate::Store::write`]. It sees its own writes.
 pub struct WriteTxn<'a> {
     base: Arc<Committed>,
@@ -570,15 +579,36 @@ impl ReadTxn {
         self.total(which)
     }
 
-    /// One property of a node, decoding only that value (None: no such node or property).
-    pub(crate) fn node_prop_only(&self, id: u64, key: u32) -> Result<Option<Value>> {
+    /// One property of a node, decoding only that value (None: no such node or property),
+    /// through a one-record memo: a statement that reads several properties of one node in a
+    /// row (a filter, then a projection) descends the node table once. `memo` is the
+    /// statement's, and only valid in this snapshot.
+    pub(crate) fn node_prop_memo(
+        &self,
+        id: u64,
+        key: u32,
+        memo: &mut RecordMemo,
+    ) -> Result<Option<Value>> {
         let one = |b: &[u8]| codec::node_prop(b, key).map_err(in_record("node", id));
         if let Some(hot) = self.hot_records(true) {
             return hot.get(id).map(one).transpose().map(Option::flatten);
         }
-        match self.t_nodes()?.get(&id).map_err(storage)? {
-            Some(g) => one(g.value()),
-            None => Ok(None),
+        if memo.id != Some(id) {
+            memo.id = None;
+            memo.bytes.clear();
+            memo.present = match self.t_nodes()?.get(&id).map_err(storage)? {
+                Some(g) => {
+                    memo.bytes.extend_from_slice(g.value());
+                    true
+                }
+                None => false,
+            };
+            memo.id = Some(id);
+        }
+        if memo.present {
+            one(&memo.bytes)
+        } else {
+            Ok(None)
         }
     }
 
