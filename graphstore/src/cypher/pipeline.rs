@@ -302,4 +302,24 @@ mod tests {
             assert!(!again.is_empty() || q.starts_with("PROFILE"), "{q}");
         }
     }
+
+    #[test]
+    fn large_records_are_read_in_place_and_small_ones_through_the_memo() {
+        let (_d, s) = store();
+        s.query(
+            "MATCH (n:N) WHERE n.id % 2 = 0 \
+             SET n.big = reduce(t = '', i IN range(1, 100) | t + 'abcdefghij')",
+            &QueryOptions::default(),
+        )
+        .unwrap();
+        let q = "MATCH (a:N {id: $id})-[:R]->(b) WHERE b.score > 0.0 \
+                 RETURN b.id AS id, size(b.big) AS big, b.score AS s";
+        let mut sizes = Vec::new();
+        for id in 0..8 {
+            let rows = run(&s, q, id, Engine::Auto);
+            assert_eq!(rows, run(&s, q, id, Engine::Interpreter), "id {id}");
+            sizes.extend(rows.into_iter().map(|r| r[1].clone()));
+        }
+        assert!(sizes.contains(&Val::Int(1000)) && sizes.contains(&Val::Null));
+    }
 }

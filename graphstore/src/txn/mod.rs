@@ -27,8 +27,9 @@ mod validate;
 
 /// A read snapshot. Holds the redb read transaction and the matching index state.
 ///
-/// Its tables are opened on first use (a statement that reads one index and a few records
-/// opens two, not eight: opening a table is a B-tree lookup in redb's table of tables).
+/// Its tables but the counts are opened on first use (a statement that reads one index and a
+/// few records opens three or four of the eight: opening a table is a B-tree lookup in redb's
+/// table of tables).
 pub struct ReadTxn {
     txn: ReadTransaction,
     base: Arc<Committed>,
@@ -39,7 +40,9 @@ pub struct ReadTxn {
     adj: OnceLock<crate::adjacency::AdjTable>,
     labels: OnceLock<ReadOnlyTable<(u32, u64), ()>>,
     propidx: OnceLock<ReadOnlyTable<&'static [u8], ()>>,
-    counts: OnceLock<ReadOnlyTable<(u8, u32), u64>>,
+    /// Opened with the transaction: the sizes it holds decide, for every reader of the commit,
+    /// when the in-memory copies are made, so a failure to open it fails the read.
+    counts: ReadOnlyTable<(u8, u32), u64>,
     payloads: OnceLock<ReadOnlyTable<(u64, &'static str), &'static [u8]>>,
 }
 
@@ -66,7 +69,6 @@ lazy_tables! {
     t_rels: rels = RELS => ReadOnlyTable<u64, &'static [u8]>;
     t_labels: labels = LABELS => ReadOnlyTable<(u32, u64), ()>;
     t_propidx: propidx = PROPIDX => ReadOnlyTable<&'static [u8], ()>;
-    t_counts: counts = COUNTS => ReadOnlyTable<(u8, u32), u64>;
     t_payloads: payloads = PAYLOADS => ReadOnlyTable<(u64, &'static str), &'static [u8]>;
 }
 
@@ -79,6 +81,7 @@ impl std::fmt::Debug for ReadTxn {
 impl ReadTxn {
     /// `format`: the store's format version (1: format 1's adjacency, read as it is).
     pub(crate) fn new(txn: ReadTransaction, base: Arc<Committed>, format: u32) -> Result<ReadTxn> {
+        let counts = txn.open_table(COUNTS).map_err(storage)?;
         Ok(ReadTxn {
             txn,
             base,
@@ -89,9 +92,13 @@ impl ReadTxn {
             adj: OnceLock::new(),
             labels: OnceLock::new(),
             propidx: OnceLock::new(),
-            counts: OnceLock::new(),
+            counts,
             payloads: OnceLock::new(),
         })
+    }
+
+    fn t_counts(&self) -> Result<&ReadOnlyTable<(u8, u32), u64>> {
+        Ok(&self.counts)
     }
 
     /// The adjacency table, opened on first use (format 1's as it is).
@@ -123,6 +130,11 @@ pub(crate) struct RecordMemo {
     id: Option<u64>,
     present: bool,
     bytes: Vec<u8>,
+}
+
+impl RecordMemo {
+    /// Records longer than this are read in place, not kept.
+    const MAX_BYTES: usize = 512;
 }
 
 /// A write transaction, alive inside [`crate::Store::write`]. It sees its own writes.
@@ -410,10 +422,7 @@ impl Raw for WriteTxn<'_> {
 impl ReadTxn {
     /// How many nodes (`which` 0) or relationships (1) the store holds (0 if unreadable).
     fn total(&self, which: u32) -> u64 {
-        match self
-            .t_counts()
-            .and_then(|t| t.get((2u8, which)).map_err(storage))
-        {
+        match self.counts.get((2u8, which)) {
             Ok(Some(g)) => g.value(),
             _ => 0,
         }
@@ -597,6 +606,8 @@ impl ReadTxn {
             memo.id = None;
             memo.bytes.clear();
             memo.present = match self.t_nodes()?.get(&id).map_err(storage)? {
+                // a large record (an embedding, a long text) is not copied to read one value
+                Some(g) if g.value().len() > RecordMemo::MAX_BYTES => return one(g.value()),
                 Some(g) => {
                     memo.bytes.extend_from_slice(g.value());
                     true

@@ -63,7 +63,7 @@ impl Operator for Expand {
 
     fn reset(&mut self) -> bool {
         // a hub's expansion is not held on to between runs
-        if self.buf.capacity() > 4096 {
+        if self.buf.capacity() > 256 {
             self.buf = Vec::new();
         }
         true
