@@ -103,6 +103,7 @@ pub(crate) fn try_run(
     let txn: &ReadTxn = ctx.read_txn()?;
     let cache = cache.filter(|_| !profile);
     let hit = cache.and_then(|(c, part)| c.take(part, txn.base()));
+    // a reused plan keeps its handle keys; a new one's are read off its source when kept
     let (src, mut plan, handles) = match hit {
         Some(c) => (
             StoreSource::primed(txn, &c.handles),
@@ -120,7 +121,6 @@ pub(crate) fn try_run(
     if profile {
         plan = plan.profiled();
     }
-    let handles = handles.unwrap_or_else(|| src.handle_keys());
     let ex = Exec {
         src: &src,
         host: ctx,
@@ -142,7 +142,8 @@ pub(crate) fn try_run(
             CachedPlan {
                 commit: Arc::downgrade(txn.base()),
                 plan,
-                handles,
+                // handles made while running are found again by key, so these serve
+                handles: handles.unwrap_or_else(|| src.handle_keys()),
             },
         );
     }

@@ -101,6 +101,11 @@ impl ReadTxn {
         Ok(&self.counts)
     }
 
+    /// The node (`nodes`) or relationship records table.
+    fn t_records(&self, nodes: bool) -> Result<&ReadOnlyTable<u64, &'static [u8]>> {
+        if nodes { self.t_nodes() } else { self.t_rels() }
+    }
+
     /// The adjacency table, opened on first use (format 1's as it is).
     fn t_adj(&self) -> Result<&crate::adjacency::AdjTable> {
         if let Some(t) = self.adj.get() {
@@ -461,12 +466,7 @@ impl ReadTxn {
             || self.total(which),
             || {
                 let mut m = crate::hot::RecordsMem::new();
-                let rows = if nodes {
-                    self.t_nodes().ok()?.iter()
-                } else {
-                    self.t_rels().ok()?.iter()
-                };
-                for row in rows.ok()? {
+                for row in self.t_records(nodes).ok()?.iter().ok()? {
                     match row {
                         Ok((k, v)) if m.push(k.value(), v.value()) => {}
                         Ok(_) => return None,
@@ -568,12 +568,7 @@ impl ReadTxn {
                 }
             }
         } else {
-            let rows = if nodes {
-                self.t_nodes().ok()?.iter()
-            } else {
-                self.t_rels().ok()?.iter()
-            };
-            for row in rows.ok()? {
+            for row in self.t_records(nodes).ok()?.iter().ok()? {
                 let (k, v) = row.ok()?;
                 if !b.push(k.value(), one(v.value()).ok()?) {
                     return None;
