@@ -24,10 +24,10 @@ use std::collections::HashMap;
 use graphstore::{Direction, GraphRead};
 
 use crate::chat::{ChatModel, ChatRequest, Message};
-use crate::embed::{Embedder, cosine};
+use crate::embed::{Embedder, cosine_normed};
 use crate::error::{Error, Result};
 use crate::request::{Relation, Request};
-use crate::vocab::{colour_agreement, names_surface, words};
+use crate::vocab::{colour_agreement, names_surface, says_colour, words};
 
 /// Cosine taken off a candidate per unit of colour disagreement ([`colour_agreement`]).
 pub const COLOUR_PENALTY: f64 = 0.25;
@@ -205,6 +205,7 @@ fn similarities(
     allowed: impl Fn(&SceneObject) -> bool,
 ) -> Result<Vec<Option<f64>>> {
     let qs = embedder.embed(phrases)?;
+    let q_norms: Vec<f64> = qs.iter().map(|q| scene::view::feature_dot(q, q)).collect();
     let mut out = Vec::with_capacity(scene.objects.len());
     for o in &scene.objects {
         if !allowed(o) {
@@ -212,7 +213,7 @@ fn similarities(
             continue;
         }
         let mut best = f64::NEG_INFINITY;
-        for q in &qs {
+        for (q, &q_norm) in qs.iter().zip(&q_norms) {
             if q.len() != o.feature.len() {
                 return Err(Error::Invalid(format!(
                     "instance {} has a {}-dimensional feature, the embedder gives {}",
@@ -221,7 +222,7 @@ fn similarities(
                     q.len()
                 )));
             }
-            best = best.max(cosine(q, &o.feature));
+            best = best.max(cosine_normed(q, q_norm, &o.feature, o.feature_sq_norm));
         }
         out.push(Some(best));
     }
@@ -238,6 +239,11 @@ fn colour_checked_similarities(
     allowed: impl Fn(&SceneObject) -> bool,
 ) -> Result<Vec<Option<f64>>> {
     let sims = similarities(scene, embedder, phrases, allowed)?;
+    // a phrase that names no colour agrees with every caption (1), and the best over the
+    // phrases is then 1: no caption needs reading
+    if !phrases.iter().all(|p| says_colour(p)) {
+        return Ok(sims);
+    }
     Ok(sims
         .into_iter()
         .zip(&scene.objects)
@@ -535,6 +541,22 @@ pub fn find_graph_normed(
     let related = r.rel_type(scene::rel::RELATED);
     let k_relation = r.prop_key(scene::key::RELATION);
     let k_source = r.prop_key(scene::key::SOURCE);
+    // the segments of the asked kind with the bounds of what their distance measures from
+    // (a lower bound of it: the nearest is found without measuring the far ones)
+    let asked_segments: Vec<(&scene::view::SegmentInfo, [[f64; 2]; 2])> = match req.segment {
+        Some(c) => scene
+            .segments
+            .iter()
+            .filter(|s| c.admits(&s.kind))
+            .map(|s| {
+                (
+                    s,
+                    scene::area::membership_bounds(&s.area, s.drivable.as_ref()),
+                )
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     let mut out = Vec::with_capacity(targets.len());
     for &ti in &targets {
         let t = &scene.objects[ti];
@@ -642,14 +664,9 @@ pub fn find_graph_normed(
             .map(|c| t.segment.as_ref().is_some_and(|(_, kind)| c.admits(kind)));
         // outside a segment of the asked kind: how far from the nearest one
         let seg = match (req.segment, segment_match) {
-            (Some(c), Some(false)) => {
+            (Some(_), Some(false)) => {
                 let p = scene.ground.ground(t.centroid);
-                let d = scene
-                    .segments
-                    .iter()
-                    .filter(|s| c.admits(&s.kind))
-                    .map(|s| s.distance(p))
-                    .fold(f64::INFINITY, f64::min);
+                let d = nearest_distance(&asked_segments, p);
                 let near = if d <= 10.0 {
                     1.0
                 } else {
@@ -678,6 +695,26 @@ pub fn find_graph_normed(
     out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.id.cmp(&b.id)));
     out.truncate(opts.k);
     Ok((out, cuts))
+}
+
+/// The least [`scene::view::SegmentInfo::distance`] from `p` to `segments` (each with the bounds
+/// [`scene::area::membership_bounds`] gives, whose gap is a lower bound of the distance),
+/// metres; infinite when there are none. Nearest bounds first, stopping where the gap reaches
+/// the best distance: the same minimum as measuring every segment.
+fn nearest_distance(segments: &[(&scene::view::SegmentInfo, [[f64; 2]; 2])], p: [f64; 2]) -> f64 {
+    let mut by_gap: Vec<(f64, &scene::view::SegmentInfo)> = segments
+        .iter()
+        .map(|(s, b)| (scene::area::box_gap(b, p), *s))
+        .collect();
+    by_gap.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best = f64::INFINITY;
+    for (gap, s) in by_gap {
+        if gap >= best {
+            break;
+        }
+        best = best.min(s.distance(p));
+    }
+    best
 }
 
 /// The JSON Schema of a re-ranking answer: up to three candidate numbers, best first.
@@ -889,8 +926,69 @@ mod tests {
             ground_max: hi,
             heights: h,
             feature: vec![1.0],
+            feature_sq_norm: 1.0,
             surface: false,
             segment: None,
+        }
+    }
+
+    #[test]
+    fn nearest_segment_distance_equals_measuring_all() {
+        use rand::{RngExt, SeedableRng};
+        use scene::area::{Drivable, SegmentArea};
+        use scene::view::SegmentInfo;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut r = |lo: f64, hi: f64| rng.random_range(lo..hi);
+        for round in 0..50 {
+            let segments: Vec<SegmentInfo> = (0..(round % 12))
+                .map(|i| {
+                    let c = [r(-200.0, 200.0), r(-200.0, 200.0)];
+                    let area = if i % 2 == 0 {
+                        SegmentArea::Disc {
+                            centre: c,
+                            radius_m: r(2.0, 20.0),
+                        }
+                    } else {
+                        SegmentArea::Corridor {
+                            centreline: vec![c, [c[0] + r(-60.0, 60.0), c[1] + r(-60.0, 60.0)]],
+                            half_width_m: r(1.0, 6.0),
+                        }
+                    };
+                    // a third with a drivable polygon (a triangle), which the distance prefers
+                    let drivable = (i % 3 == 0).then(|| Drivable {
+                        rings: vec![vec![
+                            c,
+                            [c[0] + r(5.0, 30.0), c[1]],
+                            [c[0], c[1] + r(5.0, 30.0)],
+                        ]],
+                    });
+                    SegmentInfo {
+                        id: i as u64,
+                        kind: "t_intersection".into(),
+                        centroid: c,
+                        area,
+                        drivable,
+                    }
+                })
+                .collect();
+            let with_bounds: Vec<(&SegmentInfo, [[f64; 2]; 2])> = segments
+                .iter()
+                .map(|s| {
+                    (
+                        s,
+                        scene::area::membership_bounds(&s.area, s.drivable.as_ref()),
+                    )
+                })
+                .collect();
+            for _ in 0..40 {
+                let p = [r(-260.0, 260.0), r(-260.0, 260.0)];
+                let all = segments
+                    .iter()
+                    .map(|s| s.distance(p))
+                    .fold(f64::INFINITY, f64::min);
+                let got = nearest_distance(&with_bounds, p);
+                assert_eq!(got.to_bits(), all.to_bits(), "round {round}, {p:?}");
+            }
         }
     }
 

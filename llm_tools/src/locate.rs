@@ -440,7 +440,9 @@ pub fn locate_normed(
                 .into_iter()
                 .enumerate()
                 .filter_map(|(i, g)| {
-                    g.map(|g| (i, g * colour_agreement(l, &scene.objects[i].caption)))
+                    // the agreement is at most 1: a gate at or below 0.05 stays there
+                    g.filter(|g| *g > 0.05)
+                        .map(|g| (i, g * colour_agreement(l, &scene.objects[i].caption)))
                         .filter(|(_, g)| *g > 0.05)
                 })
                 .collect(),
@@ -697,8 +699,15 @@ fn assign(
         .iter()
         .map(|cs| {
             let mut v: Vec<Pick> = cs.iter().map(|&(i, g)| (i, g * place(i), g)).collect();
-            v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-            v.truncate(KEEP + cands.len());
+            // best value first, ties by object: a total order (one entry per object), so
+            // selecting the first `keep` and sorting them gives the head of the full sort
+            let order = |a: &Pick, b: &Pick| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0));
+            let keep = KEEP + cands.len();
+            if v.len() > keep {
+                v.select_nth_unstable_by(keep - 1, order);
+                v.truncate(keep);
+            }
+            v.sort_by(order);
             v
         })
         .collect();
@@ -826,6 +835,7 @@ mod tests {
                 ground_min: [p[0] - 0.3, p[1] - 0.3],
                 ground_max: [p[0] + 0.3, p[1] + 0.3],
                 heights: (0.0, 1.0),
+                feature_sq_norm: scene::view::feature_dot(&feature, &feature),
                 feature,
                 surface: false,
                 segment: None,

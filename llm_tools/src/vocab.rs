@@ -142,6 +142,12 @@ pub fn colours(text: &str) -> Vec<&'static str> {
     colours_of(text)
 }
 
+/// Whether `text` names a colour ([`colour_agreement`] of a phrase that does not is 1 for
+/// every caption).
+pub fn says_colour(text: &str) -> bool {
+    !colours_of(text).is_empty()
+}
+
 fn colours_of(text: &str) -> Vec<&'static str> {
     let t = text.to_lowercase();
     let mut out: Vec<&'static str> = t

@@ -13,6 +13,32 @@ use crate::error::Result;
 use crate::names::{label, rel};
 use crate::records::InstanceRecord;
 
+/// Running sums of [`feature_dot`]: eight, so the loop vectorises.
+const DOT_LANES: usize = 8;
+
+/// Dot product of two features, summed in f64 over eight running sums (then the remainder
+/// in order), 0 when the lengths differ. Every cosine of features is built from it
+/// (`llm_tools::embed::cosine`), so a squared norm kept with a feature
+/// ([`SceneObject::feature_sq_norm`]) is bit-identical to one summed at query time.
+pub fn feature_dot(a: &[f32], b: &[f32]) -> f64 {
+    if a.len() != b.len() {
+        return 0.0;
+    }
+    let mut lanes = [0f64; DOT_LANES];
+    let (ca, cb) = (a.chunks_exact(DOT_LANES), b.chunks_exact(DOT_LANES));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for i in 0..DOT_LANES {
+            lanes[i] += f64::from(x[i]) * f64::from(y[i]);
+        }
+    }
+    let mut sum = lanes.iter().sum::<f64>();
+    for (x, y) in ra.iter().zip(rb) {
+        sum += f64::from(*x) * f64::from(*y);
+    }
+    sum
+}
+
 /// One instance as retrieval sees it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneObject {
@@ -34,6 +60,9 @@ pub struct SceneObject {
     pub heights: (f64, f64),
     /// Fused feature.
     pub feature: Vec<f32>,
+    /// `feature_dot(&feature, &feature)` ([`feature_dot`]): the squared norm that a cosine
+    /// against this feature divides by, summed once per map load instead of once per query.
+    pub feature_sq_norm: f64,
     /// A ground-surface tile or class.
     pub surface: bool,
     /// Its segment (node id, kind), from `IN_SEGMENT`.
@@ -138,6 +167,7 @@ impl MapView {
                 ground_min: [g0[0].min(g1[0]), g0[1].min(g1[1])],
                 ground_max: [g0[0].max(g1[0]), g0[1].max(g1[1])],
                 heights: (h0.min(h1), h0.max(h1)),
+                feature_sq_norm: feature_dot(&feature, &feature),
                 feature,
                 segment,
             });
