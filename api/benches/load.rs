@@ -16,6 +16,8 @@
 //! `OPENGRAPH_LOAD_WRITES=E` paces the writer to E edits a second (each an update and its undo,
 //! so 2E commits a second; default 5); 0 lets it write as fast as the server answers.
 //! `OPENGRAPH_LOAD_WORKERS=N` passes `--workers N` to the server.
+//! `OPENGRAPH_LOAD_TRACE=FILE` writes every request (`at_s,route,ms,ok`: when it was sent,
+//! seconds from the start) to a CSV file, to see when the slow ones happen.
 //! The map is copied first (the writer changes it); without `OPENGRAPH_LOAD_DB` the default small
 //! city is simulated and built (MiniLM; about 15 s).
 
@@ -71,6 +73,8 @@ fn map(dir: &Path) -> anyhow::Result<PathBuf> {
 
 struct Sample {
     route: &'static str,
+    /// When it was sent (due, in the open loop), seconds from the start.
+    at_s: f64,
     ms: f64,
     ok: bool,
 }
@@ -271,6 +275,7 @@ fn main() -> anyhow::Result<()> {
                 let (ok, _) = post(&a, &url, path, &body, None);
                 local.push(Sample {
                     route,
+                    at_s: t.saturating_duration_since(start).as_secs_f64(),
                     ms: t.elapsed().as_secs_f64() * 1e3,
                     ok,
                 });
@@ -316,6 +321,7 @@ fn main() -> anyhow::Result<()> {
                 }
                 local.push(Sample {
                     route: "update",
+                    at_s: t.saturating_duration_since(start).as_secs_f64(),
                     ms: t.elapsed().as_secs_f64() * 1e3,
                     ok: applied,
                 });
@@ -330,6 +336,7 @@ fn main() -> anyhow::Result<()> {
                     );
                     local.push(Sample {
                         route: "undo",
+                        at_s: t.saturating_duration_since(start).as_secs_f64(),
                         ms: t.elapsed().as_secs_f64() * 1e3,
                         ok,
                     });
@@ -352,6 +359,16 @@ fn main() -> anyhow::Result<()> {
         if !s.ok {
             e.1 += 1;
         }
+    }
+    if let Ok(path) = std::env::var("OPENGRAPH_LOAD_TRACE") {
+        let mut rows: Vec<&Sample> = samples.iter().collect();
+        rows.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+        let mut csv = String::from("at_s,route,ms,ok\n");
+        for s in rows {
+            csv.push_str(&format!("{:.4},{},{:.3},{}\n", s.at_s, s.route, s.ms, s.ok));
+        }
+        std::fs::write(&path, csv)?;
+        eprintln!("every request written to {path}");
     }
     let total = samples.len();
     let errors: usize = by.values().map(|v| v.1).sum();

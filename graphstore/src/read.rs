@@ -179,6 +179,23 @@ pub trait GraphRead {
         }))
     }
 
+    /// A node by id with only the properties `keys` decoded (the record's other values are
+    /// skipped, not decoded: a reader of a few small properties of nodes that also hold large
+    /// lists pays for what it reads). Labels are all given. None if the node is missing.
+    ///
+    /// # Errors
+    /// The store fails or the record is corrupt.
+    fn node_keys(&self, id: u64, keys: &[PropKey]) -> Result<Option<Node>> {
+        let mut keep: Vec<u32> = keys.iter().map(|k| k.0).collect();
+        keep.sort_unstable();
+        keep.dedup();
+        Ok(self.view().raw.load_rec_keys(id, &keep)?.map(|r| Node {
+            id,
+            labels: r.labels.into_iter().map(LabelId).collect(),
+            props: typed_props(r.props),
+        }))
+    }
+
     /// A relationship by id.
     fn rel(&self, id: u64) -> Result<Option<Relationship>> {
         self.view().raw.load_rel(id)

@@ -49,7 +49,47 @@ struct Inner {
     /// The format the file had before this open converted it, if it did.
     converted_from: Option<u32>,
     writer: Mutex<()>,
-    state: Mutex<Arc<Committed>>,
+    state: Mutex<Snapshot>,
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        // the commit's read transaction ends before the database is closed
+        lock(&self.state).txn = None;
+    }
+}
+
+/// The last commit as readers see it: its in-memory state and one redb read transaction of it,
+/// shared by every [`ReadTxn`] begun at that commit. A writer commits to redb (and waits for
+/// the disk) without holding the state lock, then begins the new commit's read transaction and
+/// swaps both in together: readers meanwhile keep reading the previous commit, consistent with
+/// its state, instead of waiting for the disk (a slow `fdatasync` used to stall every reader).
+#[derive(Debug)]
+struct Snapshot {
+    committed: Arc<Committed>,
+    /// `None` until the first read after the store was opened or compacted; a writer makes
+    /// one before it commits, so no reader begins a transaction between its commit and swap.
+    txn: Option<Arc<redb::ReadTransaction>>,
+}
+
+impl Snapshot {
+    fn new(committed: Committed) -> Mutex<Snapshot> {
+        Mutex::new(Snapshot {
+            committed: Arc::new(committed),
+            txn: None,
+        })
+    }
+
+    /// This commit's read transaction, begun now if there is none (the caller holds the state
+    /// lock and no commit is under way that the state does not show).
+    fn txn(&mut self, db: &Db) -> Result<Arc<redb::ReadTransaction>> {
+        if let Some(t) = &self.txn {
+            return Ok(t.clone());
+        }
+        let t = Arc::new(db.begin_read().map_err(storage)?);
+        self.txn = Some(t.clone());
+        Ok(t)
+    }
 }
 
 /// An open store. Cheap to clone; all clones share one database.
@@ -345,14 +385,14 @@ impl Store {
                 format: found,
                 converted_from,
                 writer: Mutex::new(()),
-                state: Mutex::new(Arc::new(Committed {
+                state: Snapshot::new(Committed {
                     tokens: Arc::new(tokens),
                     schema: Arc::new(compiled),
                     // built on first use (see MemSlot)
                     mem: MemSlot::default(),
                     seq: 0,
                     hot: Default::default(),
-                })),
+                }),
             }),
         };
         tracing::debug!(path = %path.display(), "store opened");
@@ -392,11 +432,11 @@ impl Store {
 
     /// The declared schema.
     pub fn schema(&self) -> Schema {
-        lock(&self.inner.state).schema.schema.clone()
+        lock(&self.inner.state).committed.schema.schema.clone()
     }
 
     fn committed(&self) -> Arc<Committed> {
-        lock(&self.inner.state).clone()
+        lock(&self.inner.state).committed.clone()
     }
 
     /// How many commits this handle (and its clones) has made since the store was opened: a
@@ -409,9 +449,9 @@ impl Store {
     /// A consistent snapshot for reading. Writers may commit meanwhile; this reader keeps
     /// seeing the state as of now.
     pub fn read(&self) -> Result<ReadTxn> {
-        let st = lock(&self.inner.state);
-        let rtx = self.inner.db.begin_read().map_err(storage)?;
-        let base = st.clone();
+        let mut st = lock(&self.inner.state);
+        let rtx = st.txn(&self.inner.db)?;
+        let base = st.committed.clone();
         drop(st);
         ReadTxn::new(rtx, base, self.inner.format)
     }
@@ -468,15 +508,16 @@ impl Store {
             }
             Arc::new(t)
         };
-        let mut st = lock(&self.inner.state);
-        wtx.commit().map_err(storage)?;
-        *st = Arc::new(Committed {
-            tokens,
-            schema: base.schema.clone(),
-            mem,
-            seq: base.seq + 1,
-            hot: Default::default(),
-        });
+        self.commit_and_swap(
+            wtx,
+            Committed {
+                tokens,
+                schema: base.schema.clone(),
+                mem,
+                seq: base.seq + 1,
+                hot: Default::default(),
+            },
+        )?;
         Ok(value)
     }
 
@@ -505,16 +546,36 @@ impl Store {
         for q in new_tokens {
             t.push(q);
         }
-        let mut st = lock(&self.inner.state);
-        wtx.commit().map_err(storage)?;
         // the in-memory indexes are rebuilt from the new data on first use
-        *st = Arc::new(Committed {
-            tokens: Arc::new(t),
-            schema: compiled,
-            mem: MemSlot::default(),
-            seq: base.seq + 1,
-            hot: Default::default(),
-        });
+        self.commit_and_swap(
+            wtx,
+            Committed {
+                tokens: Arc::new(t),
+                schema: compiled,
+                mem: MemSlot::default(),
+                seq: base.seq + 1,
+                hot: Default::default(),
+            },
+        )
+    }
+
+    /// Commits `wtx` (the caller holds the writer lock), then makes `next` and a read
+    /// transaction of the new commit what readers see, together ([`Snapshot`]). Readers are
+    /// not held up while redb writes and syncs: until the swap they read the previous commit
+    /// through its own read transaction, which this makes first if there is none yet (if that
+    /// fails, nothing is committed). The commit stands once redb has it: if the new read
+    /// transaction cannot be begun, the state is swapped in without one and the next reader
+    /// begins it (or reports why it cannot).
+    fn commit_and_swap(&self, wtx: redb::WriteTransaction, next: Committed) -> Result<()> {
+        if let Err(e) = lock(&self.inner.state).txn(&self.inner.db) {
+            wtx.abort().map_err(storage)?;
+            return Err(e);
+        }
+        wtx.commit().map_err(storage)?;
+        let txn = self.inner.db.begin_read().ok().map(Arc::new);
+        let mut st = lock(&self.inner.state);
+        st.committed = Arc::new(next);
+        st.txn = txn;
         Ok(())
     }
 
@@ -540,6 +601,9 @@ impl Store {
     pub fn compact(&mut self) -> Result<bool> {
         let inner = Arc::get_mut(&mut self.inner)
             .ok_or_else(|| Error::Storage("compact needs the only handle to the store".into()))?;
+        // redb compacts only with no read transaction live: this handle's is begun again on
+        // the next read
+        inner.state.get_mut().unwrap_or_else(|p| p.into_inner()).txn = None;
         match &mut inner.db {
             Db::Rw(d) => d.compact().map_err(storage),
             Db::Ro(_) => Err(Error::ReadOnlyStore {

@@ -189,3 +189,52 @@ fn the_commit_sequence_moves_with_commits_only() {
     assert!(graphstore::cypher::is_deterministic("MATCH (n) RETURN n.x").unwrap());
     assert!(!graphstore::cypher::is_deterministic("RETURN RAND() AS r").unwrap());
 }
+
+/// A reader's data and its commit's state (tokens, sequence number) are one commit's, also
+/// while a writer is between its redb commit and the swap of the state (which readers do not
+/// wait for): every commit adds one node with a label never seen before, so a reader given a
+/// newer commit's data with an older state would find a node whose label it cannot name, or a
+/// node count that is not its sequence number's.
+#[test]
+fn a_reader_sees_one_commits_data_with_that_commits_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::create(dir.path().join("pairs.og")).unwrap();
+    let seq0 = store.commit_seq();
+    let stop = Arc::new(AtomicBool::new(false));
+    let checked = Arc::new(AtomicU64::new(0));
+    let readers: Vec<_> = (0..4)
+        .map(|_| {
+            let (store, stop, checked) = (store.clone(), stop.clone(), checked.clone());
+            std::thread::spawn(move || {
+                while !stop.load(Ordering::Relaxed) {
+                    let r = store.read().unwrap();
+                    let seq = r.commit_seq().unwrap();
+                    let ids = r.all_node_ids().unwrap();
+                    assert_eq!(ids.len() as u64, seq - seq0, "nodes at commit {seq}");
+                    for id in ids {
+                        let node = r.node(id).unwrap().unwrap();
+                        for l in node.labels {
+                            assert!(r.name_of(l.0).is_some(), "label {l:?} unnamed at {seq}");
+                        }
+                    }
+                    checked.fetch_add(1, Ordering::Relaxed);
+                }
+            })
+        })
+        .collect();
+    for i in 0..150 {
+        store
+            .write(|tx| {
+                tx.create_node_named(&[&format!("L{i}")], &[("i", Value::Int(i))])?;
+                Ok(())
+            })
+            .unwrap();
+    }
+    stop.store(true, Ordering::Relaxed);
+    for h in readers {
+        h.join().unwrap();
+    }
+    assert!(checked.load(Ordering::Relaxed) > 0);
+    let r = store.read().unwrap();
+    assert_eq!(r.all_node_ids().unwrap().len(), 150);
+}

@@ -573,32 +573,45 @@ pub fn find_graph_normed(
         };
         let cos_t = t_sims[ti].unwrap_or(0.0);
         let s_t = gate(cos_t, t_best, opts.target_plateau, opts.target_falloff) * attr;
-        // RELATED edges of this target, by the other end
-        let mut edges: HashMap<u64, String> = HashMap::new();
+        // RELATED edges of this target, by the other end: the first relationship to it (in
+        // `neighbours` order) that the geometry made; only its `source` is read here, and its
+        // label only for the evidence
+        let str_prop = |rel: u64, k: Option<graphstore::PropKey>| -> Result<String> {
+            Ok(match k {
+                Some(k) => r
+                    .rel_prop(rel, k)?
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_default(),
+                None => String::new(),
+            })
+        };
+        let mut edges: HashMap<u64, u64> = HashMap::new();
         if !req.anchors.is_empty()
             && let Some(ty) = related
         {
             for adj in r.neighbours(t.id, Direction::Both, Some(ty))? {
-                if let Some(rel) = r.rel(adj.rel)? {
-                    let get = |k: Option<graphstore::PropKey>| {
-                        k.and_then(|k| rel.props.iter().find(|(n, _)| *n == k))
-                            .and_then(|(_, v)| v.as_str())
-                            .unwrap_or_default()
-                            .to_string()
-                    };
-                    // only the map's geometric relations count: the LLM relation labels
-                    // (`opengraph relations --experimental`) agree with the simulator's truth
-                    // less often than the geometry (docs/llm.md)
-                    let source = get(k_source);
-                    if source == "llm" {
-                        continue;
-                    }
-                    edges
-                        .entry(adj.other)
-                        .or_insert_with(|| format!("{} ({source})", get(k_relation)));
+                if edges.contains_key(&adj.other) {
+                    continue;
                 }
+                // only the map's geometric relations count: the LLM relation labels
+                // (`opengraph relations --experimental`) agree with the simulator's truth
+                // less often than the geometry (docs/llm.md)
+                if str_prop(adj.rel, k_source)? == "llm" {
+                    continue;
+                }
+                edges.insert(adj.other, adj.rel);
             }
         }
+        let related_label = |other: u64| -> Result<Option<String>> {
+            match edges.get(&other) {
+                Some(&rel) => Ok(Some(format!(
+                    "{} ({})",
+                    str_prop(rel, k_relation)?,
+                    str_prop(rel, k_source)?
+                ))),
+                None => Ok(None),
+            }
+        };
         let mut evidence = Vec::new();
         let mut support = 0.0;
         for (a, (idx, sims, best)) in req.anchors.iter().zip(&anchors) {
@@ -617,28 +630,25 @@ pub fn find_graph_normed(
                 });
                 continue;
             }
-            let mut pick: Option<(f64, usize, f64, f64)> = None;
-            for &bi in idx {
-                if bi == ti {
-                    continue;
-                }
-                let b = &scene.objects[bi];
+            let gates = idx.iter().filter(|&&bi| bi != ti).map(|&bi| {
                 let s_b = gate(
                     sims[bi].unwrap_or(0.0),
                     *best,
                     opts.anchor_plateau,
                     opts.anchor_falloff,
                 );
-                let mut fit = relation_fit(a.relation, a.distance_m, t, b);
+                (bi, s_b)
+            });
+            let pick = best_anchor(gates, |bi| {
+                let b = &scene.objects[bi];
+                let fit = relation_fit(a.relation, a.distance_m, t, b);
                 if edges.contains_key(&b.id) {
                     // the map already relates them: at least "near"
-                    fit = fit.max(0.8);
+                    fit.max(0.8)
+                } else {
+                    fit
                 }
-                let v = s_b * fit;
-                if pick.is_none_or(|p| v > p.0) {
-                    pick = Some((v, bi, s_b, fit));
-                }
-            }
+            });
             if let Some((v, bi, s_b, fit)) = pick {
                 support += v;
                 let b = &scene.objects[bi];
@@ -650,7 +660,7 @@ pub fn find_graph_normed(
                     distance_m: (MapView::gap_m(t, b) * 100.0).round() / 100.0,
                     similarity: s_b,
                     fit,
-                    related: edges.get(&b.id).cloned(),
+                    related: related_label(b.id)?,
                 });
             }
         }
@@ -695,6 +705,30 @@ pub fn find_graph_normed(
     out.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.id.cmp(&b.id)));
     out.truncate(opts.k);
     Ok((out, cuts))
+}
+
+/// The anchor candidate of greatest value `gate · fit`, the first of equals: `(value, object
+/// index, gate, fit)`. `gates` are `(object index, gate)` by gate, greatest first (the
+/// candidates by cosine, and the gate does not fall as the cosine rises), each gate in [0, 1];
+/// `fit` gives a fit in [0, 1] ([`relation_fit`]). A value is at most its gate, so once the
+/// gates are no greater than the best value no later candidate can pass it: the rest are not
+/// measured, and the pick is the one of measuring them all.
+fn best_anchor(
+    gates: impl Iterator<Item = (usize, f64)>,
+    mut fit: impl FnMut(usize) -> f64,
+) -> Option<(f64, usize, f64, f64)> {
+    let mut pick: Option<(f64, usize, f64, f64)> = None;
+    for (bi, s_b) in gates {
+        if pick.is_some_and(|p| s_b <= p.0) {
+            break;
+        }
+        let f = fit(bi);
+        let v = s_b * f;
+        if pick.is_none_or(|p| v > p.0) {
+            pick = Some((v, bi, s_b, f));
+        }
+    }
+    pick
 }
 
 /// The least [`scene::view::SegmentInfo::distance`] from `p` to `segments` (each with the bounds
@@ -929,6 +963,48 @@ mod tests {
             feature_sq_norm: 1.0,
             surface: false,
             segment: None,
+        }
+    }
+
+    #[test]
+    fn best_anchor_equals_measuring_all() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for round in 0..400 {
+            let n = round % 40;
+            // gates by the plateau and fall-off: runs of 1, a slope, then zeros
+            let mut gates: Vec<f64> = (0..n)
+                .map(|_| match rng.random_range(0..4) {
+                    0 => 1.0,
+                    1 => 0.0,
+                    _ => rng.random_range(0.0..1.0),
+                })
+                .collect();
+            gates.sort_by(|a, b| b.total_cmp(a));
+            let fits: Vec<f64> = (0..n)
+                .map(|_| match rng.random_range(0..3) {
+                    0 => 1.0,
+                    1 => 0.8,
+                    _ => rng.random_range(0.0..1.0f64).powi(3),
+                })
+                .collect();
+            let all = {
+                let mut pick: Option<(f64, usize, f64, f64)> = None;
+                for (bi, &s_b) in gates.iter().enumerate() {
+                    let v = s_b * fits[bi];
+                    if pick.is_none_or(|p| v > p.0) {
+                        pick = Some((v, bi, s_b, fits[bi]));
+                    }
+                }
+                pick
+            };
+            let mut measured = 0;
+            let got = best_anchor(gates.iter().copied().enumerate(), |bi| {
+                measured += 1;
+                fits[bi]
+            });
+            assert_eq!(got, all, "round {round}: {gates:?} {fits:?}");
+            assert!(measured <= n);
         }
     }
 

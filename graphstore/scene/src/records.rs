@@ -78,6 +78,19 @@ impl<'r, R: GraphRead> Props<'r, R> {
         Ok(Some(Props { node, r }))
     }
 
+    /// [`Props::of`] with only the properties named `keys` decoded
+    /// ([`GraphRead::node_keys`]); the others read as missing.
+    fn of_keys(r: &'r R, id: u64, label: &str, keys: &[&str]) -> Result<Option<Props<'r, R>>> {
+        let keys: Vec<graphstore::PropKey> = keys.iter().filter_map(|k| r.prop_key(k)).collect();
+        let Some(node) = r.node_keys(id, &keys)? else {
+            return Ok(None);
+        };
+        if !r.label(label).is_some_and(|l| node.labels.contains(&l)) {
+            return Ok(None);
+        }
+        Ok(Some(Props { node, r }))
+    }
+
     fn get(&self, name: &str) -> Option<&Value> {
         self.node.get(self.r.prop_key(name)?)
     }
@@ -668,6 +681,37 @@ impl InstanceRecord {
         let Some(p) = Props::of(r, id, label::INSTANCE)? else {
             return Ok(None);
         };
+        Self::from_props(&p)
+    }
+
+    /// The properties [`InstanceRecord::read_for_view`] reads.
+    pub const VIEW_KEYS: [&'static str; 9] = [
+        key::INSTANCE_ID,
+        key::CAPTION,
+        key::SEMANTIC_CLASS,
+        key::LEGACY_CLASS,
+        key::LABEL,
+        key::CENTROID,
+        key::BBOX,
+        key::FEATURE,
+        key::TILE,
+    ];
+
+    /// [`InstanceRecord::read`] with only [`InstanceRecord::VIEW_KEYS`] decoded (what
+    /// [`crate::view::MapView::load`] uses, read once per commit): the other fields are `None`
+    /// (`captions`, `colour`, `material`, the counts, frames, `source`, `detection_feature`,
+    /// `obb`) whatever the node holds.
+    ///
+    /// # Errors
+    /// As [`InstanceRecord::read`].
+    pub fn read_for_view(r: &impl GraphRead, id: u64) -> Result<Option<InstanceRecord>> {
+        let Some(p) = Props::of_keys(r, id, label::INSTANCE, &Self::VIEW_KEYS)? else {
+            return Ok(None);
+        };
+        Self::from_props(&p)
+    }
+
+    fn from_props<R: GraphRead>(p: &Props<'_, R>) -> Result<Option<InstanceRecord>> {
         let vector = |k: &str| p.get(k).and_then(Value::as_vector).map(<[f32]>::to_vec);
         Ok(Some(InstanceRecord {
             instance_id: p.need(key::INSTANCE_ID, p.int(key::INSTANCE_ID))?,
@@ -1004,8 +1048,24 @@ mod tests {
             prop_assert_eq!(LaneNodeRecord::read(&r, ids[2]).unwrap(), Some(lane_a));
             prop_assert_eq!(LaneNodeRecord::read(&r, ids[3]).unwrap(), Some(lane_b));
             prop_assert_eq!(LaneEdgeRecord::read(&r, ids[4]).unwrap(), le);
-            prop_assert_eq!(InstanceRecord::read(&r, ids[5]).unwrap(), Some(inst));
+            prop_assert_eq!(InstanceRecord::read(&r, ids[5]).unwrap(), Some(inst.clone()));
             prop_assert_eq!(InstanceRecord::read(&r, ids[6]).unwrap(), Some(inst_b));
+            // the view's narrow read: its fields as written, the rest absent
+            let narrow = InstanceRecord {
+                captions: None,
+                colour: None,
+                material: None,
+                point_count: None,
+                detection_count: None,
+                first_frame: None,
+                last_frame: None,
+                source: None,
+                detection_feature: None,
+                obb: None,
+                ..inst.clone()
+            };
+            prop_assert_eq!(InstanceRecord::read_for_view(&r, ids[5]).unwrap(), Some(narrow));
+            prop_assert_eq!(InstanceRecord::read_for_view(&r, ids[1]).unwrap(), None);
             prop_assert_eq!(RelationRecord::read(&r, ids[7]).unwrap(), rr);
             prop_assert_eq!(EditRecord::read(&r, ids[8]).unwrap(), Some(ed));
             // a node of another layer is not read as this one

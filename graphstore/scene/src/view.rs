@@ -140,7 +140,7 @@ impl MapView {
         }
         let mut objects = Vec::new();
         for id in r.nodes_with_label(label::INSTANCE)? {
-            let Some(inst) = InstanceRecord::read(r, id)? else {
+            let Some(inst) = InstanceRecord::read_for_view(r, id)? else {
                 continue;
             };
             let Some(feature) = inst.feature else {

@@ -31,7 +31,8 @@ mod validate;
 /// few records opens three or four of the eight: opening a table is a B-tree lookup in redb's
 /// table of tables).
 pub struct ReadTxn {
-    txn: ReadTransaction,
+    /// The commit's read transaction, shared by every reader of it (see `Store::read`).
+    txn: Arc<ReadTransaction>,
     base: Arc<Committed>,
     format: u32,
     meta: OnceLock<ReadOnlyTable<&'static str, &'static [u8]>>,
@@ -80,7 +81,11 @@ impl std::fmt::Debug for ReadTxn {
 
 impl ReadTxn {
     /// `format`: the store's format version (1: format 1's adjacency, read as it is).
-    pub(crate) fn new(txn: ReadTransaction, base: Arc<Committed>, format: u32) -> Result<ReadTxn> {
+    pub(crate) fn new(
+        txn: Arc<ReadTransaction>,
+        base: Arc<Committed>,
+        format: u32,
+    ) -> Result<ReadTxn> {
         let counts = txn.open_table(COUNTS).map_err(storage)?;
         Ok(ReadTxn {
             txn,
