@@ -64,6 +64,10 @@ impl Drop for Inner {
 /// the disk) without holding the state lock, then begins the new commit's read transaction and
 /// swaps both in together: readers meanwhile keep reading the previous commit, consistent with
 /// its state, instead of waiting for the disk (a slow `fdatasync` used to stall every reader).
+/// A handle's snapshot changes only through its own commits: this relies on redb's default
+/// `ExclusiveWriter` mode, where a writable handle is the file's only writer and a read-only
+/// open excludes writers (in a mode where another process could commit, the shared read
+/// transaction would keep showing the commit it began at).
 #[derive(Debug)]
 struct Snapshot {
     committed: Arc<Committed>,
@@ -568,11 +572,19 @@ impl Store {
     /// begins it (or reports why it cannot).
     fn commit_and_swap(&self, wtx: redb::WriteTransaction, next: Committed) -> Result<()> {
         if let Err(e) = lock(&self.inner.state).txn(&self.inner.db) {
-            wtx.abort().map_err(storage)?;
+            if let Err(a) = wtx.abort() {
+                tracing::warn!(error = %a, "aborting a write whose snapshot could not be read");
+            }
             return Err(e);
         }
         wtx.commit().map_err(storage)?;
-        let txn = self.inner.db.begin_read().ok().map(Arc::new);
+        let txn = match self.inner.db.begin_read() {
+            Ok(t) => Some(Arc::new(t)),
+            Err(e) => {
+                tracing::warn!(error = %e, "no read transaction of the new commit yet");
+                None
+            }
+        };
         let mut st = lock(&self.inner.state);
         st.committed = Arc::new(next);
         st.txn = txn;
