@@ -209,6 +209,15 @@ mod cosine_tests {
     use super::{cosine, cosine_normed};
     use scene::view::feature_dot;
 
+    /// The cosine from its three sums, as both references below end (0 for a zero vector).
+    fn quotient(ab: f64, aa: f64, bb: f64) -> f64 {
+        if aa > 0.0 && bb > 0.0 {
+            ab / (aa.sqrt() * bb.sqrt())
+        } else {
+            0.0
+        }
+    }
+
     /// The cosine summed in one running sum each, as it was before the lanes.
     fn sequential(a: &[f32], b: &[f32]) -> f64 {
         let (mut ab, mut aa, mut bb) = (0f64, 0f64, 0f64);
@@ -218,11 +227,7 @@ mod cosine_tests {
             aa += x * x;
             bb += y * y;
         }
-        if aa > 0.0 && bb > 0.0 {
-            ab / (aa.sqrt() * bb.sqrt())
-        } else {
-            0.0
-        }
+        quotient(ab, aa, bb)
     }
 
     /// The cosine as it was summed before the norms were kept: the three sums in one loop.
@@ -250,11 +255,7 @@ mod cosine_tests {
             aa += x * x;
             bb += y * y;
         }
-        if aa > 0.0 && bb > 0.0 {
-            ab / (aa.sqrt() * bb.sqrt())
-        } else {
-            0.0
-        }
+        quotient(ab, aa, bb)
     }
 
     #[test]

@@ -543,20 +543,18 @@ pub fn find_graph_normed(
     let k_source = r.prop_key(scene::key::SOURCE);
     // the segments of the asked kind with the bounds of what their distance measures from
     // (a lower bound of it: the nearest is found without measuring the far ones)
-    let asked_segments: Vec<(&scene::view::SegmentInfo, [[f64; 2]; 2])> = match req.segment {
+    let asked_segments: Vec<&scene::view::SegmentInfo> = match req.segment {
         Some(c) => scene
             .segments
             .iter()
             .filter(|s| c.admits(&s.kind))
-            .map(|s| {
-                (
-                    s,
-                    scene::area::membership_bounds(&s.area, s.drivable.as_ref()),
-                )
-            })
             .collect(),
         None => Vec::new(),
     };
+    let asked_bounds: Vec<[[f64; 2]; 2]> = asked_segments
+        .iter()
+        .map(|s| scene::area::membership_bounds(&s.area, s.drivable.as_ref()))
+        .collect();
     let mut out = Vec::with_capacity(targets.len());
     for &ti in &targets {
         let t = &scene.objects[ti];
@@ -676,7 +674,7 @@ pub fn find_graph_normed(
         let seg = match (req.segment, segment_match) {
             (Some(_), Some(false)) => {
                 let p = scene.ground.ground(t.centroid);
-                let d = nearest_distance(&asked_segments, p);
+                let d = nearest_distance(&asked_segments, &asked_bounds, p);
                 let near = if d <= 10.0 {
                     1.0
                 } else {
@@ -731,24 +729,19 @@ fn best_anchor(
     pick
 }
 
-/// The least [`scene::view::SegmentInfo::distance`] from `p` to `segments` (each with the bounds
-/// [`scene::area::membership_bounds`] gives, whose gap is a lower bound of the distance),
-/// metres; infinite when there are none. Nearest bounds first, stopping where the gap reaches
-/// the best distance: the same minimum as measuring every segment.
-fn nearest_distance(segments: &[(&scene::view::SegmentInfo, [[f64; 2]; 2])], p: [f64; 2]) -> f64 {
-    let mut by_gap: Vec<(f64, &scene::view::SegmentInfo)> = segments
-        .iter()
-        .map(|(s, b)| (scene::area::box_gap(b, p), *s))
-        .collect();
-    by_gap.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut best = f64::INFINITY;
-    for (gap, s) in by_gap {
-        if gap >= best {
-            break;
-        }
-        best = best.min(s.distance(p));
-    }
-    best
+/// The least [`scene::view::SegmentInfo::distance`] from `p` to `segments`, metres (infinite
+/// when there are none, or every distance is NaN, as a fold of `f64::min` gives), measured
+/// nearest `bounds` first ([`scene::area::nearest_by_bounds`]; each segment's
+/// [`scene::area::membership_bounds`]): the same minimum as measuring every segment.
+fn nearest_distance(
+    segments: &[&scene::view::SegmentInfo],
+    bounds: &[[[f64; 2]; 2]],
+    p: [f64; 2],
+) -> f64 {
+    scene::area::nearest_by_bounds(bounds, p, |i| segments[i].distance(p))
+        .map(|(_, d)| d)
+        .filter(|d| !d.is_nan())
+        .unwrap_or(f64::INFINITY)
 }
 
 /// The JSON Schema of a re-ranking answer: up to three candidate numbers, best first.
@@ -1047,14 +1040,10 @@ mod tests {
                     }
                 })
                 .collect();
-            let with_bounds: Vec<(&SegmentInfo, [[f64; 2]; 2])> = segments
+            let refs: Vec<&SegmentInfo> = segments.iter().collect();
+            let bounds: Vec<[[f64; 2]; 2]> = segments
                 .iter()
-                .map(|s| {
-                    (
-                        s,
-                        scene::area::membership_bounds(&s.area, s.drivable.as_ref()),
-                    )
-                })
+                .map(|s| scene::area::membership_bounds(&s.area, s.drivable.as_ref()))
                 .collect();
             for _ in 0..40 {
                 let p = [r(-260.0, 260.0), r(-260.0, 260.0)];
@@ -1062,7 +1051,7 @@ mod tests {
                     .iter()
                     .map(|s| s.distance(p))
                     .fold(f64::INFINITY, f64::min);
-                let got = nearest_distance(&with_bounds, p);
+                let got = nearest_distance(&refs, &bounds, p);
                 assert_eq!(got.to_bits(), all.to_bits(), "round {round}, {p:?}");
             }
         }

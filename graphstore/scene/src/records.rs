@@ -69,26 +69,22 @@ struct Props<'r, R> {
 impl<'r, R: GraphRead> Props<'r, R> {
     /// Node `id` when it exists and carries `label`.
     fn of(r: &'r R, id: u64, label: &str) -> Result<Option<Props<'r, R>>> {
-        let Some(node) = r.node(id)? else {
-            return Ok(None);
-        };
-        if !r.label(label).is_some_and(|l| node.labels.contains(&l)) {
-            return Ok(None);
-        }
-        Ok(Some(Props { node, r }))
+        Ok(r.node(id)?.and_then(|node| Self::labelled(r, node, label)))
     }
 
     /// [`Props::of`] with only the properties named `keys` decoded
     /// ([`GraphRead::node_keys`]); the others read as missing.
     fn of_keys(r: &'r R, id: u64, label: &str, keys: &[&str]) -> Result<Option<Props<'r, R>>> {
         let keys: Vec<graphstore::PropKey> = keys.iter().filter_map(|k| r.prop_key(k)).collect();
-        let Some(node) = r.node_keys(id, &keys)? else {
-            return Ok(None);
-        };
-        if !r.label(label).is_some_and(|l| node.labels.contains(&l)) {
-            return Ok(None);
-        }
-        Ok(Some(Props { node, r }))
+        Ok(r.node_keys(id, &keys)?
+            .and_then(|node| Self::labelled(r, node, label)))
+    }
+
+    /// `node`'s properties when it carries `label`.
+    fn labelled(r: &'r R, node: graphstore::Node, label: &str) -> Option<Props<'r, R>> {
+        r.label(label)
+            .is_some_and(|l| node.labels.contains(&l))
+            .then_some(Props { node, r })
     }
 
     fn get(&self, name: &str) -> Option<&Value> {
