@@ -20,6 +20,18 @@ fn demo_info_export_roundtrip() {
     assert_eq!(v["relationships"]["LANE"], 6);
     let text = String::from_utf8(og(&["info", "--db", db_s]).stdout).unwrap();
     assert!(text.contains("vector instance_feature"), "{text}");
+    assert!(!text.contains("consistency"), "{text}");
+    // --check reads every index and count against the data
+    let out = og(&["info", "--db", db_s, "--json", "--check"]);
+    ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["consistency"]["consistent"], true, "{v}");
+    assert_eq!(v["consistency"]["problems"], serde_json::json!([]), "{v}");
+    let text = String::from_utf8(og(&["info", "--db", db_s, "--check"]).stdout).unwrap();
+    assert!(
+        text.contains("consistency: every index and count agrees"),
+        "{text}"
+    );
 
     let json = dir.path().join("g.json");
     let out = og(&[

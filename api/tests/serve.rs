@@ -6,7 +6,7 @@
 //! official Python client.
 
 mod common;
-use common::{json, json_of_run, og, python_with_mcp, read_query, s, serve};
+use common::{json, json_of_run, og, python_with_mcp, read_query, s, serve, serve_with_env};
 
 use std::path::Path;
 use std::process::Command;
@@ -396,6 +396,62 @@ fn writes_need_the_token_and_reads_are_read_only() {
     // the marker goes with the server... unless it was killed; a later open still works
     let store = graphstore::Store::open_read_only(&db).unwrap();
     assert_eq!(store.check_consistency().unwrap(), Vec::<String>::new());
+}
+
+#[test]
+fn the_write_token_can_come_from_the_environment() {
+    let (dir, db) = copy_of_map();
+    let (token_file, token) = write_token(dir.path());
+    let create = json!({"query": "CREATE (n:Hack {x: 1}) RETURN id(n) AS id"});
+    {
+        let srv = serve_with_env(&db, &[], Some(&token));
+        let url = format!("{}/api/cypher/write", srv.url);
+        let (st, v) = post(&url, &create, None);
+        assert_eq!(st, 401, "{v}");
+        let (st, v) = post(&url, &create, Some(&token));
+        assert_eq!(st, 200, "{v}");
+    }
+    // refused before the server starts (exit 2, saying why): both ways at once, a short
+    // token; an empty variable is no token (a read-only server: the write route is absent)
+    let refused = |env_token: &str, extra: &[&str]| {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+            .env("OPENGRAPH_TOKEN", env_token)
+            .args(["serve", "--db", s(&db), "--bind", "127.0.0.1:0"])
+            .args(extra)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let deadline = std::time::Instant::now() + Duration::from_secs(60);
+        while child.try_wait().unwrap().is_none() {
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                panic!("serve {extra:?} with OPENGRAPH_TOKEN={env_token:?} did not refuse");
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let out = child.wait_with_output().unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let (code, err) = refused(&token, &["--token-file", s(&token_file)]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("OPENGRAPH_TOKEN") && err.contains("--token-file"),
+        "{err}"
+    );
+    let (code, err) = refused("short", &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("16 or more"), "{err}");
+    let srv = serve_with_env(&db, &[], Some(""));
+    let (st, v) = post(
+        &format!("{}/api/cypher/write", srv.url),
+        &create,
+        Some(&token),
+    );
+    assert_eq!(st, 404, "{v}");
 }
 
 #[test]

@@ -127,7 +127,7 @@ impl ToolError {
 /// The hint for a write tool asked for while writes are off.
 fn write_hint(name: &str) -> &'static str {
     if matches!(name, "write_cypher" | "update_map" | "undo_map_edit") {
-        " (write tools are offered only when writes are enabled: --writes, mcp --allow-writes, or serve with a --token-file)"
+        " (write tools are offered only when writes are enabled: --writes, mcp --allow-writes, or serve with a --token-file or $OPENGRAPH_TOKEN)"
     } else {
         ""
     }

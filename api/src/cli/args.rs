@@ -25,6 +25,10 @@ pub(crate) enum Command {
         /// Print `{"nodes": {LABEL: n}, "relationships": {TYPE: n}}` instead of a table.
         #[arg(long)]
         json: bool,
+        /// Also check that every index and count agrees with the data and that no
+        /// relationship dangles (reads the whole store); exits 1 when a problem is found.
+        #[arg(long)]
+        check: bool,
     },
     /// Export the whole graph (payloads such as point clouds are left out).
     Export {
@@ -460,8 +464,9 @@ pub(crate) enum Command {
         /// Address to listen on; port 0 picks a free port (the address is printed).
         #[arg(long, default_value = "127.0.0.1:7878")]
         bind: std::net::SocketAddr,
-        /// A file holding the write token (16 characters or more). Without it the server is
-        /// read-only; a non-loopback --bind needs it.
+        /// A file holding the write token (16 characters or more); or put the token in the
+        /// OPENGRAPH_TOKEN environment variable (not both). Without one the server is
+        /// read-only; a non-loopback --bind needs one.
         #[arg(long)]
         token_file: Option<PathBuf>,
         /// Refuse writes even with a token (the store is opened read-only).

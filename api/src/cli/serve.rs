@@ -26,16 +26,59 @@ pub(crate) struct ServeArgs {
     pub(crate) zenoh: ZenohArgs,
 }
 
+/// The environment variable that can hold the write token instead of `--token-file`.
+pub(crate) const TOKEN_ENV: &str = "OPENGRAPH_TOKEN";
+
 /// Reads a write token from a file: trimmed, 16 characters or more, printable ASCII.
 pub(crate) fn read_token(path: &std::path::Path) -> anyhow::Result<String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| UsageError(format!("reading the token file {}: {e}", path.display())))?;
+    checked_token(
+        &text,
+        &format!("the token in {}", path.display()),
+        &format!("openssl rand -hex 32 > {}", path.display()),
+    )
+}
+
+/// The write token: from `--token-file`, else from `$OPENGRAPH_TOKEN` (an empty value is
+/// no token), else none. Both at once is a usage error, so it is never unclear which one
+/// the server took.
+pub(crate) fn write_token(token_file: Option<&std::path::Path>) -> anyhow::Result<Option<String>> {
+    let from_env = match std::env::var(TOKEN_ENV) {
+        Ok(v) if v.is_empty() => None,
+        Ok(v) => Some(v),
+        Err(std::env::VarError::NotPresent) => None,
+        Err(std::env::VarError::NotUnicode(_)) => {
+            return Err(UsageError(format!(
+                "{TOKEN_ENV} must be 16 or more printable characters without spaces"
+            ))
+            .into());
+        }
+    };
+    match (token_file, from_env) {
+        (Some(p), Some(_)) => Err(UsageError(format!(
+            "both --token-file {} and {TOKEN_ENV} are set: give the write token one way",
+            p.display()
+        ))
+        .into()),
+        (Some(p), None) => read_token(p).map(Some),
+        (None, Some(v)) => checked_token(
+            &v,
+            &format!("the token in {TOKEN_ENV}"),
+            &format!("export {TOKEN_ENV}=$(openssl rand -hex 32)"),
+        )
+        .map(Some),
+        (None, None) => Ok(None),
+    }
+}
+
+/// `text` trimmed, if it is 16 or more printable ASCII characters; `what` names where it
+/// came from and `example` how to make a good one, for the error.
+fn checked_token(text: &str, what: &str, example: &str) -> anyhow::Result<String> {
     let token = text.trim().to_string();
     if token.len() < 16 || !token.bytes().all(|b| b.is_ascii_graphic()) {
         return Err(UsageError(format!(
-            "the token in {} must be 16 or more printable characters without spaces (e.g. `openssl rand -hex 32 > {}`)",
-            path.display(),
-            path.display()
+            "{what} must be 16 or more printable characters without spaces (e.g. `{example}`)"
         ))
         .into());
     }
@@ -85,7 +128,7 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .into());
         }
     }
-    let token = a.token_file.as_deref().map(read_token).transpose()?;
+    let token = write_token(a.token_file.as_deref())?;
     api::http::check_bind(&a.bind, token.as_deref()).map_err(UsageError)?;
     let writes = token.is_some() && !a.read_only;
     let workers = a.workers.unwrap_or_else(|| {

@@ -7,6 +7,7 @@ use std::process::{Command, Output};
 /// Runs `opengraph` with `args`.
 pub fn og(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .env_remove("OPENGRAPH_TOKEN")
         .args(args)
         .output()
         .unwrap()
@@ -189,8 +190,20 @@ impl Drop for Server {
 /// Starts `opengraph serve --db DB` on 127.0.0.1 port 0 with `extra` flags and waits (60 s at
 /// most) for the address it prints.
 pub fn serve(db: &Path, extra: &[&str]) -> Server {
+    serve_with_env(db, extra, None)
+}
+
+/// [`serve`] with `$OPENGRAPH_TOKEN` set to `token` (`None`: unset, whatever the test's own
+/// environment holds).
+#[allow(dead_code)]
+pub fn serve_with_env(db: &Path, extra: &[&str], token: Option<&str>) -> Server {
     use std::io::BufRead;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_opengraph"));
+    match token {
+        Some(t) => cmd.env("OPENGRAPH_TOKEN", t),
+        None => cmd.env_remove("OPENGRAPH_TOKEN"),
+    };
+    let mut child = cmd
         .args(["serve", "--db", s(db), "--bind", "127.0.0.1:0"])
         .args(extra)
         .stdout(std::process::Stdio::piped())
