@@ -202,7 +202,11 @@ fn read_question(
         Err(_) => Ok(t),
     });
     match read {
-        Ok(t) => (Some(fill_from_rules(t, rules())), id, transcript),
+        Ok(t) => {
+            let r = rules();
+            let t = fill_from_rules(t, r.clone());
+            (Some(prefer_fuller(t, r.as_ref())), id, transcript)
+        }
         Err(why) => {
             transcript.push(Message::new(
                 Role::Tool,
@@ -211,6 +215,53 @@ fn read_question(
             (rules(), format!("rules, after {id}"), transcript)
         }
     }
+}
+
+/// Where the model and the rules read the same task, an argument the model gave as a piece
+/// of the rules' argument for the same slot ("the curb" of "the hydrant by the curb") is
+/// taken from the rules: the fuller description names the thing the question means, a
+/// small model tends to keep the last noun of it. A distance or route whose two ends the
+/// model made the same is the rules' reading too.
+fn prefer_fuller(task: Task, rules: Option<&Task>) -> Task {
+    let Some(rules) = rules else { return task };
+    let (Ok(Json::Object(mut m)), Ok(Json::Object(r))) =
+        (serde_json::to_value(&task), serde_json::to_value(rules))
+    else {
+        return task;
+    };
+    if m.get("task") != r.get("task") {
+        return task;
+    }
+    let words = |v: &str| -> Vec<String> {
+        v.to_lowercase()
+            .split(|c: char| !c.is_alphanumeric() && c != '\'' && c != '-')
+            .filter(|w| !w.is_empty() && !matches!(*w, "the" | "a" | "an"))
+            .map(str::to_string)
+            .collect()
+    };
+    let piece_of = |small: &[String], big: &[String]| {
+        !small.is_empty() && small.len() < big.len() && big.windows(small.len()).any(|w| w == small)
+    };
+    if let (Some(Json::String(a)), Some(Json::String(b))) = (m.get("from"), m.get("to"))
+        && (words(a) == words(b)
+            || llm_tools::request::spec_in_words(a)
+                .is_some_and(|x| llm_tools::request::spec_in_words(b) == Some(x)))
+    {
+        return rules.clone();
+    }
+    let mut changed = false;
+    for (k, v) in m.iter_mut() {
+        if let (Json::String(mine), Some(Json::String(theirs))) = (&*v, r.get(k))
+            && piece_of(&words(mine), &words(theirs))
+        {
+            *v = Json::String(theirs.clone());
+            changed = true;
+        }
+    }
+    if !changed {
+        return task;
+    }
+    serde_json::from_value(Json::Object(m)).unwrap_or(task)
 }
 
 /// What the model left empty in a task the rules read as the same task, the rules fill: a
@@ -246,10 +297,37 @@ fn fill_from_rules(task: Task, rules: Option<Task>) -> Task {
                 radius_m,
             }
         }
+        // the form holds one segment kind: a union said in the question comes from the rules,
+        // as does a kind left empty or what the segments hold
         (
-            Task::CountSegments { segment_kind: None },
-            Some(Task::CountSegments { segment_kind }),
-        ) => Task::CountSegments { segment_kind },
+            Task::CountSegments {
+                segment_kind,
+                or_kinds,
+                holding,
+            },
+            Some(Task::CountSegments {
+                segment_kind: k,
+                or_kinds: ors,
+                holding: h,
+            }),
+        ) => {
+            let (segment_kind, or_kinds) = if !ors.is_empty() || segment_kind.is_none() {
+                (k, ors)
+            } else {
+                (segment_kind, or_kinds)
+            };
+            Task::CountSegments {
+                segment_kind,
+                or_kinds,
+                holding: holding.or(h),
+            }
+        }
+        // a count whose kind is road segments is a count of segments
+        (Task::Count { kind, .. }, Some(t @ Task::CountSegments { .. }))
+            if llm_tools::request::question::names_segments(&kind) =>
+        {
+            t
+        }
         (t, _) => t,
     }
 }
@@ -530,25 +608,63 @@ fn run_task(
             };
             Ok((format!("{n} {kind}{area} ({how})."), json!(n)))
         }
-        Task::CountSegments { segment_kind } => {
+        Task::CountSegments {
+            segment_kind,
+            or_kinds,
+            holding,
+        } => {
             let a = call(toolbox, steps, "describe_area", json!({}))?;
             let segs = a["segments"].as_array().cloned().unwrap_or_default();
-            let ids: Vec<u64> = segs
+            let kinds: Vec<SegmentConstraint> =
+                segment_kind.iter().chain(or_kinds).copied().collect();
+            let mut ids: Vec<u64> = segs
                 .iter()
                 .filter(|s| {
-                    segment_kind.is_none_or(|k: SegmentConstraint| {
-                        k.admits(s["kind"].as_str().unwrap_or(""))
-                    })
+                    kinds.is_empty()
+                        || kinds
+                            .iter()
+                            .any(|k| k.admits(s["kind"].as_str().unwrap_or("")))
                 })
                 .filter_map(|s| s["id"].as_u64())
                 .collect();
-            let what = segment_kind.map_or("road segments", |k| match k {
+            let name = |k: &SegmentConstraint| match k {
                 SegmentConstraint::Crossroads => "crossroads",
                 SegmentConstraint::TJunction => "T-junctions",
                 SegmentConstraint::Bend => "bends",
                 SegmentConstraint::StraightRoad => "straight roads",
                 SegmentConstraint::Junction => "junctions",
-            });
+            };
+            let mut what = if kinds.is_empty() {
+                "road segments".to_string()
+            } else {
+                kinds.iter().map(name).collect::<Vec<_>>().join(" or ")
+            };
+            if let Some(h) = holding {
+                // every object of the kind, with its segment (IN_SEGMENT)
+                let c = call(
+                    toolbox,
+                    steps,
+                    "count_objects",
+                    json!({"kind": h, "list": 500}),
+                )?;
+                let listed = c["objects"].as_array().map_or(0, |v| v.len() as u64);
+                if c["count"].as_u64().unwrap_or(0) > listed {
+                    return Err(format!(
+                        "the map has more than {listed} objects of the kind {h:?}: too many to place in segments one by one"
+                    ));
+                }
+                let holders: std::collections::BTreeSet<u64> = c["objects"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|o| o["segment"]["id"].as_u64())
+                    .collect();
+                ids.retain(|id| holders.contains(id));
+                what = format!(
+                    "{what} holding at least one {h} (an object is in the segment its IN_SEGMENT names; {} of the kind on the map)",
+                    c["count"]
+                );
+            }
             Ok((
                 format!(
                     "The map has {} {what} (segment node ids {:?}).",
@@ -808,15 +924,107 @@ mod tests {
         let a = ask(Some(&mut m), &mut tb, "How many T-junctions are there?", 3).unwrap();
         assert_eq!(
             a.task,
-            Some(Task::CountSegments {
-                segment_kind: Some(SegmentConstraint::TJunction)
-            })
+            Some(Task::count_segments(Some(SegmentConstraint::TJunction)))
         );
         // an unusable form: the rules read the question
         let mut m = Scripted::new("script", vec![Reply::Text("{}".into())]);
         let a = ask(Some(&mut m), &mut tb, "How many benches are there?", 3).unwrap();
         assert!(a.model.starts_with("rules, after script"), "{}", a.model);
         assert_eq!(a.value, Some(json!(1)));
+    }
+
+    /// A union of segment kinds and the segments holding a kind, each against Cypher's count
+    /// on the same map; a model that reads the union as a count of objects gives way to the
+    /// rules.
+    #[test]
+    fn unions_of_segment_kinds_and_segments_holding_a_kind_are_counted() {
+        let (_dir, mut tb) = demo_toolbox();
+        let cypher = |tb: &mut Toolbox, q: &str| {
+            tb.call("read_cypher", &json!({"query": q})).unwrap()["rows"][0]["n"].clone()
+        };
+        let union = cypher(
+            &mut tb,
+            "MATCH (s:Segment) WHERE s.kind IN ['intersection', 't_intersection'] RETURN count(s) AS n",
+        );
+        let one = cypher(
+            &mut tb,
+            "MATCH (s:Segment) WHERE s.kind = 'intersection' RETURN count(s) AS n",
+        );
+        assert_ne!(union, one, "the demo map must tell a union from one kind");
+        let a = ask(
+            None,
+            &mut tb,
+            "How many crossroads or T-junctions are there?",
+            3,
+        )
+        .unwrap();
+        assert_eq!(a.value, Some(union.clone()), "{a:?}");
+        let form = r#"{"action": "count", "kind": "crossroads or T-junctions", "place": "", "radius_m": null, "segment_kind": null, "to": ""}"#;
+        let mut m = Scripted::new("script", vec![Reply::Text(form.into())]);
+        let a = ask(
+            Some(&mut m),
+            &mut tb,
+            "How many crossroads or T-junctions are there?",
+            3,
+        )
+        .unwrap();
+        assert_eq!(a.value, Some(union), "{a:?}");
+        let holding = cypher(
+            &mut tb,
+            "MATCH (i:Instance)-[:IN_SEGMENT]->(s:Segment) WHERE i.label = 'bench' RETURN count(DISTINCT s) AS n",
+        );
+        let all = cypher(&mut tb, "MATCH (s:Segment) RETURN count(s) AS n");
+        assert_ne!(holding, all);
+        let a = ask(None, &mut tb, "How many segments have a bench?", 3).unwrap();
+        assert_eq!(a.value, Some(holding), "{a:?}");
+        assert_eq!(
+            a.steps.iter().map(|s| s.tool.as_str()).collect::<Vec<_>>(),
+            ["describe_area", "count_objects"]
+        );
+    }
+
+    /// A model's argument that is a piece of the rules' argument for the same slot gives way
+    /// to the rules' fuller one; a distance between one place and itself is the rules' task.
+    #[test]
+    fn the_fuller_description_wins_over_a_piece_of_it() {
+        let colour = |o: &str| Task::Colour { object: o.into() };
+        let rules = colour("the squat metal hydrant by the curb");
+        assert_eq!(prefer_fuller(colour("the curb"), Some(&rules)), rules);
+        // a different reading, or none, stays the model's
+        assert_eq!(
+            prefer_fuller(colour("the bench"), Some(&rules)),
+            colour("the bench")
+        );
+        assert_eq!(prefer_fuller(colour("the curb"), None), colour("the curb"));
+        let seg = Task::Segment {
+            object: "the squat metal hydrant by the curb".into(),
+        };
+        assert_eq!(
+            prefer_fuller(colour("the curb"), Some(&seg)),
+            colour("the curb")
+        );
+        let d = |a: &str, b: &str| Task::Distance {
+            from: a.into(),
+            to: b.into(),
+        };
+        let rules = d("the centre of segment 12", "the silver hydrant");
+        assert_eq!(
+            prefer_fuller(d("segment:12", "the centre of segment 12"), Some(&rules)),
+            rules
+        );
+        assert_eq!(
+            prefer_fuller(
+                d("the roadside", "the parking lane"),
+                Some(&d(
+                    "the white truck at the roadside",
+                    "the hatchback in the parking lane"
+                ))
+            ),
+            d(
+                "the white truck at the roadside",
+                "the hatchback in the parking lane"
+            )
+        );
     }
 
     #[test]

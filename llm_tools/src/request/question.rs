@@ -30,6 +30,14 @@ pub enum Task {
         /// The kind, as [`SegmentConstraint`] names it; None for every segment.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         segment_kind: Option<SegmentConstraint>,
+        /// More kinds counted with `segment_kind` ("crossroads or T-junctions": a segment
+        /// counts when it is of any of them).
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        or_kinds: Vec<SegmentConstraint>,
+        /// Only the segments holding at least one object of this kind, in words ("how many
+        /// segments have a fire hydrant"; an object is in the segment its `IN_SEGMENT` names).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        holding: Option<String>,
     },
     /// The object of a kind nearest a place.
     Nearest {
@@ -77,6 +85,17 @@ pub enum Task {
         /// The request.
         text: String,
     },
+}
+
+impl Task {
+    /// A count of the road segments of `kind` (every segment with `None`), nothing more said.
+    pub fn count_segments(kind: Option<SegmentConstraint>) -> Task {
+        Task::CountSegments {
+            segment_kind: kind,
+            or_kinds: Vec::new(),
+            holding: None,
+        }
+    }
 }
 
 /// The flat form a language model fills (keys in the grammar's order, every key present):
@@ -147,8 +166,12 @@ impl TaskForm {
                     radius_m: radius,
                 }
             }
+            // a kind that is no kind of road is what the segments hold ("segments with a
+            // hydrant"); the form has one segment kind, so a union comes from the rules
             "count_segments" => Task::CountSegments {
                 segment_kind: self.segment_kind,
+                or_kinds: Vec::new(),
+                holding: opt(&self.kind).filter(|k| !names_segments(k)),
             },
             "nearest" => Task::Nearest {
                 kind: need(&self.kind, "a kind")?,
@@ -188,8 +211,11 @@ pub fn task_schema() -> serde_json::Value {
 }
 
 /// Words that open a question and say nothing of its task.
-const POLITE: [&str; 47] = [
+const POLITE: [&str; 50] = [
     "please ",
+    "confirm ",
+    "verify ",
+    "double-check ",
     "determine ",
     "state ",
     "identify ",
@@ -490,6 +516,9 @@ fn whole_map(place: &str) -> bool {
                     | "entirety"
                     | "altogether"
                     | "overall"
+                    | "as"
+                    | "a"
+                    | "told"
             )
     })
 }
@@ -640,6 +669,27 @@ fn prepare(text: &str) -> Prepared {
         (" like a ", " a "),
         (" like an ", " an "),
         (" in straight line", " in a straight line"),
+        (". in a straight line, ", ". "),
+        ("? in a straight line, ", "? "),
+        (" in a straight line, how ", " how "),
+        // what the map records is what is asked ("what colour is it recorded as", "what
+        // colour does the map record it as", "that SUV on record")
+        (" really ", " "),
+        (" actually ", " "),
+        (" does the map record ", " is "),
+        (" does the map have ", " is "),
+        (" does the map show ", " is "),
+        (" is recorded as ", " is "),
+        (" are recorded as ", " are "),
+        (" is recorded as?", " is?"),
+        (" are recorded as?", " are?"),
+        (" recorded as ", " "),
+        (" it's recorded as", " it is"),
+        (" they're recorded as", " they are"),
+        (" is it as?", " is it?"),
+        (" is it as ", " is it "),
+        (" on record", ""),
+        (" on the record", ""),
     ] {
         t = format!(" {t} ").replace(said, meant).trim().to_string();
     }
@@ -762,6 +812,10 @@ fn prepare(text: &str) -> Prepared {
                 }
             }
             if s.len() == before {
+                // a lead cut off from its question ("could you confirm | what colour ...")
+                if POLITE.iter().any(|p| p.trim_end() == s.trim()) {
+                    return String::new();
+                }
                 return s;
             }
         }
@@ -769,8 +823,17 @@ fn prepare(text: &str) -> Prepared {
     let (sentences, asked): (Vec<String>, Vec<bool>) = sentences
         .iter()
         .zip(asked)
-        .map(|(s, q)| (strip_polite(s), q))
+        .map(|(s, q)| (strip_polite(&drop_purpose(s)), q))
         .filter(|(s, _)| !s.is_empty())
+        .map(|(s, q)| {
+            // "white SUV by the kerb - straight road, bend, T or crossroads?": the choices
+            // alone ask what kind of road the thing said before is on
+            if q && cut_segment_choices(&s).trim().is_empty() {
+                ("what kind of road is it on".to_string(), q)
+            } else {
+                (s, q)
+            }
+        })
         .unzip();
     match sentences.len() {
         0 => Prepared {
@@ -785,6 +848,47 @@ fn prepare(text: &str) -> Prepared {
         },
         _ => merge_sentences(&sentences, &asked),
     }
+}
+
+/// A sentence without the phrase that says what the answer is for ("for the photo log, what
+/// colour is ...", "colour, for visual confirmation from the air"): at the sentence's start
+/// up to its first comma, or after its last comma to its end, up to seven words without a
+/// number or a question word. The purpose names nothing asked about.
+fn drop_purpose(s: &str) -> String {
+    let plain = |p: &str| {
+        let words: Vec<&str> = p.split(' ').filter(|w| !w.is_empty()).collect();
+        words.len() <= 7
+            && !p.chars().any(|c| c.is_ascii_digit())
+            && !words.iter().any(|w| {
+                matches!(
+                    w.trim_end_matches(','),
+                    "what"
+                        | "which"
+                        | "how"
+                        | "where"
+                        | "who"
+                        | "is"
+                        | "are"
+                        | "example"
+                        | "instance"
+                )
+            })
+    };
+    let mut s = s.trim().to_string();
+    if let Some(rest) = s.strip_prefix("for ")
+        && let Some((purpose, after)) = rest.split_once(", ")
+        && plain(purpose)
+        && !after.trim().is_empty()
+    {
+        s = after.trim().to_string();
+    }
+    if let Some(i) = s.rfind(", for ")
+        && plain(&s[i + 6..])
+        && i > 0
+    {
+        s.truncate(i);
+    }
+    s
 }
 
 /// Where a question opens inside a sentence after what it asks about: after ", " at a
@@ -1016,7 +1120,7 @@ const MORE_VERBS: [&str; 20] = [
 const TIME_WORDS: [&str; 4] = ["today", "tonight", "yesterday", "tomorrow"];
 
 /// Heads of noun phrases that name no thing in the map.
-const NOT_THINGS: [&str; 39] = [
+const NOT_THINGS: [&str; 59] = [
     "point",
     "line",
     "metres",
@@ -1056,6 +1160,29 @@ const NOT_THINGS: [&str; 39] = [
     "spot",
     "week",
     "roadside",
+    // who or what reports ("the piece says the hedge is on a straight road"): sources of
+    // words, not things on the map
+    "piece",
+    "article",
+    "story",
+    "draft",
+    "caption",
+    "statement",
+    "claim",
+    "witness",
+    "source",
+    "reader",
+    "form",
+    "file",
+    "log",
+    "footage",
+    "reporter",
+    "claimant",
+    "incident",
+    "scene",
+    // what is asked of a thing, not a thing ("the colour of the motorbike")
+    "colour",
+    "color",
 ];
 
 /// Heads in [`NOT_THINGS`] that name a thing when more words say which ("our van" is the
@@ -1223,8 +1350,41 @@ fn named_in(context: &str) -> Vec<Named> {
             // "the litter bin in segment 2416": the segment says which
             end = road_end;
         }
+        // the subject of what someone reports ("the piece says the hedge along a garden
+        // is ..."): the one talked about, not the one who talks
+        let reported = {
+            let k = if i > 0 && w[i - 1] == "that" {
+                i - 1
+            } else {
+                i
+            };
+            (2..=5).contains(&k)
+                && matches!(
+                    w[k - 1],
+                    "says"
+                        | "said"
+                        | "claims"
+                        | "claimed"
+                        | "states"
+                        | "stated"
+                        | "reports"
+                        | "mentions"
+                        | "mentioned"
+                        | "insists"
+                        | "insisted"
+                        | "notes"
+                        | "noted"
+                        | "suggests"
+                        | "believes"
+                        | "thinks"
+                        | "writes"
+                        | "wrote"
+                        | "alleges"
+                )
+        };
         // the sentence's subject, and where it is ("there is a hedge along a garden")
         let subject = i == 0
+            || reported
             || matches!(
                 &w[..i],
                 ["there", "is" | "are" | "was" | "were"]
@@ -1266,7 +1426,8 @@ fn named_in(context: &str) -> Vec<Named> {
     // it at?"), or opens with one and has no verb ("red cast-iron hydrant on the sidewalk")
     if found.is_empty() && w.len() <= 5 && !w.iter().any(|x| ends(x)) && !w.is_empty() {
         let head = stem(w[w.len() - 1]);
-        if !TIME_WORDS.contains(&head.as_str()) {
+        // a heading that names a spot ("hover point: lane node 12") is no thing
+        if names_thing(&head, w.len()) {
             found.push((0, Named::Thing(w.join(" "), head, true)));
         }
     } else if !w.is_empty()
@@ -1278,12 +1439,17 @@ fn named_in(context: &str) -> Vec<Named> {
         )
         && !w
             .iter()
-            .any(|x| VERBS.contains(x) || MORE_VERBS.contains(x))
+            .any(|x| (VERBS.contains(x) || MORE_VERBS.contains(x)) && !PARTICIPLES.contains(x))
     {
         let n = (1..w.len()).find(|&k| ends(w[k])).unwrap_or(w.len());
         if n <= 5 {
             let head = stem(w[n - 1]);
-            let words = w[..n].join(" ");
+            // "white SUV parked in the parking lane": where it stands says which
+            let words = if PARTICIPLES.contains(&w.get(n).copied().unwrap_or("")) {
+                w.join(" ")
+            } else {
+                w[..n].join(" ")
+            };
             // a heading ("excavation permit near the silver camper van") is not the subject
             if names_thing(&head, n) && take_segment(&words).0.is_none() {
                 found.push((0, Named::Thing(words, head, false)));
@@ -1400,6 +1566,32 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
             _ => None,
         })
     };
+    let lane_node = || {
+        named.iter().rev().find_map(|n| match n {
+            Named::Road(s) if super::spec_in_words(s).is_some_and(|sp| sp.starts_with("lane:")) => {
+                Some(s.clone())
+            }
+            _ => None,
+        })
+    };
+    // "the trailer" after "the long cargo trailer parked by the curb" was named: the one
+    // fuller phrase with that head (none when two differ)
+    let fuller = |noun: &str| {
+        let h = stem(noun);
+        let mut phrases: Vec<&String> = named
+            .iter()
+            .filter_map(|n| match n {
+                Named::Thing(words, head, _) if *head == h && words.contains(' ') => Some(words),
+                _ => None,
+            })
+            .collect();
+        phrases.sort();
+        phrases.dedup();
+        match phrases.as_slice() {
+            [one] => Some(format!("the {one}")),
+            _ => None,
+        }
+    };
     let w: Vec<&str> = question.split(' ').collect();
     let mut out: Vec<String> = Vec::new();
     let mut i = 0;
@@ -1417,7 +1609,17 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
                 };
                 let noun = span[n - 1].trim_end_matches([',', '?']);
                 let tail = if span[n - 1].ends_with(',') { "," } else { "" };
-                let got = if n == 1 && matches!(noun, "one" | "thing" | "object") {
+                // "that segment's centre": the segment itself (a segment's place is its centre)
+                let (noun, possessive) = match noun.strip_suffix("'s") {
+                    Some(b) if ROAD_WORDS.contains(&b) || matches!(b, "node" | "waypoint") => {
+                        (b, true)
+                    }
+                    _ => (noun, false),
+                };
+                let got = if matches!(noun, "node" | "waypoint") && (n == 1 || span[0] == "lane") {
+                    // "that lane node": the last lane node said, else the last road
+                    lane_node().or_else(road)
+                } else if n == 1 && matches!(noun, "one" | "thing" | "object") {
                     thing(None).or_else(road).or_else(place)
                 } else if ROAD_WORDS.contains(&noun) {
                     // "the segment 4": a determiner still opens the place
@@ -1438,6 +1640,19 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
                 if let Some(g) = got {
                     out.push(format!("{g}{tail}"));
                     i = k + n;
+                    if possessive
+                        && w.get(i).is_some_and(|x| {
+                            matches!(
+                                x.trim_end_matches([',', '?']),
+                                "centre" | "center" | "middle" | "midpoint"
+                            )
+                        })
+                    {
+                        if w[i].ends_with(',') {
+                            out.push(",".into());
+                        }
+                        i += 1;
+                    }
                     break;
                 }
             }
@@ -1462,6 +1677,29 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
             {
                 out.push(format!("{g}{comma}"));
                 i += 1;
+                continue;
+            }
+        }
+        // "was the trailer standing on a bend": "the X" alone, where another sentence said
+        // which X in full
+        if word == "the"
+            && let Some(next) = w.get(i + 1)
+        {
+            let noun = next.trim_end_matches([',', '?']);
+            let after = w.get(i + 2).map(|x| x.trim_end_matches([',', '?']));
+            let alone = next.ends_with(',')
+                || after.is_none_or(|x| {
+                    VERBS.contains(&x) || MORE_VERBS.contains(&x) || PARTICIPLES.contains(&x)
+                });
+            if alone
+                && !ROAD_WORDS.contains(&noun)
+                && !PLACE_WORDS.contains(&noun)
+                && names_thing(&stem(noun), 1)
+                && let Some(g) = fuller(noun)
+            {
+                let tail = if next.ends_with(',') { "," } else { "" };
+                out.push(format!("{g}{tail}"));
+                i += 2;
                 continue;
             }
         }
@@ -1638,14 +1876,22 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
             context,
         };
     }
-    // each sentence apart (a sentence that is only a noun phrase names a thing)
-    let named: Vec<Named> = sentences
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| *i != qi)
-        .flat_map(|(_, s)| named_in(s))
-        .collect();
-    let mut question = clean(&fill_references(question, &named, &context));
+    // each sentence apart (a sentence that is only a noun phrase names a thing); a reference
+    // points back to what the sentences before the question name, and only when they name
+    // nothing it fits, forward to what a later sentence adds ("which segment is it in? I
+    // need it for the form" is not about the form)
+    let named_in_range = |range: std::ops::Range<usize>| -> Vec<Named> {
+        sentences[range].iter().flat_map(|s| named_in(s)).collect()
+    };
+    let mut named = named_in_range(0..qi);
+    let before = fill_references(question, &named, &context);
+    named.extend(named_in_range(qi + 1..sentences.len()));
+    let filled = if before == *question && qi + 1 < sentences.len() {
+        fill_references(question, &named, &context)
+    } else {
+        before
+    };
+    let mut question = clean(&filled);
     // "which bin is nearest so I can throw this away", "closest hydrant?": from where the
     // asker is, or the one place the other sentences name
     if nearest_asked {
@@ -2136,6 +2382,11 @@ fn split_kind(t: &str) -> (String, String) {
                     | "must"
                     | "shall"
                     | "including"
+                    | "recorded"
+                    | "logged"
+                    | "listed"
+                    | "captured"
+                    | "anywhere"
                     | "excluding"
                     | "-"
             )
@@ -2231,6 +2482,147 @@ const KIND_BACK: [&str; 13] = [
     "entries",
 ];
 
+/// Whether `kind` names road segments (a kind of segment, segments in general, or several
+/// kinds: "crossroads or T-junctions") rather than objects.
+pub fn names_segments(kind: &str) -> bool {
+    let k = trim_words(&clean(kind), &KIND_FRONT, &KIND_BACK);
+    segments_named(&k).is_some() || segment_union(&k).is_some()
+}
+
+/// Several kinds of road segment said together ("crossroads or T-junctions", "bends and
+/// straight roads", "crossroads, T-junctions and bends"), each once, in the order said; `None`
+/// unless every part names a kind and there are two or more.
+fn segment_union(kind: &str) -> Option<Vec<SegmentConstraint>> {
+    let mut k = format!(" {kind} ");
+    for sep in [
+        " and/or ",
+        " or ",
+        " and ",
+        " & ",
+        ", ",
+        " plus ",
+        " as well as ",
+    ] {
+        k = k.replace(sep, "|");
+    }
+    let k = k.replace('/', "|").replace(',', "|");
+    let mut kinds = Vec::new();
+    for part in k.split('|') {
+        let part = trim_words(part.trim(), &KIND_FRONT, &KIND_BACK);
+        if part.is_empty() {
+            continue;
+        }
+        match segments_named(&part) {
+            Some(Some(x)) => {
+                if !kinds.contains(&x) {
+                    kinds.push(x)
+                }
+            }
+            _ => return None,
+        }
+    }
+    (kinds.len() >= 2).then_some(kinds)
+}
+
+/// A count of segments that hold something ("segments with at least one hydrant", "how many
+/// crossroads have traffic lights", "in how many segments is there a bench"): the segments,
+/// said before the cue, and the kind they hold, after it. `None` when the words before the
+/// cue are not segments, or the words after it are a part of a road ("junctions with four
+/// arms"), not an object.
+fn segments_holding(after: &str) -> Option<Task> {
+    const CUES: [&str; 22] = [
+        " that have ",
+        " which have ",
+        " that has ",
+        " which has ",
+        " that contain ",
+        " which contain ",
+        " containing ",
+        " contain ",
+        " contains ",
+        " having ",
+        " have ",
+        " has ",
+        " holding ",
+        " hold ",
+        " where there is ",
+        " where there are ",
+        " is there ",
+        " are there ",
+        " with ",
+        " feature ",
+        " featuring ",
+        " host ",
+    ];
+    // parts of a road, not objects on it
+    const ROAD_PARTS: [&str; 16] = [
+        "arm", "way", "leg", "exit", "branch", "side", "shape", "corner", "lane", "road", "street",
+        "entrance", "approach", "turn", "end", "kind",
+    ];
+    let said = format!(" {after} ");
+    let (i, cue) = CUES
+        .iter()
+        .filter_map(|c| said.find(c).map(|i| (i, *c)))
+        .min_by_key(|(i, _)| *i)?;
+    let mut head = said[..i].trim().to_string();
+    for tail in [
+        " are there",
+        " is there",
+        " there",
+        " do",
+        " does",
+        " in total",
+        " overall",
+    ] {
+        if let Some(h) = head.strip_suffix(tail) {
+            head = h.trim().to_string();
+        }
+    }
+    let head = trim_words(&head, &KIND_FRONT, &KIND_BACK);
+    let (segment_kind, or_kinds) = match segments_named(&head) {
+        Some(k) => (k, Vec::new()),
+        None => {
+            let mut u = segment_union(&head)?;
+            let first = u.remove(0);
+            (Some(first), u)
+        }
+    };
+    let mut rest = said[i + cue.len()..].trim().to_string();
+    // "is there a hydrant", "are there any benches": the verb's own "there"
+    for lead in [
+        "at least one ",
+        "at least a ",
+        "one or more ",
+        "any ",
+        "some ",
+        "a ",
+        "an ",
+        "one ",
+        "there ",
+    ] {
+        if let Some(r) = rest.strip_prefix(lead) {
+            rest = r.to_string();
+        }
+    }
+    let held = trim_words(&split_kind(&rest).0, &KIND_FRONT, &KIND_BACK);
+    let words: Vec<String> = held.split(' ').map(stem).collect();
+    if held.is_empty()
+        || names_segments(&held)
+        || matches!(
+            held.as_str(),
+            "it" | "them" | "this" | "that" | "they" | "map"
+        )
+        || words.iter().any(|w| ROAD_PARTS.contains(&w.as_str()))
+    {
+        return None;
+    }
+    Some(Task::CountSegments {
+        segment_kind,
+        or_kinds,
+        holding: Some(held),
+    })
+}
+
 /// What a count question counts, and where.
 fn count_task(t: &str) -> Option<Task> {
     let (radius, t) = match radius_of(t) {
@@ -2272,6 +2664,11 @@ fn count_task(t: &str) -> Option<Task> {
     };
     let after = after.replace('#', " ");
     let after = trim_words(&after, &["the", "all", "any", "of"], &[]);
+    if radius.is_none()
+        && let Some(t) = segments_holding(&after)
+    {
+        return Some(t);
+    }
     let (kind, tail) = if after.is_empty() || after.starts_with("are ") || after == "are" {
         // "people in segment 4 - how many", "pedestrians in segment 4 if so how many"
         split_kind(&trim_words(&before, &["the", "all", "any"], &[]))
@@ -2293,10 +2690,84 @@ fn count_task(t: &str) -> Option<Task> {
         if let Some(rest) = after.strip_prefix(lead)
             && let Some(Some(k)) = segments_named(&split_kind(rest).0)
         {
-            return Some(Task::CountSegments {
-                segment_kind: Some(k),
-            });
+            return Some(Task::count_segments(Some(k)));
         }
+    }
+    // a list of kinds runs past the first comma, where the kind phrase ends
+    let listed = || {
+        let said = format!(" {after} ");
+        let end = [
+            " are ", " is ", " on ", " in ", " does ", " do ", " there ", " exist", " have ",
+            " has ", " within ", " across ",
+        ]
+        .iter()
+        .filter_map(|c| said.find(c))
+        .min()
+        .unwrap_or(said.len());
+        let head = said[..end].trim();
+        segments_named(head)
+            .is_none()
+            .then(|| segment_union(head))
+            .flatten()
+    };
+    // "junctions that are not full crossroads, meaning the T-junctions and the bends": a
+    // restatement says which segments exactly
+    if names_segments(&kind) {
+        for marker in [
+            ", meaning ",
+            " meaning ",
+            ", i.e. ",
+            ", i.e ",
+            ", ie ",
+            ", namely ",
+            ", that is ",
+            ", in other words ",
+        ] {
+            let Some((_, def)) = after.split_once(marker) else {
+                continue;
+            };
+            let def = def.split(',').next().unwrap_or("").trim();
+            let mut def = def.to_string();
+            for tail in [
+                " taken together",
+                " together",
+                " combined",
+                " in total",
+                " altogether",
+                " on the map",
+            ] {
+                if let Some(d) = def.strip_suffix(tail) {
+                    def = d.trim().to_string();
+                }
+            }
+            let def = trim_words(&def, &KIND_FRONT, &KIND_BACK);
+            let kinds = match segments_named(&def) {
+                Some(Some(k)) => Some(vec![k]),
+                Some(None) => None,
+                None => segment_union(&def),
+            };
+            if let Some(mut kinds) = kinds {
+                let first = kinds.remove(0);
+                return Some(Task::CountSegments {
+                    segment_kind: Some(first),
+                    or_kinds: kinds,
+                    holding: None,
+                });
+            }
+        }
+    }
+    let union = if segments_named(&kind).is_none() {
+        segment_union(&kind)
+    } else {
+        None
+    };
+    if let Some(mut kinds) = union.or_else(listed) {
+        let first = kinds.remove(0);
+        return Some(Task::CountSegments {
+            segment_kind: Some(first),
+            or_kinds: kinds,
+            holding: None,
+        });
     }
     if let Some(seg) = segments_named(&kind) {
         // "how many segments are junctions (of any type)": the kind follows "are"
@@ -2360,13 +2831,11 @@ fn count_task(t: &str) -> Option<Task> {
                     }
                 }
                 if let Some(Some(k)) = segments_named(&what) {
-                    return Some(Task::CountSegments {
-                        segment_kind: Some(k),
-                    });
+                    return Some(Task::count_segments(Some(k)));
                 }
             }
         }
-        return Some(Task::CountSegments { segment_kind: seg });
+        return Some(Task::count_segments(seg));
     }
     if let Some((r, place)) = radius {
         return Some(Task::Count {
@@ -2376,23 +2845,46 @@ fn count_task(t: &str) -> Option<Task> {
             radius_m: Some(r),
         });
     }
-    // where: "in/at/on/along P", "does P have", "P contains"
-    let tail = format!(
-        " {tail} {} ",
-        if after.is_empty() {
-            ""
-        } else {
-            before.as_str()
+    // where: "in/at/on/along P", "does P have", "P contains"; the words after the kind
+    // first, then those before its cue ("in segment 4, how many benches are there"), unless
+    // the words after name the whole map ("... trailers recorded anywhere on the map")
+    let (within, near) = match place_of_count(tail.trim()) {
+        (None, None) if !after.is_empty() && !says_whole_map(&tail) => {
+            place_of_count(format!("{tail} {before}").trim())
         }
-    );
-    let tail = tail.trim();
-    let (within, near) = place_of_count(tail);
+        found => found,
+    };
     Some(Task::Count {
         kind,
         within,
         near,
         radius_m: None,
     })
+}
+
+/// Whether the words after a count's kind name the whole map as its place ("on the map",
+/// "anywhere", "in total").
+fn says_whole_map(tail: &str) -> bool {
+    let t = format!(" {tail} ");
+    [
+        " anywhere ",
+        " in total ",
+        " all told ",
+        " altogether ",
+        " overall ",
+    ]
+    .iter()
+    .any(|c| t.contains(c))
+        || t.split_whitespace().enumerate().any(|(i, w)| {
+            matches!(w, "on" | "in" | "across" | "throughout" | "over")
+                && whole_map(
+                    &t.split_whitespace()
+                        .skip(i + 1)
+                        .take(6)
+                        .collect::<Vec<_>>()
+                        .join(" "),
+                )
+        })
 }
 
 /// The place of a count from the words after its kind: `(within, near)`.
@@ -3389,13 +3881,16 @@ pub fn check_grounded(task: &Task, question: &str) -> std::result::Result<(), St
             }
             Ok(())
         }
-        Task::CountSegments { .. } => {
+        Task::CountSegments { holding, .. } => {
             need(
                 cue(&counts),
                 "count",
                 "\"how many\", \"number\" or \"count\"",
             )?;
             need(cue(&roads), "count of road segments", "a road word")?;
+            if let Some(h) = holding {
+                said(h, "the kind held")?;
+            }
             // a count of objects in a segment is not a count of segments
             match parse_question(question) {
                 Some(Task::Count { kind, .. }) => {
@@ -3497,6 +3992,170 @@ mod tests {
         }
     }
 
+    /// References across sentences point back before they point forward; "that lane node",
+    /// "that segment's centre", a bare "the X" after "the X ..." said in full; purposes
+    /// ("for the records") and reporters ("the article says") are not what is asked about.
+    #[test]
+    fn references_point_back_and_purposes_are_not_objects() {
+        let seg = |o: &str| Task::Segment { object: o.into() };
+        let colour = |o: &str| Task::Colour { object: o.into() };
+        let cases: Vec<(&str, Task)> = vec![
+            (
+                "The blue van was towed yesterday. Which segment is it in? I need it for the insurance form.",
+                seg("the blue van"),
+            ),
+            (
+                "A bus pulled away from lane node 12. Which bench is closest to that lane node?",
+                Task::Nearest {
+                    kind: "bench".into(),
+                    near: "lane node 12".into(),
+                },
+            ),
+            (
+                "Mark the middle of segment 7 on the plan. How many bins are within 20 metres of that segment's centre?",
+                count("bins", None, Some("the segment 7"), Some(20.0)),
+            ),
+            (
+                "For the inventory, what colour is the tall lamp by the kiosk?",
+                colour("the tall lamp by the kiosk"),
+            ),
+            (
+                "Black scooter parked on the pavement - crossroads, bend, T or straight road?",
+                seg("the black scooter parked on the pavement"),
+            ),
+            (
+                "The article says the old oak tree beside a school is at a bend. What kind of road is it really on?",
+                seg("the old oak tree beside a school"),
+            ),
+            (
+                "How many benches are listed anywhere on the map?",
+                count("benches", None, None, None),
+            ),
+            (
+                "I'm building a report on the district, and I need the number of benches on the map.",
+                count("benches", None, None, None),
+            ),
+            (
+                "I doubt the colour of the scooter in segment 9. Could you confirm what colour it's recorded as?",
+                colour("the scooter in segment 9"),
+            ),
+            (
+                "How many junctions are there, meaning crossroads and bends taken together?",
+                Task::CountSegments {
+                    segment_kind: Some(SegmentConstraint::Crossroads),
+                    or_kinds: vec![SegmentConstraint::Bend],
+                    holding: None,
+                },
+            ),
+        ];
+        for (q, want) in cases {
+            assert_eq!(parse_question(q), Some(want), "{q}");
+        }
+        // "the lamp" after "the tall lamp by the kiosk" was said
+        let q = "The tall lamp by the kiosk was hit by a lorry. Was the lamp standing at a bend or on a straight road?";
+        match parse_question(q) {
+            Some(Task::Segment { object }) => {
+                assert!(object.contains("tall lamp by the kiosk"), "{object}")
+            }
+            other => panic!("{q}: {other:?}"),
+        }
+        // a purpose after the last comma goes, one with a number stays
+        assert_eq!(drop_purpose("colour, for the records"), "colour");
+        assert_eq!(
+            drop_purpose("for the photo log, what colour is it"),
+            "what colour is it"
+        );
+        assert_eq!(
+            drop_purpose("how many benches, for example in segment 4"),
+            "how many benches, for example in segment 4"
+        );
+    }
+
+    #[test]
+    fn unions_of_segment_kinds_and_segments_holding_a_kind_are_read() {
+        use SegmentConstraint::*;
+        let segs = |kinds: &[SegmentConstraint], holding: Option<&str>| Task::CountSegments {
+            segment_kind: kinds.first().copied(),
+            or_kinds: kinds.iter().skip(1).copied().collect(),
+            holding: holding.map(Into::into),
+        };
+        let cases: Vec<(&str, Task)> = vec![
+            (
+                "How many crossroads or T-junctions are there?",
+                segs(&[Crossroads, TJunction], None),
+            ),
+            (
+                "Count the bends and straight roads on the map",
+                segs(&[Bend, StraightRoad], None),
+            ),
+            (
+                "number of crossroads, T-junctions and bends",
+                segs(&[Crossroads, TJunction, Bend], None),
+            ),
+            (
+                "How many segments have at least one fire hydrant?",
+                segs(&[], Some("fire hydrant")),
+            ),
+            (
+                "In how many segments is there a bench?",
+                segs(&[], Some("bench")),
+            ),
+            (
+                "how many crossroads have traffic lights",
+                segs(&[Crossroads], Some("traffic lights")),
+            ),
+            (
+                "How many road segments contain a post box?",
+                segs(&[], Some("post box")),
+            ),
+            (
+                "how many T-junctions or bends are there with a bus shelter",
+                segs(&[TJunction, Bend], Some("bus shelter")),
+            ),
+            // a part of the road is not an object the segment holds
+            (
+                "How many junctions have four arms?",
+                segs(&[Junction], None),
+            ),
+            ("How many segments does the map have?", segs(&[], None)),
+            // one kind said two ways stays one kind
+            ("How many bends or corners are there?", segs(&[Bend], None)),
+        ];
+        for (q, want) in cases {
+            assert_eq!(parse_question(q), Some(want), "{q}");
+        }
+        // objects in segments that hold something are counted as objects
+        assert!(
+            matches!(
+                parse_question("How many benches are there in segments with a hydrant?"),
+                Some(Task::Count { .. })
+            ),
+            "{:?}",
+            parse_question("How many benches are there in segments with a hydrant?")
+        );
+        assert!(names_segments("crossroads or T-junctions"));
+        assert!(names_segments("the T-junctions"));
+        assert!(!names_segments("fire hydrants"));
+        // a model's form: a kind that is no road is what the segments hold
+        let form = |kind: &str| TaskForm {
+            action: "count_segments".into(),
+            kind: kind.into(),
+            place: String::new(),
+            radius_m: None,
+            segment_kind: None,
+            to: String::new(),
+        };
+        assert_eq!(
+            form("hydrant").into_task("q").unwrap(),
+            segs(&[], Some("hydrant"))
+        );
+        assert_eq!(form("junctions").into_task("q").unwrap(), segs(&[], None));
+        // the kind held must be said
+        let q = "How many segments have a hydrant?";
+        assert!(check_grounded(&segs(&[], Some("hydrant")), q).is_ok());
+        assert!(check_grounded(&segs(&[], Some("bench")), q).is_err());
+    }
+
     #[test]
     fn common_question_forms_are_one_task_each() {
         let cases: Vec<(&str, Task)> = vec![
@@ -3518,15 +4177,11 @@ mod tests {
             ),
             (
                 "How many T-junctions are there?",
-                Task::CountSegments {
-                    segment_kind: Some(SegmentConstraint::TJunction),
-                },
+                Task::count_segments(Some(SegmentConstraint::TJunction)),
             ),
             (
                 "How many crossroads does the map have?",
-                Task::CountSegments {
-                    segment_kind: Some(SegmentConstraint::Crossroads),
-                },
+                Task::count_segments(Some(SegmentConstraint::Crossroads)),
             ),
             (
                 "What is the nearest bench to the start of the drive?",
@@ -3652,9 +4307,7 @@ mod tests {
     /// independent set): each is one task with its arguments.
     #[test]
     fn rephrased_questions_are_read() {
-        let seg = |k| Task::CountSegments {
-            segment_kind: Some(k),
-        };
+        let seg = |k| Task::count_segments(Some(k));
         let cases: Vec<(&str, Task)> = vec![
             (
                 "Could you tell me how many trash cans the map contains?",
@@ -3992,9 +4645,7 @@ mod tests {
     /// them", where the asker is).
     #[test]
     fn exam_style_leads_and_references_across_sentences_are_read() {
-        let seg = |k| Task::CountSegments {
-            segment_kind: Some(k),
-        };
+        let seg = |k| Task::count_segments(Some(k));
         let cases: Vec<(&str, Task)> = vec![
             (
                 "Determine the total number of trailers recorded in the map.",
@@ -4198,7 +4849,7 @@ mod tests {
         assert!(check_grounded(&count("bench", Some("segment:2412"), None, None), q).is_ok());
         assert!(check_grounded(&count("benches", Some("segment 2412"), None, None), q).is_ok());
         // a count of segments for a count of benches in a segment
-        let e = check_grounded(&Task::CountSegments { segment_kind: None }, q).unwrap_err();
+        let e = check_grounded(&Task::count_segments(None), q).unwrap_err();
         assert!(e.contains("benches"), "{e}");
         // a place from the examples
         let e = check_grounded(
@@ -4243,9 +4894,7 @@ mod tests {
         );
         assert!(
             check_grounded(
-                &Task::CountSegments {
-                    segment_kind: Some(SegmentConstraint::TJunction)
-                },
+                &Task::count_segments(Some(SegmentConstraint::TJunction)),
                 "How many T-junctions are there?"
             )
             .is_ok()
