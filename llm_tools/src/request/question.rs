@@ -2505,7 +2505,7 @@ fn segment_union(kind: &str) -> Option<Vec<SegmentConstraint>> {
     ] {
         k = k.replace(sep, "|");
     }
-    let k = k.replace('/', "|").replace(',', "|");
+    let k = k.replace(['/', ','], "|");
     let mut kinds = Vec::new();
     for part in k.split('|') {
         let part = trim_words(part.trim(), &KIND_FRONT, &KIND_BACK);
