@@ -1349,6 +1349,20 @@ fn named_in(context: &str) -> Vec<Named> {
         {
             // "the litter bin in segment 2416": the segment says which
             end = road_end;
+        } else if w.get(j) == Some(&"with") {
+            // "a large SUV with dusty windows": what it has says which (up to three words,
+            // an article allowed first)
+            let mut k = j + 1;
+            if w.get(k).is_some_and(|x| matches!(*x, "a" | "an" | "the")) {
+                k += 1;
+            }
+            let from = k;
+            while k < w.len() && k < from + 3 && !taken[k] && !ends(w[k]) {
+                k += 1;
+            }
+            if k > from {
+                end = k;
+            }
         }
         // the subject of what someone reports ("the piece says the hedge along a garden
         // is ..."): the one talked about, not the one who talks
@@ -4026,6 +4040,10 @@ mod tests {
             (
                 "The article says the old oak tree beside a school is at a bend. What kind of road is it really on?",
                 seg("the old oak tree beside a school"),
+            ),
+            (
+                "A witness saw a large van with tinted windows near the scene. What colour is that van?",
+                colour("the large van with tinted windows"),
             ),
             (
                 "How many benches are listed anywhere on the map?",
