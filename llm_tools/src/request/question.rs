@@ -541,7 +541,19 @@ const CALLED: [&str; 9] = [
 ];
 
 /// Short forms people type ("seg 12", "dist", "@ the corner").
-const SHORT_FORMS: [(&str, &str); 21] = [
+const SHORT_FORMS: [(&str, &str); 31] = [
+    ("lil", "little"),
+    // texting: apostrophes left out, words run together
+    ("im", "i am"),
+    ("theres", "there is"),
+    ("wheres", "where is"),
+    ("whats", "what is"),
+    ("gimme", "give me"),
+    // field notes
+    ("excl.", "excluding"),
+    ("incl.", "including"),
+    ("dist.", "distance"),
+    ("ref.", "reference"),
     ("seg", "segment"),
     ("hw", "how"),
     ("r", "are"),
@@ -581,6 +593,8 @@ fn prepare(text: &str) -> Prepared {
     }
     t = t
         .replace("->", " to ")
+        // "spawn point = lane node 12": a definition, as after a colon
+        .replace(" = ", ": ")
         .replace(" – ", " - ")
         .replace(" — ", " - ");
     // spoken fillers ("okay so uh how many ...") say nothing
@@ -589,7 +603,20 @@ fn prepare(text: &str) -> Prepared {
         .filter(|w| {
             !matches!(
                 w.trim_end_matches([',', '.', '?']),
-                "uh" | "um" | "umm" | "uhm" | "er" | "erm" | "hmm" | "mm"
+                "uh" | "um"
+                    | "umm"
+                    | "uhm"
+                    | "er"
+                    | "erm"
+                    | "hmm"
+                    | "mm"
+                    | "bro"
+                    | "bruh"
+                    | "lol"
+                    | "lmao"
+                    | "ngl"
+                    | "tbh"
+                    | "dude"
             )
         })
         .collect::<Vec<_>>()
@@ -674,6 +701,14 @@ fn prepare(text: &str) -> Prepared {
         (" in a straight line, how ", " how "),
         // what the map records is what is asked ("what colour is it recorded as", "what
         // colour does the map record it as", "that SUV on record")
+        (", in m ", " "),
+        (", in m?", "?"),
+        (", in m.", "."),
+        (", straight line:", ":"),
+        (", straight line,", ","),
+        (", straight line?", "?"),
+        (", straight line", ""),
+        (" straight line not driving", ""),
         (" really ", " "),
         (" actually ", " "),
         (" does the map record ", " is "),
@@ -841,11 +876,25 @@ fn prepare(text: &str) -> Prepared {
             whole: String::new(),
             context: String::new(),
         },
-        1 => Prepared {
-            question: sentences[0].clone(),
-            whole: sentences[0].clone(),
-            context: String::new(),
-        },
+        1 => {
+            // "if i'm camping at lane node 12, how many bins are within 45 m of me": the
+            // clause before the first comma says where the asker is
+            let q = &sentences[0];
+            let question = match q.split_once(", ") {
+                Some((clause, rest)) if has(rest, "me") || has(rest, "us") => {
+                    match asker_at(clause) {
+                        Some(here) => put_asker(rest, &here),
+                        None => q.clone(),
+                    }
+                }
+                _ => q.clone(),
+            };
+            Prepared {
+                question,
+                whole: q.clone(),
+                context: String::new(),
+            }
+        }
         _ => merge_sentences(&sentences, &asked),
     }
 }
@@ -1802,11 +1851,16 @@ fn fill_references(question: &str, named: &[Named], context: &str) -> String {
                 continue;
             }
         }
-        // "how far is it to X": "it" stands for no thing
+        // "how far is it to X", "is it from A to B": "it" stands for no thing ("how far is
+        // it from X" alone asks of the thing said before)
         let dummy = word == "it"
             && i > 0
             && matches!(w[i - 1], "is" | "was")
-            && matches!(w.get(i + 1).copied(), Some("to" | "from"));
+            && match w.get(i + 1).copied() {
+                Some("to") => true,
+                Some("from") => w[i + 2..].contains(&"to"),
+                _ => false,
+            };
         // "the scooter on its kickstand": its own, said in the same sentence
         let own = word == "its"
             && w[..i]
@@ -1862,7 +1916,8 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
     let bare = trim_words(
         question,
         &["if", "so", "then", "and", "ok", "okay", "also"],
-        &["please"],
+        // "how many in total", "count altogether": a bare follow-up still
+        &["please", "total", "in", "altogether", "overall"],
     );
     let nearest_asked = has_any(question, &["nearest", "closest"]);
     if bare.split(' ').count() <= 3 && !nearest_asked {
@@ -1894,8 +1949,38 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
     // points back to what the sentences before the question name, and only when they name
     // nothing it fits, forward to what a later sentence adds ("which segment is it in? I
     // need it for the form" is not about the form)
+    // a heading that a road or lane node defines ("plot: seg 12", "spawn point = lane node
+    // 4") names that place: no thing of its own, and "the plot" / "that plot" is the place
+    let spec_only = |s: &str| {
+        s.split(' ').count() <= 4
+            && super::spec_in_words(s)
+                .is_some_and(|sp| sp.starts_with("segment:") || sp.starts_with("lane:"))
+    };
+    let headings: Vec<(usize, String)> = (0..sentences.len().saturating_sub(1))
+        .filter(|&i| {
+            i != qi
+                && i + 1 != qi
+                && sentences[i].split(' ').count() <= 3
+                && spec_only(&sentences[i + 1])
+        })
+        .map(|i| (i, sentences[i + 1].clone()))
+        .collect();
+    let mut question = question.clone();
+    for (i, spec) in &headings {
+        let h = &sentences[*i];
+        for det in ["the", "that", "this"] {
+            question = format!(" {question} ")
+                .replace(&format!(" {det} {h} "), &format!(" {spec} "))
+                .trim()
+                .to_string();
+        }
+    }
+    let question = &question;
     let named_in_range = |range: std::ops::Range<usize>| -> Vec<Named> {
-        sentences[range].iter().flat_map(|s| named_in(s)).collect()
+        range
+            .filter(|k| !headings.iter().any(|(i, _)| i == k))
+            .flat_map(|k| named_in(&sentences[k]))
+            .collect()
     };
     let mut named = named_in_range(0..qi);
     let before = fill_references(question, &named, &context);
@@ -1942,27 +2027,35 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
     };
     // "the nearest to me": where the asker said they are
     if let Some(here) = asker_at(&context).or_else(|| said_place().filter(|_| nearest_asked)) {
-        for me in ["me", "us"] {
-            for prep in ["to", "from", "near", "nearest", "closest", "of", "around"] {
-                let said = format!(" {prep} {me}");
-                let padded = format!("{question} ");
-                if let Some(i) = padded.find(&format!("{said} ")) {
-                    question = format!(
-                        "{} {prep} {here}{}",
-                        &padded[..i],
-                        &padded[i + said.len()..]
-                    )
-                    .trim()
-                    .to_string();
-                }
-            }
-        }
+        question = put_asker(&question, &here);
     }
     Prepared {
         question,
         whole,
         context,
     }
+}
+
+/// `question` with "me" / "us" after a preposition ("within 45 m of me") as `here`, where
+/// the asker said they are.
+fn put_asker(question: &str, here: &str) -> String {
+    let mut question = question.to_string();
+    for me in ["me", "us"] {
+        for prep in ["to", "from", "near", "nearest", "closest", "of", "around"] {
+            let said = format!(" {prep} {me}");
+            let padded = format!("{question} ");
+            if let Some(i) = padded.find(&format!("{said} ")) {
+                question = format!(
+                    "{} {prep} {here}{}",
+                    &padded[..i],
+                    &padded[i + said.len()..]
+                )
+                .trim()
+                .to_string();
+            }
+        }
+    }
+    question
 }
 
 /// Takes out a list of road kinds offered as choices ("at a crossroads, a T-junction, a
@@ -3244,7 +3337,17 @@ fn asker_at(context: &str) -> Option<String> {
         let Some(i) = t.find(me) else { continue };
         let mut rest = t[i + me.len()..].trim();
         for verb in [
-            "standing", "parked", "waiting", "sitting", "stopped", "now", "right",
+            "standing",
+            "parked",
+            "waiting",
+            "sitting",
+            "stopped",
+            "camping",
+            "hanging out",
+            "based",
+            "located",
+            "now",
+            "right",
         ] {
             rest = rest.strip_prefix(verb).map_or(rest, str::trim);
         }
@@ -4068,6 +4171,30 @@ mod tests {
         ];
         for (q, want) in cases {
             assert_eq!(parse_question(q), Some(want), "{q}");
+        }
+        // texting and field notes
+        for (q, want) in [
+            (
+                "if im camping at lane node 12, how many bins r within 45 metres of me",
+                count("bins", None, Some("lane node 12"), Some(45.0)),
+            ),
+            (
+                "base = lane node 12 lol. how many benches within 60m of it??",
+                count("benches", None, Some("lane node 12"), Some(60.0)),
+            ),
+        ] {
+            assert_eq!(parse_question(q), Some(want), "{q}");
+        }
+        match parse_question(
+            "theres a big van parked by the curb. how far is it from lane node 12 as the crow flies",
+        ) {
+            Some(Task::Distance { from, to }) => {
+                assert!(
+                    from.contains("big van") && to == "lane node 12",
+                    "{from} / {to}"
+                )
+            }
+            other => panic!("{other:?}"),
         }
         // "the lamp" after "the tall lamp by the kiosk" was said
         let q = "The tall lamp by the kiosk was hit by a lorry. Was the lamp standing at a bend or on a straight road?";
