@@ -171,9 +171,10 @@ fn read_question(
     model: Option<&mut dyn ChatModel>,
     question: &str,
 ) -> (Option<Task>, String, Vec<Message>) {
-    let rules = || parse_question(question);
+    // the rules' reading: the answer without a model, and with one what checks and fills its
+    let by_rules = parse_question(question);
     let Some(model) = model else {
-        return (rules(), "rules".into(), Vec::new());
+        return (by_rules, "rules".into(), Vec::new());
     };
     let id = format!(
         "{} ({})",
@@ -198,21 +199,20 @@ fn read_question(
     // not say) gives way to the rules' reading
     let read = read.and_then(|t| match check_grounded(&t, question) {
         Ok(()) => Ok(t),
-        Err(why) if rules().is_some() => Err(format!("not grounded in the question: {why}")),
+        Err(why) if by_rules.is_some() => Err(format!("not grounded in the question: {why}")),
         Err(_) => Ok(t),
     });
     match read {
         Ok(t) => {
-            let r = rules();
-            let t = fill_from_rules(t, r.clone());
-            (Some(prefer_fuller(t, r.as_ref())), id, transcript)
+            let t = fill_from_rules(t, by_rules.clone());
+            (Some(prefer_fuller(t, by_rules.as_ref())), id, transcript)
         }
         Err(why) => {
             transcript.push(Message::new(
                 Role::Tool,
                 format!("the model's task was unusable ({why}); the rule parser read it"),
             ));
-            (rules(), format!("rules, after {id}"), transcript)
+            (by_rules, format!("rules, after {id}"), transcript)
         }
     }
 }

@@ -90,10 +90,17 @@ pub enum Task {
 impl Task {
     /// A count of the road segments of `kind` (every segment with `None`), nothing more said.
     pub fn count_segments(kind: Option<SegmentConstraint>) -> Task {
+        Task::count_segments_of(kind.into_iter().collect(), None)
+    }
+
+    /// A count of the road segments of any of `kinds` (every segment when empty), only those
+    /// holding an object of the kind `holding` when given.
+    pub fn count_segments_of(kinds: Vec<SegmentConstraint>, holding: Option<String>) -> Task {
+        let mut kinds = kinds.into_iter();
         Task::CountSegments {
-            segment_kind: kind,
-            or_kinds: Vec::new(),
-            holding: None,
+            segment_kind: kinds.next(),
+            or_kinds: kinds.collect(),
+            holding,
         }
     }
 }
@@ -2686,13 +2693,9 @@ fn segments_holding(after: &str) -> Option<Task> {
         }
     }
     let head = trim_words(&head, &KIND_FRONT, &KIND_BACK);
-    let (segment_kind, or_kinds) = match segments_named(&head) {
-        Some(k) => (k, Vec::new()),
-        None => {
-            let mut u = segment_union(&head)?;
-            let first = u.remove(0);
-            (Some(first), u)
-        }
+    let kinds = match segments_named(&head) {
+        Some(k) => k.into_iter().collect(),
+        None => segment_union(&head)?,
     };
     let mut rest = said[i + cue.len()..].trim().to_string();
     // "is there a hydrant", "are there any benches": the verb's own "there"
@@ -2723,11 +2726,7 @@ fn segments_holding(after: &str) -> Option<Task> {
     {
         return None;
     }
-    Some(Task::CountSegments {
-        segment_kind,
-        or_kinds,
-        holding: Some(held),
-    })
+    Some(Task::count_segments_of(kinds, Some(held)))
 }
 
 /// What a count question counts, and where.
@@ -2853,13 +2852,8 @@ fn count_task(t: &str) -> Option<Task> {
                 Some(None) => None,
                 None => segment_union(&def),
             };
-            if let Some(mut kinds) = kinds {
-                let first = kinds.remove(0);
-                return Some(Task::CountSegments {
-                    segment_kind: Some(first),
-                    or_kinds: kinds,
-                    holding: None,
-                });
+            if let Some(kinds) = kinds {
+                return Some(Task::count_segments_of(kinds, None));
             }
         }
     }
@@ -2868,13 +2862,8 @@ fn count_task(t: &str) -> Option<Task> {
     } else {
         None
     };
-    if let Some(mut kinds) = union.or_else(listed) {
-        let first = kinds.remove(0);
-        return Some(Task::CountSegments {
-            segment_kind: Some(first),
-            or_kinds: kinds,
-            holding: None,
-        });
+    if let Some(kinds) = union.or_else(listed) {
+        return Some(Task::count_segments_of(kinds, None));
     }
     if let Some(seg) = segments_named(&kind) {
         // "how many segments are junctions (of any type)": the kind follows "are"
@@ -2982,16 +2971,13 @@ fn says_whole_map(tail: &str) -> bool {
     ]
     .iter()
     .any(|c| t.contains(c))
-        || t.split_whitespace().enumerate().any(|(i, w)| {
-            matches!(w, "on" | "in" | "across" | "throughout" | "over")
-                && whole_map(
-                    &t.split_whitespace()
-                        .skip(i + 1)
-                        .take(6)
-                        .collect::<Vec<_>>()
-                        .join(" "),
-                )
-        })
+        || {
+            let words: Vec<&str> = t.split_whitespace().collect();
+            words.iter().enumerate().any(|(i, w)| {
+                matches!(*w, "on" | "in" | "across" | "throughout" | "over")
+                    && whole_map(&words[i + 1..words.len().min(i + 7)].join(" "))
+            })
+        }
 }
 
 /// The place of a count from the words after its kind: `(within, near)`.
