@@ -11,26 +11,21 @@ Environment:
                      `opengraph sim --size small --seed 0` + `opengraph build`, commit e5afdf6)
 
 Every query is run with --read-only. Ground plane is (x, z); y is up.
+
+This file holds only what is set 8's own (defaults, vocabulary, questions). The helpers
+shared by sets 7-9 (cypher builders, running the queries, truth recomputation, the common
+audits, the PASS/FAIL report) are in ../askgen.py.
 """
-import heapq
-import json
-import math
 import os
-import re
-import subprocess
 import sys
-from collections import Counter, defaultdict
 
-OG = os.environ.get("OPENGRAPH", "/tmp/ask8/opengraph")
-DB = os.environ.get("OPENGRAPH_ASK_DB", "/tmp/ask8/city.og")
 HERE = os.path.dirname(os.path.abspath(__file__))
-OUT = os.path.join(HERE, "questions.jsonl")
+sys.path.insert(0, os.path.dirname(HERE))   # for ../askgen.py
+from askgen import Q_ALL_SEGMENTS, Q_LANES, add, q_colour, q_count, q_count_segments  # noqa: E402
+from askgen import q_count_within, q_distances, q_pair, q_segment, main as check  # noqa: E402
 
-KIND_MAP = {"intersection": "crossroads", "t_intersection": "t_junction",
-            "l_intersection": "bend", "straight_roadway": "straight_road"}
-NEAR_MARGIN_M = 1.0      # count_near: no object of the kind within this of the radius
-NEAREST_GAP_M = 0.5      # nearest: second nearest at least this much farther
-ROUTE_GAP_M = 10.0       # route_length: second-best simple path at least this much longer
+OG_DEFAULT = "/tmp/ask8/opengraph"   # $OPENGRAPH
+DB_DEFAULT = "/tmp/ask8/city.og"     # $OPENGRAPH_ASK_DB
 
 # ---------------------------------------------------------------- vocabulary
 # Labels that are counted / searched for, with a broad regex for how a caption (or label)
@@ -63,65 +58,10 @@ NOUNS = {
     "delivery truck":   r"truck|lorry|\bvan\b",
     "billboard":        r"billboard|poster|advertising",
 }
-COLOURS = ["red", "blue", "green", "yellow", "white", "black", "grey", "gray", "silver",
-           "beige", "orange", "brown", "pink", "purple"]
-
-# ---------------------------------------------------------------- cypher builders
-def ref_match(ref):
-    """MATCH clause binding the reference point; returns (clause, x-expr, z-expr)."""
-    t, v = ref
-    if t in ("start", "end"):
-        order = "ASC" if t == "start" else "DESC"
-        return (f"MATCH (f:Frame) WITH f ORDER BY f.index {order} LIMIT 1",
-                "f.world_from_velo[3]", "f.world_from_velo[11]")
-    if t == "segment":
-        return (f"MATCH (p:Segment) WHERE id(p) = {v}", "p.centroid.x", "p.centroid.z")
-    if t == "lane":
-        return (f"MATCH (p:LaneNode) WHERE id(p) = {v}", "p.position.x", "p.position.z")
-    if t == "object":
-        return (f"MATCH (p:Instance) WHERE id(p) = {v}", "p.centroid.x", "p.centroid.z")
-    raise ValueError(ref)
-
-def q_distances(label, ref):
-    m, x, z = ref_match(ref)
-    return (f"{m} MATCH (n:Instance {{label: '{label}'}}) "
-            f"RETURN id(n) AS id, sqrt((n.centroid.x - {x})^2 + (n.centroid.z - {z})^2) AS d ORDER BY d")
-
-def q_pair(a, b):
-    ma, xa, za = ref_match(a)
-    mb, xb, zb = ref_match(b)
-    mb = mb.replace("(p:", "(q:").replace("id(p)", "id(q)").replace("WITH f", "WITH g").replace("(f:", "(g:")
-    xb = xb.replace("p.", "q.").replace("f.", "g."); zb = zb.replace("p.", "q.").replace("f.", "g.")
-    return f"{ma} {mb} RETURN sqrt(({xa} - {xb})^2 + ({za} - {zb})^2) AS d"
-
-Q_LANES = "MATCH (a:LaneNode)-[r:LANE]->(b:LaneNode) RETURN id(a) AS a, id(b) AS b, r.length_m AS len"
-Q_ALL_SEGMENTS = "MATCH (s:Segment) RETURN count(s) AS count"
-
-def q_count(label):
-    return f"MATCH (n:Instance {{label: '{label}'}}) RETURN count(n) AS count"
-
-def q_count_within(label, seg):
-    return (f"MATCH (n:Instance {{label: '{label}'}})-[:IN_SEGMENT]->(s:Segment) "
-            f"WHERE id(s) = {seg} RETURN count(n) AS count")
-
-def q_count_segments(kinds):
-    lst = ", ".join(f"'{k}'" for k in kinds)
-    return f"MATCH (s:Segment) WHERE s.kind IN [{lst}] RETURN count(s) AS count"
-
-def q_segment(obj):
-    return (f"MATCH (n:Instance)-[:IN_SEGMENT]->(s:Segment) WHERE id(n) = {obj} "
-            f"RETURN id(s) AS id, s.kind AS kind")
-
-def q_colour(obj):
-    return f"MATCH (n:Instance) WHERE id(n) = {obj} RETURN n.colour AS colour, n.captions AS captions"
 
 # ---------------------------------------------------------------- the spec
-# desc: descriptions of single objects used in the question:
+# add(voice, kind, question, truth, cypher, calc, desc=..., **kw); desc entries are
 #   (object id, noun key, colour|None, [attribute regexes] (each must match some caption), segment|None)
-S = []
-def add(voice, kind, question, truth, cypher, calc, desc=(), **kw):
-    S.append(dict(voice=voice, kind=kind, question=question, truth=truth, cypher=cypher,
-                  calc=calc, desc=list(desc), **kw))
 
 # Description shorthands (each audited to match exactly one Instance under the broad reading).
 BOX_TRUCK = (2056, "delivery truck", "white", [r"\bheavy\b", r"unloading"], None)      # heavy white box truck unloading
@@ -262,205 +202,8 @@ add(F, "colour", "Our illustrator wants to get the small bin that's full of rubb
 add(F, "colour", "I'm not certain about the colour of the motorbike in segment 2349. Could you confirm what colour it's recorded as?",
     {"colour": "blue"}, q_colour(1776), "colour", desc=[(1776, "motorbike", None, None, 2349)])
 
-# ---------------------------------------------------------------- running
-_cache = {}
-def run(cypher):
-    if cypher not in _cache:
-        p = subprocess.run([OG, "query", "--db", DB, "--read-only", "--json", cypher],
-                           capture_output=True, text=True, timeout=120)
-        if p.returncode != 0:
-            raise RuntimeError(f"query failed: {cypher}\n{p.stderr}")
-        _cache[cypher] = json.loads(p.stdout)
-    return _cache[cypher]
-
-def graph(rows):
-    g = defaultdict(list)
-    for r in rows:  # stored one way, treated as undirected
-        g[r["a"]].append((r["b"], r["len"])); g[r["b"]].append((r["a"], r["len"]))
-    return g
-
-def dijkstra(g, s, t):
-    dist = {s: 0.0}; pq = [(0.0, s)]
-    while pq:
-        d, u = heapq.heappop(pq)
-        if u == t:
-            return d
-        if d > dist[u]:
-            continue
-        for v, w in g[u]:
-            if d + w < dist.get(v, math.inf):
-                dist[v] = d + w; heapq.heappush(pq, (d + w, v))
-    return None
-
-def simple_path_lengths(g, s, t):
-    out = []
-    def rec(u, seen, L):
-        if u == t:
-            out.append(L); return
-        for v, w in g[u]:
-            if v not in seen:
-                rec(v, seen | {v}, L + w)
-    rec(s, {s}, 0.0)
-    return sorted(out)
-
-def compute(q, problems):
-    rows = run(q["cypher"]); c = q["calc"]
-    if c == "count":
-        return {"count": rows[0]["count"]}
-    if c in ("near_count", "nearest") and any(r["d"] < 1e-9 for r in rows):
-        problems.append("an object of the kind sits at the reference point itself")
-    if c == "near_count":
-        R = q["radius"]; ds = [r["d"] for r in rows]
-        close = [round(d, 2) for d in ds if abs(d - R) < NEAR_MARGIN_M]
-        if close:
-            problems.append(f"radius margin: objects at {close} vs R={R}")
-        return {"count": sum(d < R for d in ds)}
-    if c == "nearest":
-        rs = sorted(rows, key=lambda r: r["d"])
-        if len(rs) > 1 and rs[1]["d"] - rs[0]["d"] < NEAREST_GAP_M:
-            problems.append(f"nearest gap {rs[1]['d'] - rs[0]['d']:.2f} m < {NEAREST_GAP_M}")
-        return {"id": rs[0]["id"]}
-    if c == "distance":
-        if len(rows) != 1:
-            problems.append(f"distance query returned {len(rows)} rows")
-            return None
-        return {"distance_m": round(rows[0]["d"], 2)}
-    if c == "route":
-        g = graph(rows)
-        d = dijkstra(g, q["src"], q["dst"])
-        if d is None:
-            problems.append("no route")
-            return None
-        ls = simple_path_lengths(g, q["src"], q["dst"])
-        if len(ls) > 1 and ls[1] - ls[0] < ROUTE_GAP_M:
-            problems.append(f"second-best path only {ls[1] - ls[0]:.2f} m longer")
-        if abs(ls[0] - d) > 1e-6:
-            problems.append("dijkstra disagrees with path enumeration")
-        return {"length_m": round(d, 2)}
-    if c in ("segment", "segment_kind"):
-        if len(rows) != 1:
-            problems.append(f"object in {len(rows)} segments")
-            return None
-        if c == "segment":
-            return {"id": rows[0]["id"]}
-        return {"kind": KIND_MAP[rows[0]["kind"]]}
-    if c == "colour":
-        col = rows[0]["colour"]; caps = rows[0]["captions"] or []
-        if not col:
-            problems.append("colour property is null")
-        else:
-            for cap in caps:
-                named = {c2 for c2 in COLOURS if re.search(rf"\b{c2}\b", cap, re.I)}
-                if named != {col}:
-                    problems.append(f"caption disagrees with colour {col!r}: {cap!r}")
-        return {"colour": col}
-    raise ValueError(c)
-
-# ---------------------------------------------------------------- audits
-Q_ALL = ("MATCH (n:Instance) OPTIONAL MATCH (n)-[:IN_SEGMENT]->(s:Segment) "
-         "RETURN id(n) AS id, n.label AS label, n.colour AS colour, n.captions AS captions, collect(id(s)) AS segs")
-Q_SEGS = "MATCH (s:Segment) RETURN id(s) AS id, s.kind AS kind"
-
-def names(o, rx):
-    r = re.compile(rx, re.I)
-    return bool(r.search(o["label"] or "")) or any(r.search(c) for c in (o["captions"] or []))
-
-def names_colour(o, col):
-    return o["colour"] == col or any(re.search(rf"\b{col}\b", c, re.I) for c in (o["captions"] or []))
-
-def desc_matches(objs, noun, colour, attrs, segment):
-    out = []
-    for o in objs:
-        if not names(o, NOUNS[noun]):
-            continue
-        if colour and not names_colour(o, colour):
-            continue
-        if attrs and not all(any(re.search(a, c, re.I) for c in (o["captions"] or [])) for a in attrs):
-            continue
-        if segment is not None and segment not in o["segs"]:
-            continue
-        out.append(o["id"])
-    return out
-
-def label_audit(objs, label, problems):
-    rx = re.compile(KINDS[label], re.I)
-    mine = [o for o in objs if o["label"] == label]
-    if not mine:
-        problems.append(f"{label}: no objects with this label")
-    for o in mine:
-        if not any(rx.search(c) for c in (o["captions"] or [])):
-            problems.append(f"{label}: object {o['id']} has no caption naming the kind")
-    for o in objs:
-        if o["label"] == label:
-            continue
-        hits = [c for c in (o["captions"] or []) + [o["label"] or ""] if rx.search(c)]
-        if hits:
-            problems.append(f"{label}: object {o['id']} labelled {o['label']!r} is captioned as the kind: {hits[0]!r}")
-    return len(mine)
-
 def main():
-    write = "--write" in sys.argv
-    objs = run(Q_ALL)
-    segs = run(Q_SEGS)
-    seg_ids = {r["id"] for r in segs}
-    fails = []
-    odd = sorted({r["kind"] for r in segs} - set(KIND_MAP))
-    if odd:
-        fails.append(f"segment kinds outside the four used in questions: {odd}")
-    multi = [o["id"] for o in objs if len(o["segs"]) != 1]
-    if multi:
-        fails.append(f"objects not in exactly one segment: {multi[:10]}")
-    label_totals = {}
-    for lab in KINDS:
-        probs = []
-        label_totals[lab] = label_audit(objs, lab, probs)
-        fails += probs
-    kinds = Counter(); voices = Counter(); vk = Counter()
-    for i, q in enumerate(S, 1):
-        probs = []
-        got = compute(q, probs)
-        if got != q["truth"]:
-            probs.append(f"truth mismatch: spec {q['truth']} vs recomputed {got}")
-        for (oid, noun, colour, attrs, segment) in q["desc"]:
-            m = desc_matches(objs, noun, colour, attrs, segment)
-            if m != [oid]:
-                probs.append(f"description ({noun}, {colour}, {attrs}, seg {segment}) matches {m}, expected [{oid}]")
-        if q.get("label") and q["label"] not in KINDS:
-            probs.append(f"label {q['label']} not audited")
-        # a count over a segment id that does not exist would silently give 0
-        for m in re.finditer(r"id\(s\) = (\d+)", q["cypher"]):
-            if int(m.group(1)) not in seg_ids:
-                probs.append(f"segment {m.group(1)} does not exist")
-        for p in probs:
-            fails.append(f"Q{i:02d} [{q['kind']}] {p}")
-        kinds[q["kind"]] += 1; voices[q["voice"]] += 1; vk[(q["voice"], q["kind"])] += 1
-    if len(S) != 60 or any(v != 6 for v in kinds.values()) or len(kinds) != 10:
-        fails.append(f"kind distribution wrong: {dict(kinds)}")
-    if any(v != 20 for v in voices.values()) or len(voices) != 3 or any(v != 2 for v in vk.values()):
-        fails.append(f"voice distribution wrong: {dict(voices)}")
-    if len({q['question'] for q in S}) != len(S):
-        fails.append("duplicate question text")
-    records = [{"kind": q["kind"], "question": q["question"], "truth": q["truth"], "cypher": q["cypher"]} for q in S]
-    if write and not fails:
-        with open(OUT, "w") as f:
-            for r in records:
-                f.write(json.dumps(r, ensure_ascii=False) + "\n")
-    if os.path.exists(OUT):
-        disk = [json.loads(l) for l in open(OUT) if l.strip()]
-        if disk != records:
-            fails.append("questions.jsonl differs from the spec (run with --write)")
-    else:
-        fails.append("questions.jsonl missing (run with --write)")
-    print("label totals:", json.dumps(label_totals))
-    print("per kind:", json.dumps(dict(sorted(kinds.items()))), "per voice:", json.dumps(dict(sorted(voices.items()))))
-    for f in fails:
-        print("FAIL:", f)
-    if fails:
-        print(f"RESULT: FAIL ({len(fails)} problem(s)) over {len(S)} questions")
-        sys.exit(1)
-    print(f"RESULT: PASS - {len(S)} questions, truths recomputed from {len(_cache) - 2} distinct cypher statements, "
-          f"all audits (labels, descriptions, radius margins >= {NEAR_MARGIN_M} m, nearest gaps >= {NEAREST_GAP_M} m, "
-          f"route gaps >= {ROUTE_GAP_M} m, colours, segment ids) ok")
+    check(here=HERE, og_default=OG_DEFAULT, db_default=DB_DEFAULT, kinds=KINDS, nouns=NOUNS)
 
 if __name__ == "__main__":
     main()
