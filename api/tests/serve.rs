@@ -471,6 +471,20 @@ fn map_updates_over_http_need_the_token_and_undo_exactly() {
     let srv = serve(&db, &["--token-file", s(&token_file)]);
     let url = |p: &str| format!("{}{p}", srv.url);
     let (_, before) = get(&url("/api/info"));
+    // whether find over HTTP returns it, asked of each of the workers' scenes
+    let found = |want: bool| {
+        for _ in 0..4 {
+            let (_, f) = post(&url("/api/find"), &json!({"text": caption, "k": 3}), None);
+            let ids: Vec<_> = f["results"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|r| r["id"].as_u64())
+                .collect();
+            assert_eq!(ids.contains(&Some(id)), want, "{f}");
+        }
+    };
+    found(true);
     let body = json!({"text": format!("{caption} is gone"), "apply": true});
     let (st, v) = post(&url("/api/update"), &body, None);
     assert_eq!(st, 401, "{v}");
@@ -480,17 +494,8 @@ fn map_updates_over_http_need_the_token_and_undo_exactly() {
     let edit = v["applied"]["edit_id"].as_u64().expect("applied");
     let (st, _) = get(&url(&format!("/api/instances/{id}")));
     assert_eq!(st, 404);
-    // find over HTTP no longer returns it (every worker reloads its scene)
-    for _ in 0..4 {
-        let (_, f) = post(&url("/api/find"), &json!({"text": caption, "k": 3}), None);
-        assert!(
-            f["results"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .all(|r| r["id"].as_u64() != Some(id))
-        );
-    }
+    // find no longer returns it (every worker's scene is brought up to the edit)
+    found(false);
     let (st, v) = post(&url("/api/update/undo"), &json!({"edit_id": edit}), None);
     assert_eq!(st, 401, "{v}");
     let (st, v) = post(
@@ -502,6 +507,7 @@ fn map_updates_over_http_need_the_token_and_undo_exactly() {
     assert_eq!(v["undone"], true);
     let (st, _) = get(&url(&format!("/api/instances/{id}")));
     assert_eq!(st, 200);
+    found(true);
     let (_, after) = get(&url("/api/info"));
     assert_eq!(before["relationships"], after["relationships"]);
     let mut nodes = after["nodes"].clone();

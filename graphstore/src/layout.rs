@@ -147,6 +147,95 @@ pub struct Committed {
     pub(crate) seq: u64,
     /// In-memory copies of hot tables for this commit's readers, built on demand.
     pub(crate) hot: crate::hot::Hot,
+    /// The nodes each of the last commits changed, up to this one.
+    pub(crate) changes: ChangeLog,
+}
+
+/// Commits a [`ChangeLog`] remembers.
+pub(crate) const CHANGE_LOG_COMMITS: usize = 64;
+/// Nodes one commit may change and still be listed in a [`ChangeLog`] (a bulk load is not).
+pub(crate) const CHANGE_LOG_NODES: usize = 4096;
+
+/// The nodes that each of the last [`CHANGE_LOG_COMMITS`] commits changed, oldest first:
+/// `(commit sequence, node ids ascending)`, or `None` for a commit whose changes are not
+/// listed (more than [`CHANGE_LOG_NODES`] nodes, or a schema change). A node is changed when
+/// its record or payloads were written, created or deleted, or a relationship it is an end of
+/// was created, deleted or given new properties. Lets a reader that keeps something derived
+/// from an earlier commit bring it up to date instead of deriving it again
+/// ([`crate::GraphRead::nodes_changed_since`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ChangeLog(std::collections::VecDeque<(u64, Option<Arc<[u64]>>)>);
+
+impl ChangeLog {
+    /// This log with commit `seq`'s changes added (the oldest dropped past the limit).
+    pub(crate) fn then(&self, seq: u64, changed: Option<Arc<[u64]>>) -> ChangeLog {
+        let mut log = self.0.clone();
+        log.push_back((seq, changed));
+        while log.len() > CHANGE_LOG_COMMITS {
+            log.pop_front();
+        }
+        ChangeLog(log)
+    }
+
+    /// The nodes changed by the commits after `from` up to `to` (the log's own last commit),
+    /// ascending; `None` when the log does not reach back to `from`, or a commit on the way
+    /// is not listed. Empty when `from == to`.
+    pub(crate) fn since(&self, from: u64, to: u64) -> Option<Vec<u64>> {
+        if from >= to {
+            return (from == to).then(Vec::new);
+        }
+        let start = self.0.iter().position(|(s, _)| *s == from + 1)?;
+        let mut out = Vec::new();
+        for (s, changed) in self.0.iter().skip(start) {
+            if *s > to {
+                break;
+            }
+            out.extend_from_slice(changed.as_deref()?);
+        }
+        out.sort_unstable();
+        out.dedup();
+        Some(out)
+    }
+}
+
+/// The nodes one write transaction changed (see [`ChangeLog`]), or that there were too many.
+#[derive(Debug, Default)]
+pub(crate) struct Touched {
+    ids: Vec<u64>,
+    overflow: bool,
+}
+
+impl Touched {
+    /// Notes that node `id` changed.
+    pub(crate) fn add(&mut self, id: u64) {
+        if self.overflow {
+            return;
+        }
+        self.ids.push(id);
+        if self.ids.len() > 2 * CHANGE_LOG_NODES {
+            self.compact();
+        }
+    }
+
+    /// Notes that changes went unlisted (the log then says it does not know).
+    pub(crate) fn lose_track(&mut self) {
+        self.overflow = true;
+        self.ids = Vec::new();
+    }
+
+    fn compact(&mut self) {
+        self.ids.sort_unstable();
+        self.ids.dedup();
+        if self.ids.len() > CHANGE_LOG_NODES {
+            self.lose_track();
+        }
+    }
+
+    /// The changed nodes, ascending, or `None` when they were not all listed.
+    pub(crate) fn into_list(mut self) -> Option<Arc<[u64]>> {
+        self.compact();
+        (!self.overflow).then(|| self.ids.into())
+    }
 }
 
 /// Index entries of nodes, gathered per index (for rebuilding and for checking).
@@ -302,4 +391,67 @@ pub(crate) fn decode_rel(bytes: &[u8], id: u64) -> Result<Relationship> {
         end,
         props: typed_props(props),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn log(entries: &[(u64, Option<&[u64]>)]) -> ChangeLog {
+        let mut l = ChangeLog::default();
+        for (seq, ids) in entries {
+            l = l.then(*seq, ids.map(Arc::from));
+        }
+        l
+    }
+
+    #[test]
+    fn the_change_log_unites_the_commits_after_a_point() {
+        let l = log(&[(1, Some(&[5, 9])), (2, Some(&[])), (3, Some(&[9, 2]))]);
+        assert_eq!(l.since(0, 3), Some(vec![2, 5, 9]));
+        assert_eq!(l.since(1, 3), Some(vec![2, 9]));
+        assert_eq!(l.since(2, 3), Some(vec![2, 9]));
+        assert_eq!(l.since(3, 3), Some(vec![]));
+        // up to an earlier commit: the log of that commit ends there
+        assert_eq!(l.since(0, 1), Some(vec![5, 9]));
+        // from a later commit, or from before the log
+        assert_eq!(l.since(4, 3), None);
+        let short = log(&[(7, Some(&[1])), (8, Some(&[2]))]);
+        assert_eq!(short.since(5, 8), None);
+        assert_eq!(short.since(6, 8), Some(vec![1, 2]));
+    }
+
+    #[test]
+    fn an_unlisted_commit_makes_the_changes_across_it_unknown() {
+        let l = log(&[(1, Some(&[1])), (2, None), (3, Some(&[3]))]);
+        assert_eq!(l.since(0, 3), None);
+        assert_eq!(l.since(1, 3), None);
+        assert_eq!(l.since(2, 3), Some(vec![3]));
+    }
+
+    #[test]
+    fn the_change_log_keeps_the_last_commits_only() {
+        let mut l = ChangeLog::default();
+        for seq in 1..=(CHANGE_LOG_COMMITS as u64 + 10) {
+            l = l.then(seq, Some(Arc::from(vec![seq])));
+        }
+        let last = CHANGE_LOG_COMMITS as u64 + 10;
+        assert_eq!(l.since(9, last), None);
+        assert_eq!(l.since(10, last).map(|v| v.len()), Some(CHANGE_LOG_COMMITS));
+    }
+
+    #[test]
+    fn a_transaction_touching_too_many_nodes_is_not_listed() {
+        let mut t = Touched::default();
+        for id in 0..CHANGE_LOG_NODES as u64 {
+            t.add(id);
+            t.add(id);
+        }
+        assert_eq!(t.into_list().map(|l| l.len()), Some(CHANGE_LOG_NODES));
+        let mut t = Touched::default();
+        for id in 0..=CHANGE_LOG_NODES as u64 * 3 {
+            t.add(id);
+        }
+        assert_eq!(t.into_list(), None);
+    }
 }

@@ -150,6 +150,18 @@ pub trait GraphRead {
         None
     }
 
+    /// The nodes that the commits after `seq`, up to the one this snapshot sees, changed:
+    /// created, deleted, written (labels, properties, payloads), or an end of a relationship
+    /// that was created, deleted or given new properties. Ascending, each once; empty when
+    /// `seq` is this snapshot's own commit. `None` when it is not known: the store remembers
+    /// the last 64 commits of this handle, a commit that changed more than 4,096 nodes (a bulk
+    /// load) or the schema is not listed, and a write transaction has no commit yet. For
+    /// bringing something derived from commit `seq` up to date instead of deriving it again.
+    fn nodes_changed_since(&self, seq: u64) -> Option<Vec<u64>> {
+        let _ = seq;
+        None
+    }
+
     /// The id of a label, if the store has seen it.
     fn label(&self, name: &str) -> Option<LabelId> {
         self.view().raw.token(TokenKind::Label, name).map(LabelId)

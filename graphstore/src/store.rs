@@ -396,6 +396,7 @@ impl Store {
                     mem: MemSlot::default(),
                     seq: 0,
                     hot: Default::default(),
+                    changes: Default::default(),
                 }),
             }),
         };
@@ -489,7 +490,7 @@ impl Store {
                 Err(e) => Err(e),
             }
         };
-        let (value, (pending, new_tokens)) = match outcome {
+        let (value, (pending, new_tokens, touched)) = match outcome {
             Ok(x) => x,
             Err(e) => {
                 wtx.abort().map_err(storage)?;
@@ -520,6 +521,7 @@ impl Store {
                 mem,
                 seq: base.seq + 1,
                 hot: Default::default(),
+                changes: base.changes.then(base.seq + 1, touched),
             },
         )?;
         Ok(value)
@@ -536,7 +538,7 @@ impl Store {
         let outcome = (|| {
             let mut tx = WriteTxn::new(&wtx, base.clone())?;
             let compiled = tx.install_schema(&schema)?;
-            let (_, new_tokens) = tx.finish()?;
+            let (_, new_tokens, _) = tx.finish()?;
             Ok::<_, Error>((compiled, new_tokens))
         })();
         let (compiled, new_tokens) = match outcome {
@@ -559,6 +561,8 @@ impl Store {
                 mem: MemSlot::default(),
                 seq: base.seq + 1,
                 hot: Default::default(),
+                // every node is checked again, some rewritten: not listed
+                changes: base.changes.then(base.seq + 1, None),
             },
         )
     }

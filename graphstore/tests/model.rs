@@ -159,6 +159,15 @@ fn pick<T: Copy>(keys: impl Iterator<Item = T>, i: usize) -> Option<T> {
 }
 
 impl Model {
+    /// The relationships touching `id`, with their types and ends.
+    fn incident(&self, id: u64) -> Vec<(u64, &(String, u64, u64))> {
+        self.rels
+            .iter()
+            .filter(|(_, (_, a, b))| *a == id || *b == id)
+            .map(|(r, v)| (*r, v))
+            .collect()
+    }
+
     /// Would a node with this content be accepted?
     fn valid(&self, id: Option<u64>, n: &MNode) -> bool {
         if !n.labels.contains("A") {
@@ -523,6 +532,7 @@ proptest! {
         let mut model = Model::default();
         for (ops, commit) in &txns {
             let mut next = model.clone();
+            let seq_before = store.commit_seq();
             let res = store.write(|tx| {
                 for op in ops {
                     apply(tx, &mut next, op);
@@ -533,9 +543,19 @@ proptest! {
             });
             if *commit {
                 res.unwrap();
+                // the change log lists every node whose record or relationships differ
+                let listed = store.read().unwrap().nodes_changed_since(seq_before).unwrap();
+                for id in model.nodes.keys().chain(next.nodes.keys()) {
+                    if model.nodes.get(id) != next.nodes.get(id)
+                        || model.incident(*id) != next.incident(*id)
+                    {
+                        prop_assert!(listed.contains(id), "node {id} changed but is not listed in {listed:?}");
+                    }
+                }
                 model = next;
             } else {
                 prop_assert!(matches!(res, Err(Error::RolledBack)));
+                prop_assert_eq!(store.read().unwrap().nodes_changed_since(seq_before), Some(Vec::new()));
             }
             check(&store.read().unwrap(), &model, &store);
         }

@@ -92,6 +92,15 @@ impl<K, V> CommitCache<K, V> {
         )
     }
 
+    /// The newest kept value of `key`, at whatever commit: `(commit sequence, value)` (for
+    /// bringing an older value up to date instead of computing it afresh).
+    pub fn latest(&self, key: &K) -> Option<(u64, Arc<V>)>
+    where
+        K: Hash + Eq,
+    {
+        self.lock().ready.peek(key).map(|(s, v)| (*s, v.clone()))
+    }
+
     /// How many callers waited for another's computation so far.
     pub fn waits(&self) -> u64 {
         self.waits.load(Ordering::Relaxed)

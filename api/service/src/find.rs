@@ -257,8 +257,10 @@ impl Finder {
     }
 
     /// The map's scene (instances and segments) as of `r`'s commit: kept while the commit
-    /// is the same, taken from the shared slot when another finder loaded it, else loaded.
-    /// Inside a write transaction (no commit yet) it is loaded every time and not kept.
+    /// is the same, taken from the shared slot when another finder loaded it, else made: from
+    /// the newest earlier scene at hand (this finder's or the shared slot's) and the nodes
+    /// changed since ([`MapView::refresh`]) when the store still lists them, else loaded
+    /// whole. Inside a write transaction it is loaded every time and not kept.
     ///
     /// # Errors
     /// The store fails or has no ground frame.
@@ -271,11 +273,26 @@ impl Finder {
         {
             return Ok(scene.clone());
         }
+        let earlier = self
+            .scene
+            .clone()
+            .into_iter()
+            .chain(self.shared_scene.as_ref().and_then(|sh| sh.latest(&())))
+            .filter(|(s, _)| *s < seq)
+            .max_by_key(|(s, _)| *s);
+        let make = || -> Result<MapView> {
+            if let Some((s, prev)) = &earlier
+                && let Some(changed) = r.nodes_changed_since(*s)
+            {
+                return Ok(prev.refresh(r, &changed)?);
+            }
+            Ok(MapView::load(r)?)
+        };
         let scene = match &self.shared_scene {
             Some(sh) => sh.get_or_compute((), seq, SCENE_WAIT, || {
-                Ok::<_, llm_tools::Error>((MapView::load(r)?, true))
+                Ok::<_, llm_tools::Error>((make()?, true))
             })?,
-            None => Arc::new(MapView::load(r)?),
+            None => Arc::new(make()?),
         };
         self.scene = Some((seq, scene.clone()));
         Ok(scene)

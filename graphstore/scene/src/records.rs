@@ -871,7 +871,7 @@ pub fn drive_ends(r: &impl GraphRead) -> Result<Option<([f64; 3], [f64; 3])>> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use graphstore::Store;
     use proptest::prelude::*;
@@ -884,7 +884,7 @@ mod tests {
         "[a-z_]{1,12}"
     }
 
-    fn segment() -> impl Strategy<Value = SegmentRecord> {
+    pub(crate) fn segment() -> impl Strategy<Value = SegmentRecord> {
         let shape = prop_oneof![
             Just(None),
             (0.5..50.0f64, prop::collection::vec(p3(), 0..6))
@@ -924,7 +924,7 @@ mod tests {
             })
     }
 
-    fn instance() -> impl Strategy<Value = InstanceRecord> {
+    pub(crate) fn instance() -> impl Strategy<Value = InstanceRecord> {
         (
             (0..100_000i64, word(), word(), p3(), p3()),
             prop::option::of(prop::collection::vec(word(), 0..4)),

@@ -167,6 +167,8 @@ pub struct WriteTxn<'a> {
     propidx: Table<'a, &'static [u8], ()>,
     counts: Table<'a, (u8, u32), u64>,
     payloads: Table<'a, (u64, &'static str), &'static [u8]>,
+    /// The nodes this transaction changed, for the commit's [`crate::layout::ChangeLog`].
+    touched: crate::layout::Touched,
 }
 
 impl std::fmt::Debug for WriteTxn<'_> {
@@ -660,6 +662,10 @@ impl GraphRead for ReadTxn {
     fn commit_seq(&self) -> Option<u64> {
         Some(self.base.seq)
     }
+
+    fn nodes_changed_since(&self, seq: u64) -> Option<Vec<u64>> {
+        self.base.changes.since(seq, self.base.seq)
+    }
 }
 
 impl GraphRead for WriteTxn<'_> {
@@ -712,11 +718,14 @@ impl<'a> WriteTxn<'a> {
             propidx: txn.open_table(PROPIDX).map_err(storage)?,
             counts: txn.open_table(COUNTS).map_err(storage)?,
             payloads: txn.open_table(PAYLOADS).map_err(storage)?,
+            touched: Default::default(),
         })
     }
 
-    /// Writes the id counters; returns the index changes and new tokens for the commit.
-    pub(crate) fn finish(mut self) -> Result<(PendingMem, Vec<String>)> {
+    /// Writes the id counters; returns the index changes, the new tokens and the changed
+    /// nodes (None: not listed) for the commit.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn finish(mut self) -> Result<(PendingMem, Vec<String>, Option<Arc<[u64]>>)> {
         self.flush_counts()?;
         self.meta
             .insert(K_NEXT_NODE, self.next_node.to_le_bytes().as_slice())
@@ -727,6 +736,7 @@ impl<'a> WriteTxn<'a> {
         Ok((
             std::mem::take(&mut self.pending),
             std::mem::take(&mut self.new_tokens),
+            std::mem::take(&mut self.touched).into_list(),
         ))
     }
 
@@ -813,6 +823,7 @@ impl<'a> WriteTxn<'a> {
         if let Some(a) = after {
             self.check_node(id, a)?;
         }
+        self.touched.add(id);
         match after {
             Some(a) => {
                 let bytes = codec::encode_node(&a.labels, &a.props);
@@ -1025,6 +1036,7 @@ impl<'a> WriteTxn<'a> {
         }
         for k in Raw::payload_keys(self, id)? {
             self.payloads.remove(&(id, k.as_str())).map_err(storage)?;
+            self.touched.add(id);
         }
         self.apply_node(id, Some(&before), None)
     }

@@ -39,6 +39,8 @@ impl WriteTxn<'_> {
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
         adjacency::insert(&mut self.adj, start, 0, (id, ty.0, end))?;
         adjacency::insert(&mut self.adj, end, 1, (id, ty.0, start))?;
+        self.touched.add(start);
+        self.touched.add(end);
         self.bump(1, ty.0, 1)?;
         self.bump(2, 1, 1)?;
         self.next_rel += 1;
@@ -117,6 +119,8 @@ impl WriteTxn<'_> {
                 .map_err(|e| store(storage(e)))?;
             adj.push(((start, 0u8, ty, id), end));
             adj.push(((end, 1u8, ty, id), start));
+            self.touched.add(start);
+            self.touched.add(end);
             self.bump(1, ty, 1).map_err(store)?;
             ids.push(id);
         }
@@ -168,6 +172,8 @@ impl WriteTxn<'_> {
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
         adjacency::insert(&mut self.adj, start, 0, (id, ty.0, end))?;
         adjacency::insert(&mut self.adj, end, 1, (id, ty.0, start))?;
+        self.touched.add(start);
+        self.touched.add(end);
         self.bump(1, ty.0, 1)?;
         self.bump(2, 1, 1)?;
         Ok(())
@@ -201,6 +207,8 @@ impl WriteTxn<'_> {
         self.rels
             .insert(&rel.id, bytes.as_slice())
             .map_err(storage)?;
+        self.touched.add(rel.start);
+        self.touched.add(rel.end);
         Ok(())
     }
 
@@ -231,6 +239,8 @@ impl WriteTxn<'_> {
         self.rels.remove(&id).map_err(storage)?;
         adjacency::remove(&mut self.adj, rel.start, 0, id)?;
         adjacency::remove(&mut self.adj, rel.end, 1, id)?;
+        self.touched.add(rel.start);
+        self.touched.add(rel.end);
         self.bump(1, rel.ty.0, -1)?;
         self.bump(2, 1, -1)?;
         Ok(())
@@ -241,16 +251,21 @@ impl WriteTxn<'_> {
     pub fn put_payload(&mut self, node: u64, key: &str, bytes: &[u8]) -> Result<()> {
         self.rec(node)?;
         self.payloads.insert(&(node, key), bytes).map_err(storage)?;
+        self.touched.add(node);
         Ok(())
     }
 
     /// Removes a payload; returns whether it existed.
     pub fn delete_payload(&mut self, node: u64, key: &str) -> Result<bool> {
-        Ok(self
+        let removed = self
             .payloads
             .remove(&(node, key))
             .map_err(storage)?
-            .is_some())
+            .is_some();
+        if removed {
+            self.touched.add(node);
+        }
+        Ok(removed)
     }
 
     /// Stores a point cloud, compressed (see [`PointCloud::encode`]).
