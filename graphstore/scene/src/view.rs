@@ -208,37 +208,61 @@ impl MapView {
             return Ok(self.clone());
         }
         let ground = crate::records::ground_frame(r)?;
-        let segment_ids: BTreeSet<u64> = r.nodes_with_label(label::SEGMENT)?.into_iter().collect();
-        let was_segment = |id: &u64| {
-            self.segments.iter().any(|s| s.id == *id)
-                || self
-                    .objects
-                    .iter()
-                    .any(|o| o.segment.as_ref().is_some_and(|(s, _)| s == id))
-        };
-        if ground != self.ground
-            || changed
-                .iter()
-                .any(|id| segment_ids.contains(id) || was_segment(id))
-        {
+        if ground != self.ground {
             return MapView::load(r);
         }
         let seg_kind = segment_kinds(r)?;
+        // a segment is listed when an instance joins or leaves it, too: read the segments
+        // again, and load afresh only when one of them or a kind objects name differs
+        let mut segment_ids: BTreeSet<u64> =
+            r.nodes_with_label(label::SEGMENT)?.into_iter().collect();
+        segment_ids.extend(self.segments.iter().map(|s| s.id));
+        segment_ids.extend(
+            self.objects
+                .iter()
+                .filter_map(|o| o.segment.as_ref().map(|s| s.0)),
+        );
+        let touched: Vec<&u64> = changed
+            .iter()
+            .filter(|id| segment_ids.contains(id))
+            .collect();
+        let segments = if !touched.is_empty() {
+            // one the view did not hold (new, or unreadable before) may give objects a segment
+            if touched
+                .iter()
+                .any(|id| !self.segments.iter().any(|s| s.id == **id))
+            {
+                return MapView::load(r);
+            }
+            let now = load_segments(r, ground)?;
+            let kinds_hold = self.objects.iter().all(|o| {
+                o.segment
+                    .as_ref()
+                    .is_none_or(|(s, k)| seg_kind.get(s) == Some(k))
+            });
+            if now != self.segments || !kinds_hold {
+                return MapView::load(r);
+            }
+            now
+        } else {
+            self.segments.clone()
+        };
         // every kept object keeps its segment; a changed node's record is read again
         let mut objects = Vec::with_capacity(self.objects.len() + changed.len());
         let mut kept = self.objects.iter().peekable();
-        let is_instance = |id: u64| -> Result<bool> {
-            let Some(l) = r.label(label::INSTANCE) else {
-                return Ok(false);
-            };
-            Ok(r.node_keys(id, &[])?.is_some_and(|n| n.labels.contains(&l)))
-        };
+        let instance = r.label(label::INSTANCE);
         for id in changed {
             while let Some(o) = kept.next_if(|o| o.id < *id) {
                 objects.push(o.clone());
             }
             kept.next_if(|o| o.id == *id);
-            if is_instance(*id)? {
+            let is_instance = match instance {
+                Some(l) => r
+                    .node_keys(*id, &[])?
+                    .is_some_and(|n| n.labels.contains(&l)),
+                None => false,
+            };
+            if is_instance {
                 objects.extend(scene_object(r, *id, ground, &seg_kind)?);
             }
         }
@@ -246,7 +270,7 @@ impl MapView {
         Ok(MapView {
             ground,
             objects,
-            segments: self.segments.clone(),
+            segments,
         })
     }
 
