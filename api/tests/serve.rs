@@ -485,6 +485,14 @@ fn map_updates_over_http_need_the_token_and_undo_exactly() {
         }
     };
     found(true);
+    // a proposal changes nothing and needs no token
+    let proposal = json!({"text": format!("{caption} is gone")});
+    let (st, v) = post(&url("/api/update"), &proposal, None);
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["target"]["candidates"][0]["id"].as_u64(), Some(id), "{v}");
+    assert!(v["applied"].is_null(), "{v}");
+    let (st, _) = get(&url(&format!("/api/instances/{id}")));
+    assert_eq!(st, 200);
     let body = json!({"text": format!("{caption} is gone"), "apply": true});
     let (st, v) = post(&url("/api/update"), &body, None);
     assert_eq!(st, 401, "{v}");

@@ -169,7 +169,8 @@ impl Service {
     /// Calls a tool on a free worker (a write tool on the writer, where the service has one).
     ///
     /// # Errors
-    /// [`ToolError::Forbidden`] for a write tool without `may_write`; [`ToolError::Busy`] when
+    /// [`ToolError::Forbidden`] for a call that changes the map without `may_write` (an
+    /// `update_map` proposal, without `apply`, needs none); [`ToolError::Busy`] when
     /// no worker is free within the timeout; [`ToolError::TimedOut`] when the call runs past
     /// it (the worker finishes in the background and rejoins the pool); otherwise the tool's
     /// own error.
@@ -179,9 +180,10 @@ impl Service {
         args: Json,
         may_write: bool,
     ) -> ToolResult<Json> {
-        // a write tool exists only where the service has writes (elsewhere: an unknown tool)
+        // a write tool exists only where the service has writes (elsewhere: an unknown tool);
+        // there it runs on the writer, and needs the token unless it only proposes
         let writes = self.writes && crate::tools::is_write_tool(name);
-        if writes && !may_write {
+        if writes && !may_write && crate::tools::call_writes(name, &args) {
             return Err(ToolError::Forbidden(format!(
                 "{name} changes the map: send the write token (Authorization: Bearer <token>)"
             )));

@@ -192,6 +192,12 @@ pub fn is_write_tool(name: &str) -> bool {
     registry().iter().any(|(t, _)| t.name == name && t.writes)
 }
 
+/// Whether calling tool `name` with `args` changes the map: a write tool's call, except an
+/// `update_map` without `apply`, which only proposes an edit (and so needs no token).
+pub fn call_writes(name: &str, args: &Json) -> bool {
+    is_write_tool(name) && !(name == "update_map" && args.get("apply") != Some(&Json::Bool(true)))
+}
+
 /// Every tool (write tools included) with its argument validator, built once per process:
 /// a call looks its tool up here instead of rebuilding the schemas and validators.
 fn registry() -> &'static [(Tool, jsonschema::Validator)] {

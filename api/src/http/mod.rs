@@ -252,7 +252,7 @@ fn routes() -> Vec<Route> {
             Post,
             "/api/update",
             Op::Tool("update_map"),
-            "Propose (and with apply, commit) a map edit from a described change (needs the token).",
+            "Propose (and with apply, commit) a map edit from a described change (applying needs the token).",
         ),
         r(
             Post,
