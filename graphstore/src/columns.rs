@@ -66,6 +66,27 @@ impl LabelMembers {
         let set = IdSet::new(&ids);
         LabelMembers { ids, set }
     }
+
+    /// These members with each node of `changed` (ascending) in or out as `member` says now.
+    pub(crate) fn patched(
+        &self,
+        changed: &[u64],
+        member: impl Fn(u64) -> crate::Result<bool>,
+    ) -> crate::Result<LabelMembers> {
+        let mut ids = Vec::with_capacity(self.ids.len() + changed.len());
+        let mut kept = self.ids.iter().copied().peekable();
+        for &c in changed {
+            while let Some(id) = kept.next_if(|id| *id < c) {
+                ids.push(id);
+            }
+            kept.next_if(|id| *id == c);
+            if member(c)? {
+                ids.push(c);
+            }
+        }
+        ids.extend(kept);
+        Ok(LabelMembers::new(ids))
+    }
 }
 
 /// Most ids a column covers (it is indexed by id: larger or sparser tables are not copied).
@@ -157,6 +178,40 @@ impl Column {
             return Column::Str { codes, dict };
         }
         Column::Any(vals.into_iter().map(|v| v.unwrap_or(Value::Null)).collect())
+    }
+
+    /// This column with the entries of `changed` (ascending) set to `value`'s (`None`: no such
+    /// record or property); equal, entry by entry, to a column read afresh where those are
+    /// the only changes. `None` past [`COLUMN_MAX_IDS`].
+    pub(crate) fn patched(
+        &self,
+        changed: &[u64],
+        value: impl Fn(u64) -> crate::Result<Option<Value>>,
+    ) -> crate::Result<Option<Column>> {
+        let len = match self {
+            Column::Int { vals, .. } => vals.len(),
+            Column::Float { vals, .. } => vals.len(),
+            Column::Str { codes, .. } => codes.len(),
+            Column::Any(vals) => vals.len(),
+        };
+        let top = changed.last().map_or(0, |&c| c + 1).max(len as u64);
+        if top > COLUMN_MAX_IDS {
+            return Ok(None);
+        }
+        let mut vals: Vec<Option<Value>> = (0..len as u64)
+            .map(|id| match self.get(id) {
+                Cell::Absent => None,
+                Cell::Int(v) => Some(Value::Int(v)),
+                Cell::Float(v) => Some(Value::Float(v)),
+                Cell::Str(v) => Some(Value::String(v.to_string())),
+                Cell::Other(v) => Some(v.clone()),
+            })
+            .collect();
+        vals.resize(top as usize, None);
+        for &c in changed {
+            vals[c as usize] = value(c)?;
+        }
+        Ok(Some(Column::from_values(vals)))
     }
 
     /// The column whose entry `i` is this column's entry `ids[i]` (the same kind of column;

@@ -520,7 +520,7 @@ impl Store {
                 schema: base.schema.clone(),
                 mem,
                 seq: base.seq + 1,
-                hot: Default::default(),
+                hot: crate::hot::Hot::after(&base.hot, base.seq),
                 changes: base.changes.then(base.seq + 1, touched),
             },
         )?;

@@ -449,8 +449,37 @@ impl ReadTxn {
             .get(|| 2 * self.total(1), || self.copy_adjacency())
     }
 
-    /// The adjacency table read into memory in one pass (None: too large, or unreadable).
+    /// The nodes changed since commit `seq` (see [`crate::layout::ChangeLog`]).
+    fn changed_since(&self, seq: u64) -> Option<Vec<u64>> {
+        self.base.changes.since(seq, self.base.seq)
+    }
+
+    /// The adjacency in memory: an earlier commit's copy with the changed nodes' rows read
+    /// again when there is one ([`crate::hot::Seed`]), else [`ReadTxn::copy_adjacency_whole`].
     fn copy_adjacency(&self) -> Option<crate::hot::AdjMem> {
+        if let Some((seq, old)) = self.base.hot.seed.take_adj()
+            && let Some(changed) = self.changed_since(seq)
+        {
+            let t = self.t_adj().ok()?;
+            let fresh = |n: u64| -> Result<Vec<crate::adjacency::AdjRow>> {
+                let mut rows = Vec::new();
+                for dir in 0..2u8 {
+                    for (rel, ty, other) in crate::adjacency::AdjRead::adj_read(t, n, dir, None)? {
+                        rows.push(((n, dir, ty, rel), other));
+                    }
+                }
+                Ok(rows)
+            };
+            match old.patched(&changed, fresh) {
+                Ok(m) => return m,
+                Err(e) => tracing::warn!(error = %e, "adjacency not brought up to date"),
+            }
+        }
+        self.copy_adjacency_whole()
+    }
+
+    /// The adjacency table read into memory in one pass (None: too large, or unreadable).
+    pub(crate) fn copy_adjacency_whole(&self) -> Option<crate::hot::AdjMem> {
         let rows = crate::adjacency::AdjRead::adj_rows(self.t_adj().ok()?).ok()?;
         match crate::hot::AdjMem::from_rows(rows) {
             Ok(m) => m,
@@ -509,12 +538,24 @@ impl ReadTxn {
             return Ok(m.clone());
         }
         // the list outlives the statement that reads it: not charged to its memory budget
-        let ids = crate::mem::uncounted(|| self.label_nodes(label))?;
-        Ok(cell
-            .get_or_init(|| {
-                crate::mem::uncounted(|| Arc::new(crate::columns::LabelMembers::new(ids)))
-            })
-            .clone())
+        let members = crate::mem::uncounted(|| self.label_members_now(label))?;
+        Ok(cell.get_or_init(|| Arc::new(members)).clone())
+    }
+
+    /// The nodes of `label`: an earlier commit's list with the changed nodes checked again
+    /// when there is one ([`crate::hot::Seed`]), else read from the label index.
+    fn label_members_now(&self, label: u32) -> Result<crate::columns::LabelMembers> {
+        if let Some((seq, old)) = self.base.hot.seed.take_labels(label)
+            && let Some(changed) = self.changed_since(seq)
+        {
+            return old.patched(&changed, |id| {
+                Ok(match self.t_nodes()?.get(&id).map_err(storage)? {
+                    Some(g) => codec::node_labels(g.value())?.contains(&label),
+                    None => false,
+                })
+            });
+        }
+        Ok(crate::columns::LabelMembers::new(self.label_nodes(label)?))
     }
 
     /// The nodes of `label` if a reader of this commit has read them already.
@@ -558,8 +599,34 @@ impl ReadTxn {
         )
     }
 
-    /// Property `key` of every node or relationship, read in one pass.
+    /// Property `key` of every node or relationship: for nodes, an earlier commit's column
+    /// with the changed nodes read again when there is one ([`crate::hot::Seed`]); else read
+    /// in one pass.
     fn build_column(&self, nodes: bool, key: u32) -> Option<crate::columns::Column> {
+        if nodes
+            && let Some((seq, old)) = self.base.hot.seed.take_column(key)
+            && let Some(changed) = self.changed_since(seq)
+        {
+            let value = |id: u64| -> Result<Option<Value>> {
+                match self.t_nodes()?.get(&id).map_err(storage)? {
+                    Some(g) => codec::node_prop(g.value(), key),
+                    None => Ok(None),
+                }
+            };
+            match old.patched(&changed, value) {
+                Ok(c) => return c,
+                Err(e) => tracing::warn!(error = %e, "column not brought up to date"),
+            }
+        }
+        self.build_column_whole(nodes, key)
+    }
+
+    /// Property `key` of every node or relationship, read in one pass.
+    pub(crate) fn build_column_whole(
+        &self,
+        nodes: bool,
+        key: u32,
+    ) -> Option<crate::columns::Column> {
         let mut b = crate::columns::ColumnBuilder::default();
         let one = |bytes: &[u8]| {
             if nodes {
