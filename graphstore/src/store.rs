@@ -520,7 +520,12 @@ impl Store {
                 schema: base.schema.clone(),
                 mem,
                 seq: base.seq + 1,
-                hot: crate::hot::Hot::after(&base.hot, base.seq),
+                // an unlisted commit leaves no way to bring earlier copies up to date
+                hot: if touched.is_some() {
+                    crate::hot::Hot::after(&base.hot, base.seq)
+                } else {
+                    Default::default()
+                },
                 changes: base.changes.then(base.seq + 1, touched),
             },
         )?;
