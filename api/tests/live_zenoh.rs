@@ -406,6 +406,24 @@ fn malformed_samples_are_counted_and_ignored() {
     // nothing reached the store, and the server still answers
     let n = count_instances(&z);
     assert!(n.to_string().contains("\"n\":0"), "{n}");
+    // another process cannot open the map the live server writes: the error says where to
+    // reach it
+    // (the server leaves its note beside the map just after zenoh starts: wait for it)
+    let start = Instant::now();
+    while !std::fs::exists(dir.path().join("live.og.serving.json")).unwrap() {
+        assert!(start.elapsed() < Duration::from_secs(30), "no serving note");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_opengraph"))
+        .args(["info", "--db", s(&live)])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("(mapping live) holds it for writing") && err.contains("http://127.0.0.1:"),
+        "{err}"
+    );
     z.close().wait().unwrap();
     stop(server, &log);
 }

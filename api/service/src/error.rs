@@ -147,6 +147,10 @@ impl From<llm_tools::Error> for ToolError {
     fn from(e: llm_tools::Error) -> ToolError {
         match e {
             llm_tools::Error::Invalid(m) => ToolError::BadArguments(m),
+            // a map without its hierarchy yet (a live server before its first frames)
+            llm_tools::Error::Scene(s @ scene::Error::NoGroundFrame(_)) => {
+                ToolError::Input(s.to_string())
+            }
             other => ToolError::Failed(other.to_string()),
         }
     }

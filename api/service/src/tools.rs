@@ -740,6 +740,28 @@ mod tests {
     }
 
     #[test]
+    fn a_map_without_its_hierarchy_yet_is_the_callers_error_with_the_way_out() {
+        // a live server before its first frames: an empty store with the layer schema
+        let dir = tempfile::tempdir().unwrap();
+        let store = graphstore::Store::create(dir.path().join("empty.og")).unwrap();
+        store.set_schema(scene::opengraph_schema()).unwrap();
+        let mut tb = Toolbox::new(store, hash_finder(), false);
+        for (tool, args) in [
+            ("find_objects", json!({"text": "a bench"})),
+            ("locate", json!({"text": "a T-junction next to a bus stop"})),
+        ] {
+            let e = tb.call(tool, &args).unwrap_err();
+            assert!(matches!(e, ToolError::Input(_)), "{tool}: {e:?}");
+            assert_eq!(e.http_status(), 400);
+            let m = e.to_string();
+            assert!(
+                m.contains("no Environment node yet") && m.contains("serve --zenoh"),
+                "{m}"
+            );
+        }
+    }
+
+    #[test]
     fn schemas_are_valid_and_writes_are_gated() {
         for t in tools(true) {
             assert!(

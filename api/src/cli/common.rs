@@ -175,6 +175,7 @@ pub(crate) fn open_store(
                 .as_ref()
                 .and_then(|v| v["url"].as_str().map(str::to_string));
             let server_writes = note.as_ref().is_some_and(|v| v["writes"] == true);
+            let live = note.as_ref().is_some_and(|v| v["live"] == true);
             match served {
                 Some(url) if !server_writes => {
                     drop(e);
@@ -189,9 +190,10 @@ pub(crate) fn open_store(
                 Some(url) => {
                     drop(e);
                     Err(UsageError(format!(
-                        "cannot open {}: `opengraph serve` holds it for writing; reach the map through the server at {url} \
+                        "cannot open {}: `opengraph serve`{} holds it for writing; reach the map through the server at {url} \
                          (POST {url}api/cypher with {{\"query\": ...}}, the routes are in {url}openapi.json, MCP at {url}mcp)",
-                        db.display()
+                        db.display(),
+                        if live { " (mapping live)" } else { "" }
                     ))
                     .into())
                 }

@@ -251,7 +251,9 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         // out, a read-only server's keeps writers out
         let marker = Some(serving_marker(&a.db));
         if let Some(m) = &marker {
-            let note = serde_json::json!({"url": format!("http://{addr}/"), "pid": std::process::id(), "writes": writes});
+            // "writes": whether it holds the store for writing (the token's writes, or
+            // live mapping); "live": whether it maps live
+            let note = serde_json::json!({"url": format!("http://{addr}/"), "pid": std::process::id(), "writes": writes || live, "live": live});
             if let Err(e) = std::fs::write(m, note.to_string()) {
                 errln!("note: could not write {}: {e}", m.display());
             }
@@ -259,10 +261,10 @@ pub(crate) fn serve(a: ServeArgs) -> anyhow::Result<()> {
         outln!("serving {} on http://{addr}/ (MCP: http://{addr}/mcp; API: http://{addr}/openapi.json)", a.db.display());
         errln!(
             "{workers} workers, {}; Ctrl-C stops",
-            if writes {
-                "and a writer; writes need the token"
-            } else {
-                "read-only"
+            match (writes, live) {
+                (true, _) => "and a writer; writes need the token",
+                (false, true) => "mapping live; the tools are read-only (writes need a --token-file)",
+                (false, false) => "read-only",
             }
         );
         api::http::serve(listener, app, &opts, async {

@@ -28,7 +28,7 @@ pub fn ground_frame(r: &impl GraphRead) -> Result<GroundFrame> {
     let env = r.nodes_with_label(label::ENVIRONMENT)?;
     let Some(id) = env.first() else {
         return Err(Error::NoGroundFrame(
-            "the store has no Environment node".into(),
+            "the map has no Environment node yet".into(),
         ));
     };
     let name = r

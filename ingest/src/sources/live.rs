@@ -458,14 +458,17 @@ impl Assembler {
                     };
                     *stats.incomplete.entry(missing.into()).or_default() += 1;
                     tracing::warn!(target: "opengraph::live", "cloud stamped {stamp} ns dropped: no {missing} within {} s", self.max_wait_secs);
+                    // not taken: a later cloud stamped before it is still welcome (a cloud
+                    // stamped far ahead must not shut out the stream behind it)
                     self.clouds.remove(&stamp);
-                    self.last_ns = Some(stamp);
                 }
             }
         }
-        // parts far behind the newest cloud can no longer match anything
-        if let Some(newest) = self.last_ns.max(self.clouds.keys().next_back().copied()) {
-            let cut = newest - KEEP_PARTS_NS;
+        // parts far behind the last cloud taken and the oldest one waiting can no longer match
+        // anything (a waiting cloud stamped far ahead must not make the others' parts look old)
+        let oldest_waiting = self.clouds.keys().next().copied();
+        if let Some(anchor) = [self.last_ns, oldest_waiting].into_iter().flatten().min() {
+            let cut = anchor - KEEP_PARTS_NS;
             self.poses = self.poses.split_off(&cut);
             self.detections = self.detections.split_off(&cut);
         }
@@ -993,6 +996,64 @@ mod tests {
             &mut st,
         );
         assert_eq!(st.stamp_backwards, 1);
+        assert_eq!(a.waiting(), 0);
+    }
+
+    #[test]
+    fn a_cloud_stamped_far_ahead_does_not_shut_out_the_stream() {
+        let mut a = Assembler::new(&cfg(), None).unwrap();
+        let mut st = LiveStats::default();
+        a.push(camera(), 0.0, &mut st);
+        let frame = |a: &mut Assembler, st: &mut LiveStats, k: i64, now: f64| {
+            let stamp_ns = k * 100 * MS;
+            a.push(
+                Part::Cloud {
+                    stamp_ns,
+                    points: vec![],
+                },
+                now,
+                st,
+            );
+            a.push(
+                Part::Pose {
+                    stamp_ns,
+                    world_from_velo: Rigid3::identity(),
+                },
+                now,
+                st,
+            );
+            a.push(
+                Part::Detections {
+                    stamp_ns,
+                    frame: dets(k as u32),
+                },
+                now,
+                st,
+            );
+        };
+        frame(&mut a, &mut st, 1, 0.0);
+        // a cloud a million seconds ahead, with no parts
+        a.push(
+            Part::Cloud {
+                stamp_ns: 1_000_000_000 * MS,
+                points: vec![],
+            },
+            0.1,
+            &mut st,
+        );
+        let mut taken = Vec::new();
+        for k in 2..40 {
+            let now = k as f64 * 0.1;
+            frame(&mut a, &mut st, k, now);
+            taken.extend(a.poll(now, &mut st).into_iter().map(|f| f.index));
+        }
+        assert_eq!(taken, (1..40).collect::<Vec<u32>>());
+        assert_eq!(st.incomplete.get("pose"), Some(&1), "{st:?}");
+        // after it is dropped, the stream goes on
+        frame(&mut a, &mut st, 40, 5.0);
+        let f = a.poll(5.0, &mut st);
+        assert_eq!(f.iter().map(|f| f.index).collect::<Vec<_>>(), vec![40]);
+        assert_eq!(st.stamp_backwards, 0);
         assert_eq!(a.waiting(), 0);
     }
 
