@@ -545,12 +545,30 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
             }
             Change::Add { .. } => diff.created_nodes.first().copied(),
         };
+        // the properties the edit left on every node it changed or made, so that undo can tell
+        // whether anything (the live mapper, another write) changed them since
+        let mut after = Vec::new();
+        let left: Vec<u64> = diff
+            .changed_nodes
+            .iter()
+            .map(|n| get_u64(n, "id"))
+            .chain(diff.created_nodes.iter().map(|id| Ok(*id)))
+            .collect::<graphstore::Result<_>>()?;
+        for id in left {
+            if let Some(node) = tx.node(id)? {
+                after.push(map(vec![
+                    ("id", Value::Int(id as i64)),
+                    ("props", props_map(tx, &node.props)),
+                ]));
+            }
+        }
         let record = map(vec![
             ("created_nodes", ids(&diff.created_nodes)),
             ("created_rels", ids(&diff.created_rels)),
             ("deleted_nodes", Value::List(diff.deleted_nodes.clone())),
             ("deleted_rels", Value::List(diff.deleted_rels.clone())),
             ("changed_nodes", Value::List(diff.changed_nodes.clone())),
+            ("after_nodes", Value::List(after)),
         ]);
         let deleted: Vec<u64> = diff
             .deleted_nodes
@@ -635,6 +653,22 @@ pub fn undo(store: &Store, edit_id: u64) -> Result<EditInfo> {
                 .payload(edit_id, scene::payload::DIFF)?
                 .ok_or_else(|| invalid(format!("map edit {edit_id} has no recorded diff")))?;
             let d = Value::from_bytes(&bytes)?;
+            // refuse to overwrite what changed after the edit (edits recorded before this
+            // check have no after-state and are undone as before)
+            if let Value::Map(m) = &d
+                && let Some(Value::List(after)) = m.get("after_nodes")
+            {
+                for n in after {
+                    let id = get_u64(n, "id")?;
+                    let now = tx.node(id)?.map(|node| props_map(tx, &node.props));
+                    if now.as_ref() != Some(get(n, "props")?) {
+                        return Err(invalid(format!(
+                            "node {id} changed after map edit {edit_id} (by live mapping or another write): \
+                             undoing the edit would overwrite that; nothing was changed"
+                        )));
+                    }
+                }
+            }
             for r in get_list(&d, "created_rels")? {
                 let Value::Int(r) = r else { continue };
                 if tx.rel(*r as u64)?.is_some() {

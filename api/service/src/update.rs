@@ -75,7 +75,53 @@ pub struct UpdateAnswer {
     pub applied: Option<Applied>,
 }
 
+/// The instance id a phrase names outright: "instance 444", "instance:444", "object 444", "#444".
+fn named_id(phrase: &str) -> Option<u64> {
+    let p = phrase.trim().to_lowercase();
+    let p = p.strip_prefix("the ").unwrap_or(&p);
+    let rest = ["instance", "object", "node"]
+        .iter()
+        .find_map(|w| p.strip_prefix(w))
+        .or_else(|| p.strip_prefix('#'))?;
+    rest.trim_start_matches([' ', ':', '#']).parse().ok()
+}
+
+/// A caption or phrase as compared word for word: lower case, articles dropped.
+fn plain_words(s: &str) -> String {
+    s.to_lowercase()
+        .split(|c: char| !c.is_alphanumeric())
+        .filter(|w| !w.is_empty() && !matches!(*w, "the" | "a" | "an"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 fn resolve(finder: &mut Finder, r: &impl GraphRead, phrase: &str) -> ToolResult<Resolved> {
+    // an instance named by its id is that instance
+    if let Some(id) = named_id(phrase) {
+        let scene = finder.scene(r).map_err(failed)?;
+        let o = scene.objects.iter().find(|o| o.id == id).ok_or_else(|| {
+            ToolError::NotFound(format!("{phrase:?}: the map has no instance {id}"))
+        })?;
+        return Ok(Resolved {
+            phrase: phrase.to_string(),
+            candidates: vec![GraphFound {
+                id,
+                label: o.label.clone(),
+                caption: o.caption.clone(),
+                semantic_class: o.semantic_class.clone(),
+                score: 1.0,
+                similarity: 1.0,
+                cosine: 1.0,
+                centroid: o.centroid,
+                segment: o.segment.clone(),
+                segment_match: None,
+                evidence: Vec::new(),
+                place_distance_m: None,
+            }],
+            ambiguous: false,
+            weak: false,
+        });
+    }
     let (a, nearest_to) = crate::tasks::find_near_places(
         finder,
         r,
@@ -96,6 +142,23 @@ fn resolve(finder: &mut Finder, r: &impl GraphRead, phrase: &str) -> ToolResult<
         return Err(ToolError::NotFound(format!(
             "nothing in the map matches {phrase:?}"
         )));
+    }
+    let mut a = a;
+    // the one candidate whose caption is the phrase word for word is the one meant
+    let want = plain_words(phrase);
+    let exact: Vec<usize> = (0..a.results.len())
+        .filter(|&i| plain_words(&a.results[i].caption) == want)
+        .collect();
+    if let [i] = exact[..] {
+        let hit = a.results.remove(i);
+        a.results.insert(0, hit);
+        let weak = a.results[0].cosine < finder.weak_match_cosine();
+        return Ok(Resolved {
+            phrase: phrase.to_string(),
+            candidates: a.results.into_iter().take(3).collect(),
+            ambiguous: false,
+            weak,
+        });
     }
     // the nearest to a place is one object unless the next is about as near
     let ambiguous = a.results.len() > 1
@@ -517,6 +580,27 @@ pub fn undo(store: &Store, edit_id: u64) -> ToolResult<ingest::map_edit::EditInf
 mod tests {
     use super::*;
     use graphstore::Value;
+
+    #[test]
+    fn an_instance_is_named_by_its_id_and_captions_compare_word_for_word() {
+        for (p, want) in [
+            ("instance 444", Some(444)),
+            ("the instance:444", Some(444)),
+            ("Object #12", Some(12)),
+            ("#7", Some(7)),
+            ("node 3", Some(3)),
+            ("the instance near the bench", None),
+            ("instance 44a", None),
+            ("a bench", None),
+        ] {
+            assert_eq!(named_id(p), want, "{p}");
+        }
+        assert_eq!(
+            plain_words("The short, brown  park bench"),
+            plain_words("short brown park bench")
+        );
+        assert_ne!(plain_words("a long bench"), plain_words("a short bench"));
+    }
     use llm_tools::Embedder;
     use llm_tools::chat::scripted::{Reply, Scripted};
 
