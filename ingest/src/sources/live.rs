@@ -464,11 +464,13 @@ impl Assembler {
                 }
             }
         }
-        // parts far behind the last cloud taken and the oldest one waiting can no longer match
-        // anything (a waiting cloud stamped far ahead must not make the others' parts look old)
+        // parts far behind the last cloud taken, the oldest one waiting and the newest pose
+        // can no longer match anything (a cloud stamped far ahead, even the first one, must not
+        // make the stream's own parts look old)
         let oldest_waiting = self.clouds.keys().next().copied();
+        let newest_pose = self.poses.keys().next_back().copied();
         if let Some(anchor) = [self.last_ns, oldest_waiting].into_iter().flatten().min() {
-            let cut = anchor - KEEP_PARTS_NS;
+            let cut = newest_pose.map_or(anchor, |p| anchor.min(p)) - KEEP_PARTS_NS;
             self.poses = self.poses.split_off(&cut);
             self.detections = self.detections.split_off(&cut);
         }
@@ -1031,14 +1033,39 @@ mod tests {
                 st,
             );
         };
-        frame(&mut a, &mut st, 1, 0.0);
-        // a cloud a million seconds ahead, with no parts
+        // a cloud a million seconds ahead, with no parts, before anything else; then frame 1's
+        // pose, which waits for its cloud across a poll
         a.push(
             Part::Cloud {
                 stamp_ns: 1_000_000_000 * MS,
                 points: vec![],
             },
-            0.1,
+            0.0,
+            &mut st,
+        );
+        a.push(
+            Part::Pose {
+                stamp_ns: 100 * MS,
+                world_from_velo: Rigid3::identity(),
+            },
+            0.0,
+            &mut st,
+        );
+        assert!(a.poll(0.0, &mut st).is_empty());
+        a.push(
+            Part::Cloud {
+                stamp_ns: 100 * MS,
+                points: vec![],
+            },
+            0.0,
+            &mut st,
+        );
+        a.push(
+            Part::Detections {
+                stamp_ns: 100 * MS,
+                frame: dets(1),
+            },
+            0.0,
             &mut st,
         );
         let mut taken = Vec::new();
