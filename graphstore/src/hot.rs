@@ -155,37 +155,43 @@ impl Hot {
     /// as seeds the copies `base` made, or the seeds it had, while the change log still
     /// reaches back to them.
     pub(crate) fn after(base: &Hot, seq: u64) -> Hot {
-        let fresh = |s: u64| seq - s < crate::layout::CHANGE_LOG_COMMITS as u64;
+        let fresh = |s: &u64| seq - s < crate::layout::CHANGE_LOG_COMMITS as u64;
         let adj = match base.adj.built() {
             Some(c) => Some((seq, c)),
-            None => locked(&base.seed.adj).clone().filter(|(s, _)| fresh(*s)),
+            None => locked(&base.seed.adj).clone().filter(|(s, _)| fresh(s)),
         };
-        let mut node_columns: HashMap<u32, Seeded<Column>> = locked(&base.seed.node_columns)
-            .iter()
-            .filter(|(_, (s, _))| fresh(*s))
-            .map(|(k, v)| (*k, v.clone()))
-            .collect();
-        for (k, lazy) in base.node_columns.entries() {
-            if let Some(c) = lazy.built() {
-                node_columns.insert(k, (seq, c));
-            }
-        }
-        let mut labels: HashMap<u32, Seeded<crate::columns::LabelMembers>> =
-            locked(&base.seed.labels)
+        // per token: the copy `base` made, else its seed while still fresh
+        fn carried<T>(
+            seeds: &std::sync::Mutex<HashMap<u32, Seeded<T>>>,
+            built: impl Iterator<Item = (u32, Arc<T>)>,
+            seq: u64,
+            fresh: impl Fn(&u64) -> bool,
+        ) -> std::sync::Mutex<HashMap<u32, Seeded<T>>> {
+            let mut m: HashMap<u32, Seeded<T>> = locked(seeds)
                 .iter()
-                .filter(|(_, (s, _))| fresh(*s))
+                .filter(|(_, (s, _))| fresh(s))
                 .map(|(k, v)| (*k, v.clone()))
                 .collect();
-        for (k, cell) in base.labels.entries() {
-            if let Some(m) = cell.get() {
-                labels.insert(k, (seq, m.clone()));
-            }
+            m.extend(built.map(|(k, c)| (k, (seq, c))));
+            std::sync::Mutex::new(m)
         }
+        let columns = base.node_columns.entries().into_iter();
+        let labels = base.labels.entries().into_iter();
         Hot {
             seed: Seed {
                 adj: std::sync::Mutex::new(adj),
-                node_columns: std::sync::Mutex::new(node_columns),
-                labels: std::sync::Mutex::new(labels),
+                node_columns: carried(
+                    &base.seed.node_columns,
+                    columns.filter_map(|(k, lazy)| lazy.built().map(|c| (k, c))),
+                    seq,
+                    fresh,
+                ),
+                labels: carried(
+                    &base.seed.labels,
+                    labels.filter_map(|(k, cell)| cell.get().map(|m| (k, m.clone()))),
+                    seq,
+                    fresh,
+                ),
             },
             ..Hot::default()
         }
@@ -206,11 +212,10 @@ impl<T> Default for Keyed<T> {
 impl<T> Keyed<T> {
     /// Every token's state made so far.
     pub(crate) fn entries(&self) -> Vec<(u32, Arc<T>)> {
-        let m = self
-            .0
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        m.iter().map(|(k, v)| (*k, v.clone())).collect()
+        locked(&self.0)
+            .iter()
+            .map(|(k, v)| (*k, v.clone()))
+            .collect()
     }
 }
 

@@ -547,14 +547,13 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
         };
         // the properties the edit left on every node it changed or made, so that undo can tell
         // whether anything (the live mapper, another write) changed them since
-        let mut after = Vec::new();
-        let left: Vec<u64> = diff
+        let changed: Vec<u64> = diff
             .changed_nodes
             .iter()
             .map(|n| get_u64(n, "id"))
-            .chain(diff.created_nodes.iter().map(|id| Ok(*id)))
             .collect::<graphstore::Result<_>>()?;
-        for id in left {
+        let mut after = Vec::new();
+        for &id in changed.iter().chain(&diff.created_nodes) {
             if let Some(node) = tx.node(id)? {
                 after.push(map(vec![
                     ("id", Value::Int(id as i64)),
@@ -572,11 +571,6 @@ pub fn apply(store: &Store, change: &Change, text: &str, parsed_by: &str) -> Res
         ]);
         let deleted: Vec<u64> = diff
             .deleted_nodes
-            .iter()
-            .map(|n| get_u64(n, "id"))
-            .collect::<graphstore::Result<_>>()?;
-        let changed: Vec<u64> = diff
-            .changed_nodes
             .iter()
             .map(|n| get_u64(n, "id"))
             .collect::<graphstore::Result<_>>()?;

@@ -138,30 +138,27 @@ fn resolve(finder: &mut Finder, r: &impl GraphRead, phrase: &str) -> ToolResult<
         },
     )
     .map_err(|e| ToolError::BadArguments(e.to_string()))?;
+    let mut a = a;
     if a.results.is_empty() {
         return Err(ToolError::NotFound(format!(
             "nothing in the map matches {phrase:?}"
         )));
     }
-    let mut a = a;
     // the one candidate whose caption is the phrase word for word is the one meant
     let want = plain_words(phrase);
     let exact: Vec<usize> = (0..a.results.len())
         .filter(|&i| plain_words(&a.results[i].caption) == want)
         .collect();
-    if let [i] = exact[..] {
+    let named_exactly = if let [i] = exact[..] {
         let hit = a.results.remove(i);
         a.results.insert(0, hit);
-        let weak = a.results[0].cosine < finder.weak_match_cosine();
-        return Ok(Resolved {
-            phrase: phrase.to_string(),
-            candidates: a.results.into_iter().take(3).collect(),
-            ambiguous: false,
-            weak,
-        });
-    }
+        true
+    } else {
+        false
+    };
     // the nearest to a place is one object unless the next is about as near
-    let ambiguous = a.results.len() > 1
+    let ambiguous = !named_exactly
+        && a.results.len() > 1
         && match (
             nearest_to,
             a.results[0].place_distance_m,

@@ -250,21 +250,13 @@ impl MapView {
         // every kept object keeps its segment; a changed node's record is read again
         let mut objects = Vec::with_capacity(self.objects.len() + changed.len());
         let mut kept = self.objects.iter().peekable();
-        let instance = r.label(label::INSTANCE);
         for id in changed {
             while let Some(o) = kept.next_if(|o| o.id < *id) {
                 objects.push(o.clone());
             }
             kept.next_if(|o| o.id == *id);
-            let is_instance = match instance {
-                Some(l) => r
-                    .node_keys(*id, &[])?
-                    .is_some_and(|n| n.labels.contains(&l)),
-                None => false,
-            };
-            if is_instance {
-                objects.extend(scene_object(r, *id, ground, &seg_kind)?);
-            }
+            // none for a node that is gone or of another layer
+            objects.extend(scene_object(r, *id, ground, &seg_kind)?);
         }
         objects.extend(kept.cloned());
         Ok(MapView {

@@ -449,16 +449,11 @@ impl ReadTxn {
             .get(|| 2 * self.total(1), || self.copy_adjacency())
     }
 
-    /// The nodes changed since commit `seq` (see [`crate::layout::ChangeLog`]).
-    fn changed_since(&self, seq: u64) -> Option<Vec<u64>> {
-        self.base.changes.since(seq, self.base.seq)
-    }
-
     /// The adjacency in memory: an earlier commit's copy with the changed nodes' rows read
     /// again when there is one ([`crate::hot::Seed`]), else [`ReadTxn::copy_adjacency_whole`].
     fn copy_adjacency(&self) -> Option<crate::hot::AdjMem> {
         if let Some((seq, old)) = self.base.hot.seed.take_adj()
-            && let Some(changed) = self.changed_since(seq)
+            && let Some(changed) = self.nodes_changed_since(seq)
         {
             let t = self.t_adj().ok()?;
             let fresh = |n: u64| -> Result<Vec<crate::adjacency::AdjRow>> {
@@ -546,7 +541,7 @@ impl ReadTxn {
     /// when there is one ([`crate::hot::Seed`]), else read from the label index.
     fn label_members_now(&self, label: u32) -> Result<crate::columns::LabelMembers> {
         if let Some((seq, old)) = self.base.hot.seed.take_labels(label)
-            && let Some(changed) = self.changed_since(seq)
+            && let Some(changed) = self.nodes_changed_since(seq)
         {
             return old.patched(&changed, |id| {
                 Ok(match self.t_nodes()?.get(&id).map_err(storage)? {
@@ -605,7 +600,7 @@ impl ReadTxn {
     fn build_column(&self, nodes: bool, key: u32) -> Option<crate::columns::Column> {
         if nodes
             && let Some((seq, old)) = self.base.hot.seed.take_column(key)
-            && let Some(changed) = self.changed_since(seq)
+            && let Some(changed) = self.nodes_changed_since(seq)
         {
             let value = |id: u64| -> Result<Option<Value>> {
                 match self.t_nodes()?.get(&id).map_err(storage)? {
@@ -1103,7 +1098,6 @@ impl<'a> WriteTxn<'a> {
         }
         for k in Raw::payload_keys(self, id)? {
             self.payloads.remove(&(id, k.as_str())).map_err(storage)?;
-            self.touched.add(id);
         }
         self.apply_node(id, Some(&before), None)
     }
