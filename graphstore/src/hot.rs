@@ -7,12 +7,13 @@
 //! [`Lazy::get`]), the table is copied into memory in one sequential pass: the adjacency as
 //! columns in key order ([`AdjMem`], about 20 bytes a row, up to [`ADJ_MAX_ROWS`] rows), the
 //! record tables as one byte arena indexed by id ([`RecordsMem`], dense ids only, up to
-//! [`RECORDS_MAX_BYTES`]); later asks are a slice lookup. A table past those sizes keeps being
+//! [`RECORDS_MAX_BYTES`]), a property index as a hash table by value ([`EqIndex`], for
+//! equality lookups); later asks are a slice or hash lookup. A table past those sizes keeps being
 //! read from redb. The copies belong to the commit's [`crate::Committed`] state: a new commit
 //! starts without them, so they are never stale, and the last reader of an old commit frees
 //! them. Write transactions never use them (they must see their own changes).
 
-use std::collections::HashMap;
+use hashbrown::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 
@@ -103,6 +104,8 @@ pub(crate) struct Hot {
     pub(crate) node_columns: Keyed<Lazy<crate::columns::Column>>,
     /// Per property key: that property of every relationship.
     pub(crate) rel_columns: Keyed<Lazy<crate::columns::Column>>,
+    /// Per property index id: its entries as a hash table, for equality lookups.
+    pub(crate) prop_eq: Keyed<Lazy<EqIndex>>,
     /// Copies of earlier commits to bring up to this one instead of copying afresh.
     pub(crate) seed: Seed,
 }
@@ -465,6 +468,15 @@ impl AdjMem {
     /// The part of rows `s..e` (one node's, in key order) with direction `dir` and a type in
     /// `t0..=t1`.
     fn narrow(&self, s: usize, e: usize, dir: u8, t0: u32, t1: u32) -> (usize, usize) {
+        if e - s <= 16 {
+            // a typical node: a linear pass over its few rows beats two binary searches
+            let (dirs, tys) = (&self.dirs[s..e], &self.tys[s..e]);
+            let below = |i: usize| (dirs[i], tys[i]) < (dir, t0);
+            let within = |i: usize| (dirs[i], tys[i]) <= (dir, t1);
+            let lo = (0..dirs.len()).find(|&i| !below(i)).unwrap_or(dirs.len());
+            let hi = (lo..dirs.len()).find(|&i| !within(i)).unwrap_or(dirs.len());
+            return (s + lo, s + hi);
+        }
         let key = |i: usize| (self.dirs[s + i], self.tys[s + i]);
         let n = e - s;
         let lo = partition(n, |i| key(i) < (dir, t0));
@@ -592,6 +604,102 @@ fn partition(n: usize, pred: impl Fn(usize) -> bool) -> usize {
         }
     }
     lo
+}
+
+/// Entries of one property index above which it is not copied (about 400 MB at 24 bytes an
+/// entry).
+pub(crate) const EQ_MAX_ENTRIES: usize = 16 << 20;
+
+/// Bytes of non-numeric keys above which a property index is not copied.
+pub(crate) const EQ_MAX_KEY_BYTES: usize = 256 << 20;
+
+/// The value of a slot that holds several nodes: the high bit, and the list's position.
+const EQ_MANY: u64 = 1 << 63;
+
+/// One property index's entries in memory, by value: a hash lookup instead of a B-tree descent
+/// for `{key: value}` equality. Keys are the index's sort keys ([`crate::codec::sort_key`]),
+/// exact for every indexed value: numbers by their 8-byte key, other values by their bytes.
+/// A slot holds one node id, or (high bit set) where the list of several lies.
+#[derive(Debug, Default)]
+pub(crate) struct EqIndex {
+    numbers: HashMap<u64, u64>,
+    others: HashMap<Box<[u8]>, u64>,
+    many: Vec<Vec<u64>>,
+    key_bytes: usize,
+    entries: usize,
+}
+
+impl EqIndex {
+    /// The index from its entries `(sort key, node id)` in key order (ids ascending within a
+    /// key, as the table holds them); `None` past [`EQ_MAX_ENTRIES`] or [`EQ_MAX_KEY_BYTES`],
+    /// or for a node id with the high bit set.
+    pub(crate) fn from_entries<K: AsRef<[u8]>>(
+        entries: impl Iterator<Item = crate::Result<(K, u64)>>,
+    ) -> crate::Result<Option<EqIndex>> {
+        let mut m = EqIndex::default();
+        for e in entries {
+            let (key, id) = e?;
+            let key = key.as_ref();
+            if id & EQ_MANY != 0 || m.entries >= EQ_MAX_ENTRIES {
+                return Ok(None);
+            }
+            m.entries += 1;
+            let slot = match Self::number(key) {
+                Some(n) => match m.numbers.entry(n) {
+                    hashbrown::hash_map::Entry::Occupied(o) => o.into_mut(),
+                    hashbrown::hash_map::Entry::Vacant(v) => {
+                        v.insert(id);
+                        continue;
+                    }
+                },
+                None => match m.others.get_mut(key) {
+                    Some(slot) => slot,
+                    None => {
+                        m.key_bytes += key.len();
+                        if m.key_bytes > EQ_MAX_KEY_BYTES {
+                            return Ok(None);
+                        }
+                        m.others.insert(key.into(), id);
+                        continue;
+                    }
+                },
+            };
+            Self::add(&mut m.many, slot, id);
+        }
+        Ok(Some(m))
+    }
+
+    fn add(many: &mut Vec<Vec<u64>>, slot: &mut u64, id: u64) {
+        if *slot & EQ_MANY != 0 {
+            many[(*slot & !EQ_MANY) as usize].push(id);
+        } else {
+            many.push(vec![*slot, id]);
+            *slot = EQ_MANY | (many.len() - 1) as u64;
+        }
+    }
+
+    /// A numeric sort key as its 8 bytes.
+    fn number(key: &[u8]) -> Option<u64> {
+        match key {
+            [k, rest @ ..] if *k == crate::codec::K_NUMBER => {
+                <[u8; 8]>::try_from(rest).ok().map(u64::from_be_bytes)
+            }
+            _ => None,
+        }
+    }
+
+    /// The nodes whose value has sort key `key`, ascending.
+    pub(crate) fn get(&self, key: &[u8]) -> Vec<u64> {
+        let slot = match Self::number(key) {
+            Some(n) => self.numbers.get(&n),
+            None => self.others.get(key),
+        };
+        match slot {
+            None => Vec::new(),
+            Some(&s) if s & EQ_MANY != 0 => self.many[(s & !EQ_MANY) as usize].clone(),
+            Some(&s) => vec![s],
+        }
+    }
 }
 
 #[cfg(test)]
@@ -806,6 +914,111 @@ mod tests {
             }
             // a commit after a copy always has a seed
             prop_assert!(seeded > 0 || commits.iter().all(|(_, b)| !b));
+        }
+    }
+
+    /// Indexed values of every kind, with the pairs an index must tell apart or join: 1 and
+    /// 1.0, 0.0 and -0.0, integers past f64's exact range, strings with a NUL byte.
+    fn eq_value(i: u8) -> crate::Value {
+        use crate::Value::*;
+        match i % 14 {
+            0 => Int(1),
+            1 => Float(1.0),
+            2 => Float(0.0),
+            3 => Float(-0.0),
+            4 => Int((1 << 53) + 1),
+            5 => Int(1 << 53),
+            6 => String(std::string::String::new()),
+            7 => String("a\0b".into()),
+            8 => String("a".into()),
+            9 => Bool(true),
+            10 => Bool(false),
+            11 => Float(f64::INFINITY),
+            12 => Int(-7),
+            _ => String("bus stop".into()),
+        }
+    }
+
+    proptest! {
+        /// An equality lookup answered from the in-memory copy of a property index gives the
+        /// nodes the index's range scan gives, for every kind of value.
+        #[test]
+        fn index_copy_lookups_equal_range_scans(
+            nodes in proptest::collection::vec((any::<bool>(), proptest::option::of(0u8..14)), 0..60),
+        ) {
+            use crate::GraphRead;
+            let dir = tempfile::tempdir().unwrap();
+            let store = crate::Store::create(dir.path().join("e.og")).unwrap();
+            store
+                .set_schema(crate::Schema {
+                    property_indexes: vec![crate::PropertyIndexSpec {
+                        name: None,
+                        label: "A".into(),
+                        key: "k".into(),
+                    }],
+                    ..crate::Schema::default()
+                })
+                .unwrap();
+            store
+                .write(|tx| {
+                    let (a, b, k) = (tx.label_id("A")?, tx.label_id("B")?, tx.prop_key_id("k")?);
+                    for (in_a, v) in &nodes {
+                        let props = v.map(|v| vec![(k, eq_value(v))]).unwrap_or_default();
+                        tx.create_node(&[if *in_a { a } else { b }], props)?;
+                    }
+                    Ok(())
+                })
+                .unwrap();
+            let r = store.read().unwrap();
+            let idx = crate::read::property_index(r.view(), "A", "k").unwrap().unwrap();
+            let lookups = |r: &crate::ReadTxn| -> Vec<Vec<u64>> {
+                (0..14).map(|i| r.find_nodes("A", "k", &eq_value(i)).unwrap()).collect()
+            };
+            let scanned = lookups(&r);
+            prop_assert!(r.base().hot.prop_eq.get(idx).built().is_none());
+            let copy = r.base().hot.prop_eq.get(idx).force(|| r.copy_property_index(idx));
+            prop_assert!(copy.is_some());
+            prop_assert_eq!(lookups(&r), scanned.clone());
+            // and both give what the nodes hold
+            for (i, ids) in scanned.iter().enumerate() {
+                let want = eq_value(i as u8);
+                let expect: Vec<u64> = (0..nodes.len() as u64)
+                    .filter(|id| {
+                        let (in_a, v) = nodes[*id as usize];
+                        in_a && v.is_some_and(|v| {
+                            crate::read::compare(&eq_value(v), &want) == Some(std::cmp::Ordering::Equal)
+                        })
+                    })
+                    .collect();
+                prop_assert_eq!(ids, &expect, "value {:?}", want);
+            }
+            // ranges with exclusive and inclusive bounds keep every node on the right side,
+            // also where integers share one index key
+            use crate::ValueBound::{Exclusive, Inclusive, Unbounded};
+            for i in 0..14u8 {
+                let b = eq_value(i);
+                if !matches!(b, crate::Value::Int(_) | crate::Value::Float(_)) {
+                    continue;
+                }
+                for (lo, hi, keep) in [
+                    (Exclusive(b.clone()), Unbounded, [std::cmp::Ordering::Greater].as_slice()),
+                    (Inclusive(b.clone()), Unbounded, &[std::cmp::Ordering::Greater, std::cmp::Ordering::Equal]),
+                    (Unbounded, Exclusive(b.clone()), &[std::cmp::Ordering::Less]),
+                    (Unbounded, Inclusive(b.clone()), &[std::cmp::Ordering::Less, std::cmp::Ordering::Equal]),
+                ] {
+                    let mut got = r.find_range("A", "k", lo.clone(), hi.clone()).unwrap();
+                    got.sort_unstable();
+                    let expect: Vec<u64> = (0..nodes.len() as u64)
+                        .filter(|id| {
+                            let (in_a, v) = nodes[*id as usize];
+                            in_a && v.is_some_and(|v| {
+                                crate::read::compare(&eq_value(v), &b).is_some_and(|o| keep.contains(&o))
+                            })
+                        })
+                        .collect();
+                    prop_assert_eq!(got, expect, "{:?}..{:?}", lo, hi);
+                }
+            }
         }
     }
 

@@ -34,6 +34,15 @@ pub(crate) trait Raw {
     fn adj(&self, node: u64, dir: u8, ty: Option<u32>) -> Result<Vec<(u64, u32, u64)>>;
     fn label_nodes(&self, label: u32) -> Result<Vec<u64>>;
     fn propidx(&self, lo: Bound<&[u8]>, hi: Bound<&[u8]>) -> Result<Vec<u64>>;
+    /// The nodes of property index `index` whose value has sort key `sort_key`, ascending
+    /// (a reader of a committed snapshot answers from its in-memory copy once it has one).
+    fn propidx_eq(&self, index: u32, sort_key: &[u8]) -> Result<Vec<u64>> {
+        let mut lo = index_prefix(index);
+        lo.extend_from_slice(sort_key);
+        let mut hi = lo.clone();
+        hi.extend_from_slice(&[0xff; 8]);
+        self.propidx(Bound::Included(&lo), Bound::Included(&hi))
+    }
     fn count_rows(&self) -> Result<Vec<((u8, u32), u64)>>;
     fn payload(&self, node: u64, key: &str) -> Result<Option<Vec<u8>>>;
     fn payload_keys(&self, node: u64) -> Result<Vec<String>>;
@@ -134,7 +143,7 @@ impl VectorSearch for FlatVectorIndex<'_> {
     }
 }
 
-fn index_prefix(index: u32) -> Vec<u8> {
+pub(crate) fn index_prefix(index: u32) -> Vec<u8> {
     index.to_be_bytes().to_vec()
 }
 
@@ -310,14 +319,7 @@ pub trait GraphRead {
         let Some(sk) = sort_key(value) else {
             return Ok(Vec::new());
         };
-        let mut lo = index_prefix(idx);
-        lo.extend_from_slice(&sk);
-        let mut hi = lo.clone();
-        hi.extend_from_slice(&[0xff; 8]);
-        let ids = self
-            .view()
-            .raw
-            .propidx(Bound::Included(&lo), Bound::Included(&hi))?;
+        let ids = self.view().raw.propidx_eq(idx, &sk)?;
         verify_exact(
             self.view(),
             key,
@@ -376,6 +378,10 @@ pub trait GraphRead {
                 lo_key = key_of(v, &[]);
                 Bound::Included(lo_key.as_slice())
             }
+            ValueBound::Exclusive(v) if shares_key(&lower) => {
+                lo_key = key_of(v, &[]);
+                Bound::Included(lo_key.as_slice())
+            }
             ValueBound::Exclusive(v) => {
                 lo_key = key_of(v, &[0xff; 8]);
                 Bound::Excluded(lo_key.as_slice())
@@ -388,6 +394,10 @@ pub trait GraphRead {
                 Bound::Excluded(hi_key.as_slice())
             }
             ValueBound::Inclusive(v) => {
+                hi_key = key_of(v, &[0xff; 8]);
+                Bound::Included(hi_key.as_slice())
+            }
+            ValueBound::Exclusive(v) if shares_key(&upper) => {
                 hi_key = key_of(v, &[0xff; 8]);
                 Bound::Included(hi_key.as_slice())
             }
@@ -578,7 +588,7 @@ fn spatial_hits(
         .collect())
 }
 
-fn property_index(v: View<'_>, label: &str, key: &str) -> Result<Option<u32>> {
+pub(crate) fn property_index(v: View<'_>, label: &str, key: &str) -> Result<Option<u32>> {
     let (Some(l), Some(k)) = (
         v.raw.token(TokenKind::Label, label),
         v.raw.token(TokenKind::PropKey, key),
@@ -615,6 +625,13 @@ fn property_index(v: View<'_>, label: &str, key: &str) -> Result<Option<u32>> {
 }
 
 /// Index keys compare integers as f64; for integers f64 cannot hold exactly, re-check.
+/// Whether a bound is an integer whose index key other integers share (keys are f64-based:
+/// from 2^53 on, neighbouring integers round to one key), so the index's answer must be
+/// checked against the values, and an exclusive bound must not leave out the whole key.
+fn shares_key(b: &ValueBound) -> bool {
+    matches!(b, ValueBound::Inclusive(Value::Int(i)) | ValueBound::Exclusive(Value::Int(i)) if !int_exact_in_f64(*i) || i.unsigned_abs() == 1 << 53)
+}
+
 fn verify_exact(
     v: View<'_>,
     key: &str,
@@ -622,8 +639,7 @@ fn verify_exact(
     lo: &ValueBound,
     hi: &ValueBound,
 ) -> Result<Vec<u64>> {
-    let big = |b: &ValueBound| matches!(b, ValueBound::Inclusive(Value::Int(i)) | ValueBound::Exclusive(Value::Int(i)) if !int_exact_in_f64(*i));
-    if !big(lo) && !big(hi) {
+    if !shares_key(lo) && !shares_key(hi) {
         return Ok(ids);
     }
     let Some(k) = v.raw.token(TokenKind::PropKey, key) else {

@@ -27,7 +27,7 @@ mod validate;
 
 /// A read snapshot. Holds the redb read transaction and the matching index state.
 ///
-/// Its tables but the counts are opened on first use (a statement that reads one index and a
+/// Its tables are opened on first use (a statement that reads one index and a
 /// few records opens three or four of the eight: opening a table is a B-tree lookup in redb's
 /// table of tables).
 pub struct ReadTxn {
@@ -41,9 +41,7 @@ pub struct ReadTxn {
     adj: OnceLock<crate::adjacency::AdjTable>,
     labels: OnceLock<ReadOnlyTable<(u32, u64), ()>>,
     propidx: OnceLock<ReadOnlyTable<&'static [u8], ()>>,
-    /// Opened with the transaction: the sizes it holds decide, for every reader of the commit,
-    /// when the in-memory copies are made, so a failure to open it fails the read.
-    counts: ReadOnlyTable<(u8, u32), u64>,
+    counts: OnceLock<ReadOnlyTable<(u8, u32), u64>>,
     payloads: OnceLock<ReadOnlyTable<(u64, &'static str), &'static [u8]>>,
 }
 
@@ -71,6 +69,7 @@ lazy_tables! {
     t_labels: labels = LABELS => ReadOnlyTable<(u32, u64), ()>;
     t_propidx: propidx = PROPIDX => ReadOnlyTable<&'static [u8], ()>;
     t_payloads: payloads = PAYLOADS => ReadOnlyTable<(u64, &'static str), &'static [u8]>;
+    t_counts: counts = COUNTS => ReadOnlyTable<(u8, u32), u64>;
 }
 
 impl std::fmt::Debug for ReadTxn {
@@ -86,7 +85,6 @@ impl ReadTxn {
         base: Arc<Committed>,
         format: u32,
     ) -> Result<ReadTxn> {
-        let counts = txn.open_table(COUNTS).map_err(storage)?;
         Ok(ReadTxn {
             txn,
             base,
@@ -97,13 +95,9 @@ impl ReadTxn {
             adj: OnceLock::new(),
             labels: OnceLock::new(),
             propidx: OnceLock::new(),
-            counts,
+            counts: OnceLock::new(),
             payloads: OnceLock::new(),
         })
-    }
-
-    fn t_counts(&self) -> Result<&ReadOnlyTable<(u8, u32), u64>> {
-        Ok(&self.counts)
     }
 
     /// The node (`nodes`) or relationship records table.
@@ -396,6 +390,17 @@ impl Raw for ReadTxn {
     fn token_name(&self, id: u32) -> Option<String> {
         self.base.tokens.name(id).map(str::to_string)
     }
+    fn propidx_eq(&self, index: u32, sort_key: &[u8]) -> Result<Vec<u64>> {
+        let lazy = self.base.hot.prop_eq.get(index);
+        if let Some(m) = lazy.get(|| self.total(0), || self.copy_property_index(index)) {
+            return Ok(m.get(sort_key));
+        }
+        let mut lo = crate::read::index_prefix(index);
+        lo.extend_from_slice(sort_key);
+        let mut hi = lo.clone();
+        hi.extend_from_slice(&[0xff; 8]);
+        self.propidx(Bound::Included(&lo), Bound::Included(&hi))
+    }
     raw_reads!();
 }
 
@@ -432,9 +437,49 @@ impl Raw for WriteTxn<'_> {
 }
 
 impl ReadTxn {
+    /// Property index `index` read into memory in one pass (None: too large, or unreadable).
+    pub(crate) fn copy_property_index(&self, index: u32) -> Option<crate::hot::EqIndex> {
+        let lo = crate::read::index_prefix(index);
+        let hi = index.checked_add(1).map(crate::read::index_prefix);
+        let range = match &hi {
+            Some(h) => self.t_propidx().ok()?.range::<&[u8]>((
+                Bound::Included(lo.as_slice()),
+                Bound::Excluded(h.as_slice()),
+            )),
+            None => self
+                .t_propidx()
+                .ok()?
+                .range::<&[u8]>((Bound::Included(lo.as_slice()), Bound::Unbounded)),
+        }
+        .ok()?;
+        let rows = range.map(|row| {
+            let (k, _) = row.map_err(storage)?;
+            let key = k.value();
+            let split = key
+                .len()
+                .checked_sub(8)
+                .filter(|s| *s >= lo.len())
+                .ok_or_else(|| corrupt("property index", "short key"))?;
+            let id = <[u8; 8]>::try_from(&key[split..])
+                .map(u64::from_be_bytes)
+                .map_err(|_| corrupt("property index", "short key"))?;
+            Ok((key[lo.len()..split].to_vec(), id))
+        });
+        match crate::hot::EqIndex::from_entries(rows) {
+            Ok(m) => m,
+            Err(e) => {
+                tracing::warn!(error = %e, "property index not copied into memory");
+                None
+            }
+        }
+    }
+
     /// How many nodes (`which` 0) or relationships (1) the store holds (0 if unreadable).
     fn total(&self, which: u32) -> u64 {
-        match self.counts.get((2u8, which)) {
+        let Ok(counts) = self.t_counts() else {
+            return 0;
+        };
+        match counts.get((2u8, which)) {
             Ok(Some(g)) => g.value(),
             _ => 0,
         }
