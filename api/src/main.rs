@@ -45,7 +45,10 @@ fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+                // warnings, and live ingest's progress (a line per commit)
+                .unwrap_or_else(|_| {
+                    tracing_subscriber::EnvFilter::new("warn,opengraph::live=info")
+                }),
         )
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))

@@ -192,6 +192,9 @@ fn a_replayed_drive_mapped_live_matches_the_batch_build() {
         st["live"]["frames_mapped"] == 30 && st["live"]["hierarchy_refreshes"].as_u64() > Some(0)
     });
     let l = &st["live"];
+    // the service's info (what HTTP /api/info and MCP answer) carries the same counts
+    assert_eq!(st["info"]["live"]["frames_assembled"], 30, "{st}");
+    assert!(st["info"]["live"]["commits"].as_u64() > Some(0), "{st}");
     assert_eq!(l["malformed"], json!({}), "{st}");
     assert_eq!(l["dropped_behind"], 0, "{st}");
     assert_eq!(l["incomplete"], json!({}), "{st}");
@@ -234,6 +237,16 @@ fn a_replayed_drive_mapped_live_matches_the_batch_build() {
     drop(events);
     z.close().wait().unwrap();
     stop(server, &log);
+    // progress in the log: a line per commit and per hierarchy refresh
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(
+        text.contains("committed") && text.contains("frames mapped of"),
+        "no commit lines in the log:\n{text}"
+    );
+    assert!(
+        text.contains("hierarchy refreshed in"),
+        "no refresh lines:\n{text}"
+    );
     // the live map is the batch map
     let (a, b) = (summary(&batch), summary(&live));
     assert_eq!(a, b, "batch vs live");

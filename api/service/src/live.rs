@@ -31,6 +31,8 @@ pub struct LiveHandle {
     stop: Arc<AtomicBool>,
     input: Arc<Mutex<Option<Arc<LiveInput>>>>,
     thread: Option<std::thread::JoinHandle<ToolResult<BuildReport>>>,
+    /// The service whose `info` shows the counts until [`LiveHandle::stop`].
+    service: Option<Arc<Service>>,
 }
 
 /// Reads a live ingest's counts from anywhere (a status route, a queryable).
@@ -66,6 +68,9 @@ impl LiveHandle {
     /// # Errors
     /// What opening the live build refused, or [`ToolError::Failed`] if the thread died.
     pub fn stop(mut self) -> ToolResult<BuildReport> {
+        if let Some(s) = self.service.take() {
+            s.set_live(None);
+        }
         self.stop.store(true, Ordering::Relaxed);
         if let Some(i) = self
             .input
@@ -168,9 +173,13 @@ pub fn start(
         stop,
         input,
         thread: Some(thread),
+        service: Some(service.clone()),
     };
     match opened {
-        Ok(()) => Ok(handle),
+        Ok(()) => {
+            service.set_live(Some(handle.watch()));
+            Ok(handle)
+        }
         Err(e) => {
             let _ = handle.stop();
             Err(e)

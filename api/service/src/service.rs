@@ -51,6 +51,8 @@ pub struct Service {
     writes: bool,
     timeout: Duration,
     events: crate::events::EventBus,
+    /// The counts of live ingest into this service's store, while one runs.
+    live: std::sync::Mutex<Option<crate::live::LiveWatch>>,
 }
 
 impl std::fmt::Debug for Service {
@@ -85,6 +87,7 @@ impl Service {
             writes,
             timeout,
             events: crate::events::EventBus::default(),
+            live: std::sync::Mutex::new(None),
         }))
     }
 
@@ -234,8 +237,30 @@ impl Service {
     /// # Errors
     /// The store fails.
     pub async fn info(self: &Arc<Self>) -> ToolResult<Json> {
-        self.run(|tb| crate::info::value(tb.store()).map_err(|e| ToolError::Failed(e.to_string())))
-            .await
+        let mut v = self
+            .run(|tb| crate::info::value(tb.store()).map_err(|e| ToolError::Failed(e.to_string())))
+            .await?;
+        if let Some(stats) = self.live_stats() {
+            v["live"] = serde_json::to_value(stats).unwrap_or_default();
+        }
+        Ok(v)
+    }
+
+    /// The counts of live ingest into this store ([`crate::live::start`]), while one runs.
+    pub fn live_stats(&self) -> Option<ingest::sources::live::LiveStats> {
+        self.live
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .as_ref()
+            .map(crate::live::LiveWatch::stats)
+    }
+
+    /// Live ingest into this store started (`Some`) or stopped (`None`).
+    pub(crate) fn set_live(&self, watch: Option<crate::live::LiveWatch>) {
+        *self
+            .live
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = watch;
     }
 
     /// The whole map exported in a one-file format ([`crate::export`]), as bytes, with its

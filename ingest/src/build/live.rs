@@ -485,6 +485,16 @@ impl<'a> LiveBuild<'a> {
             .filter_map(|i| self.run.nodes.get(i).copied())
             .filter(|n| !updated.contains(n))
             .collect();
+        tracing::info!(
+            target: "opengraph::live",
+            "committed {} key frame(s): {} instance(s) added, {} updated ({} frames mapped of {} assembled, {} commits)",
+            pending.len(),
+            added.len(),
+            updated.len(),
+            stats.frames_mapped,
+            stats.frames_assembled,
+            stats.commits,
+        );
         let mut events = Vec::new();
         if !added.is_empty() {
             events.push(self.event(MapEventKind::InstanceAdded, added));
@@ -519,6 +529,12 @@ impl<'a> LiveBuild<'a> {
             Ok((_, _, h)) => {
                 self.hierarchy_stale = false;
                 stats.hierarchy_refreshes += 1;
+                tracing::info!(
+                    target: "opengraph::live",
+                    "hierarchy refreshed in {:.2} s from {} poses",
+                    self.last_hierarchy_secs,
+                    self.trajectory.len(),
+                );
                 self.report.hierarchy = Some(h);
                 Ok(vec![
                     self.event(MapEventKind::HierarchyRefreshed, Vec::new()),
