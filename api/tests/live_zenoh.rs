@@ -379,6 +379,13 @@ fn malformed_samples_are_counted_and_ignored() {
     for h in &hostile {
         pubc.put(h.clone()).wait().unwrap();
     }
+    // a message of another type on the cloud topic: counted, not decoded
+    z.put(
+        key("velodyne_points", &STRING),
+        encode(&RosString { data: "hi".into() }).unwrap(),
+    )
+    .wait()
+    .unwrap();
     let odom = Odometry {
         pose: PoseWithCovariance {
             pose: Pose {
@@ -408,6 +415,7 @@ fn malformed_samples_are_counted_and_ignored() {
         st["live"]["malformed"]["cloud"] == hostile.len() as u64
             && st["live"]["malformed"]["odometry"] == 1
             && st["live"]["malformed"]["detections"] == 1
+            && st["live"]["wrong_type"]["cloud"] == 1
     });
     assert!(
         st["live"]["last_error"]

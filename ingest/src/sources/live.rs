@@ -271,6 +271,10 @@ pub struct LiveStats {
     pub malformed: BTreeMap<String, u64>,
     /// Non-finite points dropped from clouds.
     pub nonfinite_points: u64,
+    /// Messages on a configured topic of another ROS type than the topic takes (not
+    /// decoded), by kind.
+    #[serde(default)]
+    pub wrong_type: BTreeMap<String, u64>,
     /// Clouds dropped because a part did not come within `max_wait_secs`, by the part.
     pub incomplete: BTreeMap<String, u64>,
     /// Clouds refused because their stamp was not after the last cloud taken.
@@ -302,6 +306,23 @@ impl LiveStats {
         *self.malformed.entry(kind.to_string()).or_default() += 1;
         tracing::warn!(target: "opengraph::live", "malformed {kind} on {key}: {error}");
         self.last_error = Some(format!("{key}: {error}"));
+    }
+
+    /// Counts and logs a message of another type (DDS type name `got`) on `kind`'s topic.
+    pub fn wrong_type(&mut self, kind: MessageKind, key: &str, got: &str) {
+        *self.wrong_type.entry(kind.name().to_string()).or_default() += 1;
+        let want = kind.ros_type();
+        tracing::warn!(
+            target: "opengraph::live",
+            "{got} on {key}: the {} topic takes {}; not read",
+            kind.name(),
+            want.name
+        );
+        self.last_error = Some(format!(
+            "{key}: a {got} message, but the {} topic takes {}",
+            kind.name(),
+            want.name
+        ));
     }
 
     /// Counts a received message of `kind`.
@@ -767,6 +788,14 @@ impl LiveInput {
         self.enqueue(frames, stats);
     }
 
+    /// Counts a message of another ROS type (DDS type name `got`) that came on `kind`'s
+    /// topic at `key`; it is not decoded.
+    pub fn refuse_type(&self, kind: MessageKind, key: &str, got: &str) {
+        let mut stats = LiveStats::default();
+        stats.wrong_type(kind, key, got);
+        self.enqueue(Vec::new(), stats);
+    }
+
     /// Drops the clouds whose parts are overdue (call it now and then when no message comes).
     pub fn tick(&self) {
         let mut stats = LiveStats::default();
@@ -850,6 +879,7 @@ fn merge(into: &mut LiveStats, from: LiveStats) {
     add(&mut into.received, from.received);
     add(&mut into.malformed, from.malformed);
     add(&mut into.incomplete, from.incomplete);
+    add(&mut into.wrong_type, from.wrong_type);
     into.nonfinite_points += from.nonfinite_points;
     into.stamp_backwards += from.stamp_backwards;
     into.already_mapped += from.already_mapped;

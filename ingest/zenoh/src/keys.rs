@@ -18,9 +18,16 @@ pub fn ros_topic(domain_id: u32, topic: &str, ty: &RosType) -> String {
     )
 }
 
-/// The key to subscribe to `topic` of type `ty` with (any type hash).
-pub fn ros_subscription(domain_id: u32, topic: &str, ty: &RosType) -> String {
-    format!("{domain_id}/{}/{}/*", topic.trim_start_matches('/'), ty.dds)
+/// The key to subscribe to `topic` with: any type and type hash, so that a message of
+/// another type on the topic is seen (and counted, see [`ros_type_of`]) rather than missed.
+pub fn ros_subscription(domain_id: u32, topic: &str) -> String {
+    format!("{domain_id}/{}/*/*", topic.trim_start_matches('/'))
+}
+
+/// The DDS type name in `key`, a sample's key under [`ros_subscription`] of `topic`.
+pub fn ros_type_of<'k>(key: &'k str, domain_id: u32, topic: &str) -> Option<&'k str> {
+    let rest = key.strip_prefix(&format!("{domain_id}/{}/", topic.trim_start_matches('/')))?;
+    rest.split('/').next()
 }
 
 /// Whether `name` may be a map or region chunk of a key: letters, digits, `_`, `-`, `.`.
@@ -51,10 +58,13 @@ mod tests {
             ros_topic(0, "/velodyne_points", &POINT_CLOUD2),
             "0/velodyne_points/sensor_msgs::msg::dds_::PointCloud2_/RIHS01_9198cabf7da3796ae6fe19c4cb3bdd3525492988c70522628af5daa124bae2b5"
         );
+        assert_eq!(ros_subscription(3, "/kitti/velo"), "3/kitti/velo/*/*");
+        let key = ros_topic(3, "/kitti/velo", &POINT_CLOUD2);
         assert_eq!(
-            ros_subscription(3, "kitti/velo", &POINT_CLOUD2),
-            "3/kitti/velo/sensor_msgs::msg::dds_::PointCloud2_/*"
+            ros_type_of(&key, 3, "/kitti/velo"),
+            Some("sensor_msgs::msg::dds_::PointCloud2_")
         );
+        assert_eq!(ros_type_of(&key, 4, "/kitti/velo"), None);
         assert!(is_chunk("city-1.a") && !is_chunk("a/b") && !is_chunk("*") && !is_chunk(""));
         assert_eq!(map_prefix("city", Some("north")), "opengraph/city/north");
     }

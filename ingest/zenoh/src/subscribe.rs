@@ -1,6 +1,7 @@
 //! The sensor subscribers: one zenoh subscriber per configured topic, each handing its
-//! samples to the live input ([`ingest::sources::live::LiveInput::accept`]), which decodes,
-//! checks and assembles them. Nothing here can fail on a sample.
+//! samples of the topic's type to the live input ([`ingest::sources::live::LiveInput::accept`]),
+//! which decodes, checks and assembles them, and counting those of another type
+//! ([`ingest::sources::live::LiveInput::refuse_type`]). Nothing here can fail on a sample.
 
 use std::sync::Arc;
 
@@ -40,13 +41,20 @@ pub fn subscribe(
         let Some(topic) = kind.topic(cfg) else {
             continue;
         };
-        let key = keys::ros_subscription(cfg.domain_id, topic, &kind.ros_type());
+        let key = keys::ros_subscription(cfg.domain_id, topic);
         let input = input.clone();
+        let (domain, topic) = (cfg.domain_id, topic.to_string());
+        let want = kind.ros_type().dds;
         let sub = session
             .declare_subscriber(key.clone())
             .callback(move |sample: zenoh::sample::Sample| {
-                let bytes = sample.payload().to_bytes();
-                input.accept(kind, sample.key_expr().as_str(), &bytes);
+                let key = sample.key_expr().as_str();
+                match keys::ros_type_of(key, domain, &topic) {
+                    Some(ty) if ty == want => {
+                        input.accept(kind, key, &sample.payload().to_bytes());
+                    }
+                    other => input.refuse_type(kind, key, other.unwrap_or("?")),
+                }
             })
             .wait()
             .map_err(zerr)?;
