@@ -1,4 +1,4 @@
-"""Shared helpers of the set 7, 8 and 9 generators (`setN/gen.py`).
+"""Shared helpers of the set 7 to 10 generators (`setN/gen.py`).
 
 Each `setN/gen.py` keeps only what is its own: the defaults for `$OPENGRAPH` and
 `$OPENGRAPH_ASK_DB`, its vocabulary (`KINDS`, `NOUNS`), its questions (`add` and the shorthands
