@@ -867,3 +867,108 @@ fn three_region_shards_answer_as_the_whole_map_and_a_stopped_one_is_missing() {
     let _ = whole_server.kill();
     let _ = whole_server.wait();
 }
+
+/// The server's HTTP address, from the note it leaves beside the map.
+fn http_url(db: &Path) -> String {
+    let note = PathBuf::from(format!("{}.serving.json", db.display()));
+    let start = Instant::now();
+    loop {
+        if let Ok(t) = std::fs::read_to_string(&note)
+            && let Ok(v) = serde_json::from_str::<Json>(&t)
+            && let Some(u) = v["url"].as_str()
+        {
+            return u.trim_end_matches('/').to_string();
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "no serving note");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn map_edits_made_while_mapping_live_stand() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    json(&og(&["sim", "--out", s(&sim), "--frames", "40", "--json"]));
+    let live = dir.path().join("live.og");
+    let log = dir.path().join("serve.log");
+    let (token_file, token) = write_token(dir.path());
+    let port = free_port();
+    let server = live_server(
+        &live,
+        port,
+        &sim,
+        &config(dir.path(), 2.0),
+        &log,
+        &["--token-file", s(&token_file)],
+    );
+    let z = client(port);
+    wait_status(&z, 60, &log, |_| true);
+    let url = http_url(&live);
+    let rep = replay(&sim, port, &["--rate", "0", "--frames", "0..1420"]);
+    assert_eq!(rep["clouds"], 20, "{rep}");
+    // the first part mapped, finished once idle, with its hierarchy
+    wait_status(&z, 300, &log, |st| {
+        st["live"]["frames_mapped"] == 20 && st["live"]["hierarchy_refreshes"].as_u64() > Some(0)
+    });
+    // two objects seen in the last frames so far (so the drive goes on seeing them), each
+    // with a caption no other object has: one is said to be gone, one repainted
+    let (st, rows) = post(
+        &format!("{url}/api/cypher"),
+        &json!({"query": "MATCH (i:Instance)-[:OBSERVED_IN]->(f:Frame) WHERE f.index >= 15 \
+            AND NOT i.semantic_class IN ['road', 'sidewalk', 'parking', 'terrain', 'other-ground', 'building', 'vegetation'] \
+            WITH DISTINCT i MATCH (j:Instance) WITH i, sum(CASE WHEN j.caption = i.caption THEN 1 ELSE 0 END) AS same \
+            WHERE same = 1 RETURN id(i) AS id, i.caption AS caption ORDER BY id LIMIT 2"}),
+        None,
+    );
+    assert_eq!(st, 200, "{rows}");
+    let rows = rows["rows"].as_array().cloned().unwrap_or_default();
+    assert_eq!(rows.len(), 2, "two objects to edit: {rows:?}");
+    let (gone, gone_caption) = (
+        rows[0]["id"].as_u64().unwrap(),
+        rows[0]["caption"].as_str().unwrap().to_string(),
+    );
+    let (painted, painted_caption) = (
+        rows[1]["id"].as_u64().unwrap(),
+        rows[1]["caption"].as_str().unwrap().to_string(),
+    );
+    for text in [
+        format!("{gone_caption} is gone"),
+        format!("{painted_caption} is now purple"),
+    ] {
+        let (st, v) = post(
+            &format!("{url}/api/update"),
+            &json!({"text": text, "apply": true}),
+            Some(&token),
+        );
+        assert_eq!(st, 200, "{text}: {v}");
+        assert!(v["applied"]["edit_id"].as_u64().is_some(), "{text}: {v}");
+    }
+    let caption_now = |id: u64| {
+        let (st, v) = common::get(&format!("{url}/api/instances/{id}"));
+        (st, v["properties"]["caption"].as_str().map(str::to_string))
+    };
+    let edited = caption_now(painted).1.unwrap();
+    assert!(edited.contains("purple"), "{edited}");
+    // the rest of the drive: mapped and finished again, with no write refused
+    let rep = replay(&sim, port, &["--rate", "0", "--frames", "1420..2853"]);
+    assert_eq!(rep["clouds"], 20, "{rep}");
+    let st = wait_status(&z, 300, &log, |st| {
+        st["live"]["frames_mapped"] == 40 && st["live"]["hierarchy_refreshes"].as_u64() > Some(1)
+    });
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(
+        !text.contains("live mapping:"),
+        "a live write failed:\n{text}"
+    );
+    assert!(st["live"]["last_error"].is_null(), "{st}");
+    // the edits stand
+    assert_eq!(caption_now(gone).0, 404, "the removed instance is back");
+    assert_eq!(
+        caption_now(painted).1.as_deref(),
+        Some(edited.as_str()),
+        "the new caption was overwritten"
+    );
+    assert!(text.contains("was changed by another writer"), "{text}");
+    z.close().wait().unwrap();
+    stop(server, &log);
+}

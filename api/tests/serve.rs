@@ -6,7 +6,10 @@
 //! official Python client.
 
 mod common;
-use common::{json, json_of_run, og, python_with_mcp, read_query, s, serve, serve_with_env};
+use common::{
+    get, json, json_of_run, og, post, python_with_mcp, read_query, request, s, serve,
+    serve_with_env, try_request, write_token,
+};
 
 use std::path::Path;
 use std::process::Command;
@@ -14,84 +17,6 @@ use std::sync::OnceLock;
 use std::time::Duration;
 
 use serde_json::{Value, json};
-
-fn agent() -> ureq::Agent {
-    ureq::Agent::config_builder()
-        .timeout_global(Some(Duration::from_secs(60)))
-        .http_status_as_error(false)
-        .build()
-        .into()
-}
-
-/// (status, content type, body bytes) of a request.
-fn request(
-    method: &str,
-    url: &str,
-    headers: &[(&str, &str)],
-    body: Option<&[u8]>,
-) -> (u16, String, Vec<u8>) {
-    try_request(method, url, headers, body).unwrap_or_else(|e| panic!("{method} {url}: {e}"))
-}
-
-/// [`request`], or the transport error (a server may answer 413 and close the connection
-/// while a client is still sending an oversized body).
-fn try_request(
-    method: &str,
-    url: &str,
-    headers: &[(&str, &str)],
-    body: Option<&[u8]>,
-) -> Result<(u16, String, Vec<u8>), ureq::Error> {
-    let a = agent();
-    let resp = match (method, body) {
-        ("GET", _) => {
-            let mut r = a.get(url);
-            for (k, v) in headers {
-                r = r.header(*k, *v);
-            }
-            r.call()
-        }
-        (m, b) => {
-            let mut r = match m {
-                "POST" => a.post(url),
-                "PUT" => a.put(url),
-                _ => a.patch(url),
-            };
-            for (k, v) in headers {
-                r = r.header(*k, *v);
-            }
-            r.send(b.unwrap_or_default())
-        }
-    };
-    let mut resp = resp?;
-    let status = resp.status().as_u16();
-    let ct = resp
-        .headers()
-        .get("content-type")
-        .and_then(|v| v.to_str().ok())
-        .unwrap_or_default()
-        .to_string();
-    let bytes = resp
-        .body_mut()
-        .with_config()
-        .limit(64 << 20)
-        .read_to_vec()?;
-    Ok((status, ct, bytes))
-}
-
-fn get(url: &str) -> (u16, Value) {
-    let (st, _, b) = request("GET", url, &[], None);
-    (st, serde_json::from_slice(&b).unwrap_or(Value::Null))
-}
-
-fn post(url: &str, body: &Value, token: Option<&str>) -> (u16, Value) {
-    let auth = token.map(|t| format!("Bearer {t}"));
-    let headers: Vec<(&str, &str)> = auth
-        .as_deref()
-        .map(|a| vec![("Authorization", a)])
-        .unwrap_or_default();
-    let (st, _, b) = request("POST", url, &headers, Some(body.to_string().as_bytes()));
-    (st, serde_json::from_slice(&b).unwrap_or(Value::Null))
-}
 
 /// One small simulated city mapped once for all tests here (hash embedder: no model files).
 fn map() -> &'static Path {
@@ -106,13 +31,6 @@ fn copy_of_map() -> (tempfile::TempDir, std::path::PathBuf) {
     let db = dir.path().join("city.og");
     std::fs::copy(map(), &db).unwrap();
     (dir, db)
-}
-
-fn write_token(dir: &Path) -> (std::path::PathBuf, String) {
-    let token = "test-token-0123456789abcdef".to_string();
-    let path = dir.join("token");
-    std::fs::write(&path, format!("{token}\n")).unwrap();
-    (path, token)
 }
 
 /// Validates `value` against the schema named by a `$ref` into the document's components.

@@ -99,6 +99,9 @@ pub struct LiveBuild<'a> {
     report: BuildReport,
     times: StageTimes,
     t_embed: f64,
+    /// The store's commit after this build's last own write: later commits are another
+    /// writer's (a map edit, a Cypher write) until the next own one.
+    seen_seq: u64,
 }
 
 impl std::fmt::Debug for LiveBuild<'_> {
@@ -214,8 +217,10 @@ impl<'a> LiveBuild<'a> {
             producer: String::new(),
             checkpoint_node,
             checkpoint_extra: Vec::new(),
+            pinned: std::collections::BTreeSet::new(),
         };
         Ok(LiveBuild {
+            seen_seq: store.commit_seq(),
             store,
             run,
             cfg: cfg.clone(),
@@ -452,6 +457,41 @@ impl<'a> LiveBuild<'a> {
     /// Commits the mapped frames: the changed objects, the frames and the checkpoint in one
     /// transaction.
     fn commit(&mut self, stats: &mut LiveStats) -> Result<Vec<MapEvent>> {
+        self.note_others();
+        let out = self.commit_own(stats);
+        self.seen_seq = self.store.commit_seq();
+        out
+    }
+
+    /// Pins the objects whose instances another writer changed since this build's last own
+    /// write ([`LiveBuild::seen_seq`]): a map edit or a Cypher write stands, and this build no
+    /// longer rewrites them (their deletion is also caught in the write itself).
+    fn note_others(&mut self) {
+        let now = self.store.commit_seq();
+        if now == self.seen_seq {
+            return;
+        }
+        let changed = self
+            .store
+            .read()
+            .ok()
+            .and_then(|r| graphstore::GraphRead::nodes_changed_since(&r, self.seen_seq));
+        self.seen_seq = now;
+        let Some(changed) = changed else {
+            return;
+        };
+        let changed: std::collections::BTreeSet<u64> = changed.into_iter().collect();
+        for (iid, node) in &self.run.nodes {
+            if changed.contains(node) && self.run.pinned.insert(*iid) {
+                tracing::warn!(
+                    target: "opengraph::live",
+                    "instance {node} was changed by another writer while mapping (a map edit or a Cypher write): the change stands, and the mapper no longer rewrites that object"
+                );
+            }
+        }
+    }
+
+    fn commit_own(&mut self, stats: &mut LiveStats) -> Result<Vec<MapEvent>> {
         let dirty: Vec<u64> = self
             .run
             .mapper
@@ -508,6 +548,13 @@ impl<'a> LiveBuild<'a> {
     /// Rewrites the lanes, segments and relations from the poses so far. Too few poses for
     /// a lane graph is not an error: the refresh waits for more.
     fn refresh_hierarchy(&mut self, stats: &mut LiveStats) -> Result<Vec<MapEvent>> {
+        self.note_others();
+        let out = self.refresh_hierarchy_own(stats);
+        self.seen_seq = self.store.commit_seq();
+        out
+    }
+
+    fn refresh_hierarchy_own(&mut self, stats: &mut LiveStats) -> Result<Vec<MapEvent>> {
         let started = Instant::now();
         self.last_hierarchy = Some(started);
         // labels are normalised over the whole map with the hierarchy
@@ -558,9 +605,11 @@ impl<'a> LiveBuild<'a> {
         if self.unfinished {
             let before: BTreeMap<u64, u64> = self.run.nodes.clone();
             self.run.checkpoint_extra = self.checkpoint_extra();
+            self.note_others();
             let out = self
                 .run
                 .finish_objects(&self.cfg, i64::from(self.next_index));
+            self.seen_seq = self.store.commit_seq();
             self.run.checkpoint_extra.clear();
             let post = out?;
             self.report.commits += 1;

@@ -192,6 +192,9 @@ struct Run<'a> {
     checkpoint_node: u64,
     /// More checkpoint values for the next commit (a live build's stamp and poses).
     checkpoint_extra: Vec<(&'static str, Value)>,
+    /// Objects whose instance another writer changed or deleted while a live build ran (a
+    /// map edit, a Cypher write): their change stands, and this run no longer writes them.
+    pinned: std::collections::BTreeSet<u64>,
 }
 
 impl Run<'_> {
@@ -207,7 +210,12 @@ impl Run<'_> {
     ) -> Result<()> {
         let cfg = self.mapper.config().clone();
         let mut writes = Vec::new();
-        for o in self.mapper.objects().values().filter(|o| o.dirty) {
+        for o in self
+            .mapper
+            .objects()
+            .values()
+            .filter(|o| o.dirty && !self.pinned.contains(&o.instance_id))
+        {
             let d = describe(
                 o,
                 &cfg,
@@ -228,17 +236,22 @@ impl Run<'_> {
         }
         let next_id = self.mapper.next_id();
         let known = &self.nodes;
+        // a pinned object's instance keeps what another writer made of it, also when the
+        // post-processing drops or merges the object
+        let pinned = &self.pinned;
         let deleted_nodes: Vec<u64> = deleted
             .iter()
+            .filter(|i| !pinned.contains(i))
             .filter_map(|i| known.get(i).copied())
             .collect();
         let merged_nodes: Vec<(u64, u64)> = merged
             .iter()
+            .filter(|(k, g)| !pinned.contains(k) && !pinned.contains(g))
             .filter_map(|(k, g)| Some((*known.get(k)?, *known.get(g)?)))
             .collect();
         let checkpoint = self.checkpoint_node;
         let extra = &self.checkpoint_extra;
-        let created = self.store.write(|tx| {
+        let (created, vanished) = self.store.write(|tx| {
             // an absorbed object's observations move to the object that absorbed it
             if !merged_nodes.is_empty() {
                 let obs_ty = tx.rel_type_id(scene::rel::OBSERVED_IN)?;
@@ -249,7 +262,13 @@ impl Run<'_> {
                         .and_then(|r| r.get(det_key).and_then(Value::as_int))
                         .unwrap_or(1))
                 };
-                for (keep, gone) in &merged_nodes {
+                for (keep, absorbed) in &merged_nodes {
+                    let gone_now =
+                        |n: u64| -> graphstore::Result<bool> { Ok(tx.node(n)?.is_none()) };
+                    if gone_now(*keep)? || gone_now(*absorbed)? {
+                        continue;
+                    }
+                    let gone = absorbed;
                     let existing = tx.neighbours(*keep, Direction::Outgoing, Some(obs_ty))?;
                     for a in tx.neighbours(*gone, Direction::Outgoing, Some(obs_ty))? {
                         let n = count(tx, a.rel)?;
@@ -270,8 +289,14 @@ impl Run<'_> {
                     }
                 }
             }
+            // a node another writer deleted meanwhile is neither deleted again nor written
+            let gone = |tx: &graphstore::WriteTxn<'_>, n: u64| -> graphstore::Result<bool> {
+                Ok(tx.node(n)?.is_none())
+            };
             for n in &deleted_nodes {
-                tx.detach_delete_node(*n)?;
+                if !gone(tx, *n)? {
+                    tx.detach_delete_node(*n)?;
+                }
             }
             let mut frame_nodes: BTreeMap<u32, u64> = BTreeMap::new();
             for f in frames {
@@ -296,8 +321,13 @@ impl Run<'_> {
                 );
             }
             let mut created = Vec::new();
+            let mut vanished = Vec::new();
             for (iid, props, bytes, _, obs) in &writes {
                 let node = match known.get(iid) {
+                    Some(n) if gone(tx, *n)? => {
+                        vanished.push(*iid);
+                        continue;
+                    }
                     Some(n) => {
                         let mut kv = Vec::with_capacity(props.len());
                         for (k, v) in props {
@@ -346,10 +376,19 @@ impl Run<'_> {
                 let k = tx.prop_key_id(name)?;
                 tx.set_node_prop(checkpoint, k, v.clone())?;
             }
-            Ok(created)
+            Ok((created, vanished))
         })?;
         for (iid, n) in created {
             self.nodes.insert(iid, n);
+        }
+        for iid in vanished {
+            if let Some(n) = self.nodes.remove(&iid) {
+                tracing::warn!(
+                    target: "opengraph::live",
+                    "instance {n} was deleted by another writer while mapping (a map edit or a Cypher write): the deletion stands, and the mapper no longer writes that object"
+                );
+            }
+            self.pinned.insert(iid);
         }
         for d in deleted {
             self.nodes.remove(d);
@@ -693,6 +732,7 @@ pub fn build(
         producer,
         checkpoint_node,
         checkpoint_extra: Vec::new(),
+        pinned: std::collections::BTreeSet::new(),
     };
     // frames are ascending: the ones still to do are a suffix
     let first = frames.partition_point(|f| i64::from(*f) < start_frame);
