@@ -227,8 +227,12 @@ fn float_key(f: f64) -> u64 {
 enum TAcc {
     Count(i64),
     SumInt(Option<i64>),
-    SumFloat(f64),
-    Avg { sum: f64, n: u64 },
+    /// A float sum and how many values went in (a sum of none is the integer 0).
+    SumFloat(f64, u64),
+    Avg {
+        sum: f64,
+        n: u64,
+    },
     BestInt(Option<i64>),
     BestFloat(Option<f64>),
     BestStr(Option<u32>),
@@ -1059,7 +1063,7 @@ fn fresh(kind: AggKind, col: Option<&Col>) -> TAcc {
         (AggKind::CountStar | AggKind::Count, _) => TAcc::Count(0),
         (AggKind::Sum, Some(Column::Int { .. })) => TAcc::SumInt(Some(0)),
         // a float sum starts from -0.0, as Rust's `Sum` of floats does
-        (AggKind::Sum, _) => TAcc::SumFloat(-0.0),
+        (AggKind::Sum, _) => TAcc::SumFloat(-0.0, 0),
         (AggKind::Avg, _) => TAcc::Avg { sum: -0.0, n: 0 },
         (_, Some(Column::Int { .. })) => TAcc::BestInt(None),
         (_, Some(Column::Str { .. })) => TAcc::BestStr(None),
@@ -1075,7 +1079,10 @@ fn add(acc: &mut TAcc, kind: AggKind, cell: Cell<'_>, id: u64, col: Option<&Col>
         (_, Cell::Absent) => {}
         (TAcc::Count(n), _) => *n += 1,
         (TAcc::SumInt(s), Cell::Int(i)) => *s = s.and_then(|s| s.checked_add(i)),
-        (TAcc::SumFloat(s), Cell::Float(f)) => *s += f,
+        (TAcc::SumFloat(s, n), Cell::Float(f)) => {
+            *s += f;
+            *n += 1;
+        }
         (TAcc::Avg { sum, n }, Cell::Int(i)) => {
             *sum += i as f64;
             *n += 1;
@@ -1122,7 +1129,9 @@ fn value(acc: TAcc, col: Option<&Col>) -> R<Val> {
         TAcc::SumInt(s) => {
             Val::Int(s.ok_or_else(|| arg_err("NumberOutOfRange", "sum() overflowed"))?)
         }
-        TAcc::SumFloat(s) => Val::Float(s),
+        // no values (all null): the integer 0, as the generic `sum` gives
+        TAcc::SumFloat(_, 0) => Val::Int(0),
+        TAcc::SumFloat(s, _) => Val::Float(s),
         TAcc::Avg { n: 0, .. } => Val::Null,
         TAcc::Avg { sum, n } => Val::Float(sum / n as f64),
         TAcc::BestInt(b) => b.map_or(Val::Null, Val::Int),
