@@ -589,6 +589,68 @@ const SHORT_FORMS: [(&str, &str); 31] = [
 /// ([`Prepared`]: "Are there any pedestrians in segment 4? If so, how many?"; "There's one
 /// hydrant at a bend. What colour is it?": "it" is the hydrant at a bend; "operator query:
 /// ..." is a sentence that asks nothing).
+/// Radio procedure says who is talking to whom and when a turn ends, never what is asked:
+/// a sentence made only of call signs and procedure words ("Rover Three to Base.", "Base,
+/// this is Unit 7.", "Unit 4 to Base:", "Over.") is dropped, and so is a last clause of
+/// "over" or "over and out" after a comma. A sentence with any other word stays whole.
+fn drop_radio_procedure(t: &str) -> String {
+    const PROCEDURE: &[&str] = &[
+        "base", "control", "dispatch", "hq", "ops", "command", "unit", "rover", "team", "this",
+        "is", "to", "again", "here", "over", "out", "roger", "copy", "calling", "and", "one",
+        "two", "three", "four", "five", "six", "seven", "eight", "nine", "niner", "ten", "zero",
+    ];
+    let procedural = |sentence: &str| {
+        let words: Vec<&str> = sentence
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|w| !w.is_empty())
+            .collect();
+        // a sentence of radio words that names a station ("base", "unit"), or is "over"
+        words.iter().any(|w| {
+            matches!(
+                *w,
+                "base" | "control" | "dispatch" | "hq" | "unit" | "rover" | "over" | "roger"
+            )
+        }) && words
+            .iter()
+            .all(|w| PROCEDURE.contains(w) || w.chars().all(|c| c.is_ascii_digit()))
+    };
+    // sentences end at . : ! ? followed by a space or the end (not inside "2.5" or "no.5")
+    let mut out = String::new();
+    let mut start = 0;
+    let b = t.as_bytes();
+    for i in 0..b.len() {
+        let end =
+            matches!(b[i], b'.' | b':' | b'!' | b'?') && b.get(i + 1).is_none_or(|c| *c == b' ');
+        if end || i + 1 == b.len() {
+            let piece = &t[start..=i];
+            let body = piece.trim().trim_end_matches(['.', ':', '!', '?']);
+            if !procedural(body) {
+                out.push_str(piece);
+            }
+            start = i + 1;
+        }
+    }
+    // a call at the head of the first sentence, before a comma ("rover three to base,
+    // request ...", "unit 7 to base, the letter box ...")
+    let head = out.trim_start();
+    if let Some((call, rest)) = head.split_once(", ")
+        && procedural(call)
+        && (call.contains(" to ") || call.starts_with("this is "))
+    {
+        out = rest.to_string();
+    }
+    // "..., segment 2329, over." / "..., over and out"
+    let trimmed = out.trim();
+    let core = trimmed.trim_end_matches(['.', '!', '?']);
+    let stop = &trimmed[core.len()..];
+    for tail in [", over and out", ", over", ", out"] {
+        if let Some(head) = core.strip_suffix(tail) {
+            return format!("{head}{}", if stop.is_empty() { "?" } else { stop });
+        }
+    }
+    out.trim().to_string()
+}
+
 fn prepare(text: &str) -> Prepared {
     let mut t = text.to_lowercase().replace(['’', '‘'], "'");
     // remarks in parentheses qualify; they name nothing asked
@@ -604,6 +666,7 @@ fn prepare(text: &str) -> Prepared {
         .replace(" = ", ": ")
         .replace(" – ", " - ")
         .replace(" — ", " - ");
+    t = drop_radio_procedure(&t);
     // spoken fillers ("okay so uh how many ...") say nothing
     t = t
         .split(' ')
@@ -888,7 +951,12 @@ fn prepare(text: &str) -> Prepared {
             // clause before the first comma says where the asker is
             let q = &sentences[0];
             let question = match q.split_once(", ") {
-                Some((clause, rest)) if has(rest, "me") || has(rest, "us") => {
+                Some((clause, rest))
+                    if has_any(
+                        rest,
+                        &["me", "us", "my position", "my location", "our position"],
+                    ) =>
+                {
                     match asker_at(clause) {
                         Some(here) => put_asker(rest, &here),
                         None => q.clone(),
@@ -2043,11 +2111,18 @@ fn merge_sentences(sentences: &[String], asked: &[bool]) -> Prepared {
     }
 }
 
-/// `question` with "me" / "us" after a preposition ("within 45 m of me") as `here`, where
-/// the asker said they are.
+/// `question` with "me" / "us" / "my position" after a preposition ("within 45 m of me")
+/// as `here`, where the asker said they are.
 fn put_asker(question: &str, here: &str) -> String {
     let mut question = question.to_string();
-    for me in ["me", "us"] {
+    for me in [
+        "me",
+        "us",
+        "my position",
+        "my current position",
+        "my location",
+        "our position",
+    ] {
         for prep in ["to", "from", "near", "nearest", "closest", "of", "around"] {
             let said = format!(" {prep} {me}");
             let padded = format!("{question} ");
@@ -3319,6 +3394,10 @@ fn asker_at(context: &str) -> Option<String> {
         " i were ",
         " if i stand ",
         " if i stood ",
+        " my position is ",
+        " my current position is ",
+        " my location is ",
+        " our position is ",
     ] {
         let Some(i) = t.find(me) else { continue };
         let mut rest = t[i + me.len()..].trim();
@@ -4084,6 +4163,42 @@ pub fn check_grounded(task: &Task, question: &str) -> std::result::Result<(), St
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn radio_procedure_is_dropped_and_nothing_else() {
+        use super::drop_radio_procedure as d;
+        assert_eq!(
+            d("unit 4 to base: count of traffic lights, segment 2329, over."),
+            "count of traffic lights, segment 2329."
+        );
+        assert_eq!(
+            d("base, this is unit 7. what's the tally of trailers? over."),
+            "what's the tally of trailers?"
+        );
+        assert_eq!(
+            d("rover three to base. request the count. over and out"),
+            "request the count."
+        );
+        // a route or a definition with a colon is not procedure
+        assert_eq!(
+            d("lane node 2352 to lane node 2360: how long is the route?"),
+            "lane node 2352 to lane node 2360: how long is the route?"
+        );
+        assert_eq!(d("how far is it, 2.5 km?"), "how far is it, 2.5 km?");
+        assert_eq!(
+            d("unit 7 to base, the letter box in segment 2350: what colour is it? over."),
+            "the letter box in segment 2350: what colour is it?"
+        );
+        // a clause that is not a call stays
+        assert_eq!(
+            d("from lane node 4 to base camp, how far?"),
+            "from lane node 4 to base camp, how far?"
+        );
+        assert_eq!(
+            d("is the bus over there red?"),
+            "is the bus over there red?"
+        );
+    }
+
     use super::*;
 
     fn count(kind: &str, within: Option<&str>, near: Option<&str>, r: Option<f64>) -> Task {
