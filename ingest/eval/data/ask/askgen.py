@@ -9,6 +9,7 @@ Dijkstra over the `LANE` edges), the audits shared by all three sets, and the ch
 
 Every query is run with --read-only. Ground plane is (x, z); y is up.
 """
+import glob
 import heapq
 import json
 import math
@@ -245,6 +246,19 @@ def label_audit(objs, kinds, label, problems):
     return len(mine)
 
 # ---------------------------------------------------------------- check and report
+def other_set_questions(here):
+    """Question texts, lower-cased, of every set but the one in folder `here`
+    (../set*/questions.jsonl beside it; for the exact-duplicate check)."""
+    out = set()
+    for path in glob.glob(os.path.join(here, "..", "set*", "questions.jsonl")):
+        if os.path.abspath(os.path.dirname(path)) == here:
+            continue
+        for line in open(path):
+            if line.strip():
+                out.add(json.loads(line)["question"].strip().lower())
+    return out
+
+
 def main(*, here, og_default, db_default, kinds, nouns, extra_guards=True, prepare=None, pass_note=""):
     """Re-run every cypher of S, recompute the truths, run the audits and compare with
     here/questions.jsonl (rewritten first with --write, only if everything passes).

@@ -18,7 +18,6 @@ sets 7-9, coinciding reference points, a broad fence count). The helpers shared 
 (cypher builders, running the queries, truth recomputation, the common audits, the PASS/FAIL
 report) are in ../askgen.py.
 """
-import glob
 import json
 import math
 import os
@@ -308,17 +307,6 @@ def prev_from_files():
                 P["dist"].add(tuple(rs))
     return P
 
-def other_set_questions():
-    """Question texts of every other set in ../set*/questions.jsonl (exact-duplicate check only)."""
-    out = set()
-    for path in glob.glob(os.path.join(HERE, "..", "set*", "questions.jsonl")):
-        if os.path.abspath(os.path.dirname(path)) == HERE:
-            continue
-        for line in open(path):
-            if line.strip():
-                out.add(json.loads(line)["question"].strip().lower())
-    return out
-
 def run_aside(cypher):
     """run() for the audit's own lookups, kept out of the cache that the PASS line counts."""
     cached = cypher in askgen._cache
@@ -331,7 +319,7 @@ def prepare():
     """Set 10's per-question audit: no reuse of sets 7-9 (by id and by place: a lane node sits on
     a junction segment's centroid), no single-edge route, no repeated text, broad fence count."""
     lane_adj = {tuple(sorted((r["a"], r["b"]))) for r in run(Q_LANES)}
-    previous = other_set_questions()
+    previous = askgen.other_set_questions(HERE)
     P = prev_from_files()
     objs = run(Q_ALL)
     pts = {}

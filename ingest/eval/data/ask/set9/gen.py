@@ -16,8 +16,6 @@ This file holds only what is set 9's own (defaults, vocabulary, questions and it
 shared by sets 7-9 (cypher builders, running the queries, truth recomputation, the common
 audits, the PASS/FAIL report) are in ../askgen.py.
 """
-import glob
-import json
 import os
 import sys
 
@@ -25,6 +23,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))   # for ../askgen.py
 from askgen import Q_ALL_SEGMENTS, Q_LANES, add, distance, near, nearest, route, run, within  # noqa: E402
 from askgen import q_colour, q_count, q_count_segments, q_segment, main as check  # noqa: E402
+import askgen  # noqa: E402
 
 OG_DEFAULT = "/tmp/ask8/opengraph"   # $OPENGRAPH
 DB_DEFAULT = "/tmp/ask8/city.og"     # $OPENGRAPH_ASK_DB
@@ -280,21 +279,10 @@ def reuse_audit(q, lane_adj, probs):
             if r[0] == "object" and r[1] in PREV_OBJECTS:
                 probs.append(f"object {r[1]} already named in set 7 or 8")
 
-def other_set_questions():
-    """Question texts of every other set in ../set*/questions.jsonl (exact-duplicate check only)."""
-    out = set()
-    for path in glob.glob(os.path.join(HERE, "..", "set*", "questions.jsonl")):
-        if os.path.abspath(os.path.dirname(path)) == HERE:
-            continue
-        for line in open(path):
-            if line.strip():
-                out.add(json.loads(line)["question"].strip().lower())
-    return out
-
 def prepare():
     """Set 9's per-question audit: no reuse of sets 7-8, no single-edge route, no repeated text."""
     lane_adj = {tuple(sorted((r["a"], r["b"]))) for r in run(Q_LANES)}
-    previous = other_set_questions()
+    previous = askgen.other_set_questions(HERE)
     def audit(q, probs):
         reuse_audit(q, lane_adj, probs)
         if q["question"].strip().lower() in previous:
