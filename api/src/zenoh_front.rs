@@ -242,8 +242,7 @@ pub fn start(
         }
         None => None,
     };
-    let watch = live.as_ref().map(LiveHandle::watch);
-    // status: live counts and the summary
+    // status: live counts (the service's, see `Service::live_stats`) and the summary
     {
         let svc = service.clone();
         let rt = rt.clone();
@@ -254,7 +253,7 @@ pub fn start(
                 .declare_queryable(key.clone())
                 .callback(move |query: zenoh::query::Query| {
                     let svc = svc.clone();
-                    let live = watch.as_ref().map(|w| w.stats());
+                    let live = svc.live_stats();
                     let region = region.clone();
                     let key = key.clone();
                     rt.spawn(async move {

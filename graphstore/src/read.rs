@@ -37,11 +37,7 @@ pub(crate) trait Raw {
     /// The nodes of property index `index` whose value has sort key `sort_key`, ascending
     /// (a reader of a committed snapshot answers from its in-memory copy once it has one).
     fn propidx_eq(&self, index: u32, sort_key: &[u8]) -> Result<Vec<u64>> {
-        let mut lo = index_prefix(index);
-        lo.extend_from_slice(sort_key);
-        let mut hi = lo.clone();
-        hi.extend_from_slice(&[0xff; 8]);
-        self.propidx(Bound::Included(&lo), Bound::Included(&hi))
+        propidx_eq_scan(self, index, sort_key)
     }
     fn count_rows(&self) -> Result<Vec<((u8, u32), u64)>>;
     fn payload(&self, node: u64, key: &str) -> Result<Option<Vec<u8>>>;
@@ -145,6 +141,20 @@ impl VectorSearch for FlatVectorIndex<'_> {
 
 pub(crate) fn index_prefix(index: u32) -> Vec<u8> {
     index.to_be_bytes().to_vec()
+}
+
+/// [`Raw::propidx_eq`] by a range scan of the index table: the entries `index`, `sort_key`,
+/// any node id.
+pub(crate) fn propidx_eq_scan<R: Raw + ?Sized>(
+    raw: &R,
+    index: u32,
+    sort_key: &[u8],
+) -> Result<Vec<u64>> {
+    let mut lo = index_prefix(index);
+    lo.extend_from_slice(sort_key);
+    let mut hi = lo.clone();
+    hi.extend_from_slice(&[0xff; 8]);
+    raw.propidx(Bound::Included(&lo), Bound::Included(&hi))
 }
 
 /// Reads over a consistent view of the graph. Implemented by [`crate::ReadTxn`] and

@@ -395,11 +395,7 @@ impl Raw for ReadTxn {
         if let Some(m) = lazy.get(|| self.total(0), || self.copy_property_index(index)) {
             return Ok(m.get(sort_key));
         }
-        let mut lo = crate::read::index_prefix(index);
-        lo.extend_from_slice(sort_key);
-        let mut hi = lo.clone();
-        hi.extend_from_slice(&[0xff; 8]);
-        self.propidx(Bound::Included(&lo), Bound::Included(&hi))
+        crate::read::propidx_eq_scan(self, index, sort_key)
     }
     raw_reads!();
 }
@@ -441,17 +437,12 @@ impl ReadTxn {
     pub(crate) fn copy_property_index(&self, index: u32) -> Option<crate::hot::EqIndex> {
         let lo = crate::read::index_prefix(index);
         let hi = index.checked_add(1).map(crate::read::index_prefix);
-        let range = match &hi {
-            Some(h) => self.t_propidx().ok()?.range::<&[u8]>((
-                Bound::Included(lo.as_slice()),
-                Bound::Excluded(h.as_slice()),
-            )),
-            None => self
-                .t_propidx()
-                .ok()?
-                .range::<&[u8]>((Bound::Included(lo.as_slice()), Bound::Unbounded)),
-        }
-        .ok()?;
+        let upper = hi.as_deref().map_or(Bound::Unbounded, Bound::Excluded);
+        let range = self
+            .t_propidx()
+            .ok()?
+            .range::<&[u8]>((Bound::Included(lo.as_slice()), upper))
+            .ok()?;
         let rows = range.map(|row| {
             let (k, _) = row.map_err(storage)?;
             let key = k.value();

@@ -252,6 +252,10 @@ impl Run<'_> {
         let checkpoint = self.checkpoint_node;
         let extra = &self.checkpoint_extra;
         let (created, vanished) = self.store.write(|tx| {
+            // a node another writer deleted meanwhile is neither deleted again nor written
+            let gone = |tx: &graphstore::WriteTxn<'_>, n: u64| -> graphstore::Result<bool> {
+                Ok(tx.node(n)?.is_none())
+            };
             // an absorbed object's observations move to the object that absorbed it
             if !merged_nodes.is_empty() {
                 let obs_ty = tx.rel_type_id(scene::rel::OBSERVED_IN)?;
@@ -263,14 +267,11 @@ impl Run<'_> {
                         .unwrap_or(1))
                 };
                 for (keep, absorbed) in &merged_nodes {
-                    let gone_now =
-                        |n: u64| -> graphstore::Result<bool> { Ok(tx.node(n)?.is_none()) };
-                    if gone_now(*keep)? || gone_now(*absorbed)? {
+                    if gone(tx, *keep)? || gone(tx, *absorbed)? {
                         continue;
                     }
-                    let gone = absorbed;
                     let existing = tx.neighbours(*keep, Direction::Outgoing, Some(obs_ty))?;
-                    for a in tx.neighbours(*gone, Direction::Outgoing, Some(obs_ty))? {
+                    for a in tx.neighbours(*absorbed, Direction::Outgoing, Some(obs_ty))? {
                         let n = count(tx, a.rel)?;
                         match existing.iter().find(|e| e.other == a.other) {
                             Some(e) => {
@@ -289,10 +290,6 @@ impl Run<'_> {
                     }
                 }
             }
-            // a node another writer deleted meanwhile is neither deleted again nor written
-            let gone = |tx: &graphstore::WriteTxn<'_>, n: u64| -> graphstore::Result<bool> {
-                Ok(tx.node(n)?.is_none())
-            };
             for n in &deleted_nodes {
                 if !gone(tx, *n)? {
                     tx.detach_delete_node(*n)?;
