@@ -92,13 +92,18 @@ fn put_chunks(
     dir: u8,
     entries: &[Entry],
 ) -> Result<()> {
-    let parts = entries.len().div_ceil(CHUNK_MAX).max(1);
-    let per = entries.len().div_ceil(parts);
-    for part in entries.chunks(per.max(1)) {
+    for part in chunk_parts(entries) {
         t.insert((node, dir, part[0].0), encode(part).as_slice())
             .map_err(storage)?;
     }
     Ok(())
+}
+
+/// `entries` cut into the fewest chunks of at most [`CHUNK_MAX`], of even sizes.
+fn chunk_parts(entries: &[Entry]) -> std::slice::Chunks<'_, Entry> {
+    let parts = entries.len().div_ceil(CHUNK_MAX).max(1);
+    let per = entries.len().div_ceil(parts);
+    entries.chunks(per.max(1))
 }
 
 /// The relationships at `node` in direction `dir` (0 out, 1 in), of type `ty` or of every
@@ -222,7 +227,42 @@ pub(crate) fn insert_many(
     rows: &mut [AdjRow],
 ) -> Result<()> {
     rows.sort_unstable_by_key(|((n, d, _, r), _)| (*n, *d, *r));
-    let fresh = t.is_empty().map_err(storage)?;
+    if t.is_empty().map_err(storage)? {
+        // appended in key order through one cursor, which packs the chunks into full leaves
+        // instead of descending the tree per chunk
+        let mut cursor = t
+            .upper_bound_mut(std::ops::Bound::<ChunkKey>::Unbounded)
+            .map_err(storage)?;
+        for_each_group(rows, |node, dir, group| {
+            for part in chunk_parts(group) {
+                cursor
+                    .insert_before((node, dir, part[0].0), encode(part).as_slice())
+                    .map_err(storage)?;
+            }
+            Ok(())
+        })?;
+        return cursor.close().map_err(storage);
+    }
+    for_each_group(rows, |node, dir, group| {
+        match chunk_at(t, node, dir, u64::MAX)? {
+            None => put_chunks(t, node, dir, group),
+            Some((key, mut entries)) if entries.last().is_some_and(|e| e.0 < group[0].0) => {
+                entries.extend_from_slice(group);
+                // the first part keeps the old key; the rest get new ones
+                debug_assert_eq!(entries[0].0, key.2);
+                put_chunks(t, node, dir, &entries)
+            }
+            Some(_) => group.iter().try_for_each(|&e| insert(t, node, dir, e)),
+        }
+    })
+}
+
+/// Calls `f(node, direction, ends)` for each (node, direction) of `rows` (sorted), its ends
+/// ascending by relationship id, without repeats.
+fn for_each_group(
+    rows: &[AdjRow],
+    mut f: impl FnMut(u64, u8, &[Entry]) -> Result<()>,
+) -> Result<()> {
     let mut i = 0;
     let mut group: Vec<Entry> = Vec::new();
     while i < rows.len() {
@@ -235,25 +275,7 @@ pub(crate) fn insert_many(
                 .map(|((_, _, ty, rel), other)| (*rel, *ty, *other)),
         );
         group.dedup_by_key(|e| e.0);
-        if fresh {
-            put_chunks(t, node, dir, &group)?;
-        } else {
-            let last = chunk_at(t, node, dir, u64::MAX)?;
-            match last {
-                None => put_chunks(t, node, dir, &group)?,
-                Some((key, mut entries)) if entries.last().is_some_and(|e| e.0 < group[0].0) => {
-                    entries.extend_from_slice(&group);
-                    // the first part keeps the old key; the rest get new ones
-                    debug_assert_eq!(entries[0].0, key.2);
-                    put_chunks(t, node, dir, &entries)?;
-                }
-                Some(_) => {
-                    for &e in &group {
-                        insert(t, node, dir, e)?;
-                    }
-                }
-            }
-        }
+        f(node, dir, &group)?;
         i = j;
     }
     Ok(())

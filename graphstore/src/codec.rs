@@ -357,11 +357,22 @@ pub(crate) fn decode_node_keys(buf: &[u8], keep: &[u32]) -> Result<(Vec<u32>, Ra
 /// Relationship record: type, start, end, properties.
 pub(crate) fn encode_rel(ty: u32, start: u64, end: u64, props: &[(u32, Value)]) -> Vec<u8> {
     let mut out = Vec::with_capacity(24 + props.len() * 12);
-    put_varint(&mut out, u64::from(ty));
-    put_varint(&mut out, start);
-    put_varint(&mut out, end);
-    encode_props(&mut out, props);
+    encode_rel_into(&mut out, ty, start, end, props);
     out
+}
+
+/// [`encode_rel`] appended to `out`.
+pub(crate) fn encode_rel_into(
+    out: &mut Vec<u8>,
+    ty: u32,
+    start: u64,
+    end: u64,
+    props: &[(u32, Value)],
+) {
+    put_varint(out, u64::from(ty));
+    put_varint(out, start);
+    put_varint(out, end);
+    encode_props(out, props);
 }
 
 pub(crate) fn decode_rel(buf: &[u8]) -> Result<(u32, u64, u64, RawProps)> {

@@ -106,6 +106,17 @@ pub(crate) fn normalize_props(mut props: Vec<(PropKey, Value)>) -> Vec<(PropKey,
     out
 }
 
+/// [`normalize_props`] with raw keys, without copying when `props` is already sorted by
+/// key, without repeats or nulls (a bulk load's usual row).
+pub(crate) fn raw_normalized(mut props: Vec<(PropKey, Value)>) -> Vec<(u32, Value)> {
+    let clean =
+        props.windows(2).all(|w| w[0].0 < w[1].0) && props.iter().all(|(_, v)| !v.is_null());
+    if !clean {
+        props = normalize_props(props);
+    }
+    props.into_iter().map(|(k, v)| (k.0, v)).collect()
+}
+
 pub(crate) fn raw_props(props: &[(PropKey, Value)]) -> Vec<(u32, Value)> {
     props.iter().map(|(k, v)| (k.0, v.clone())).collect()
 }

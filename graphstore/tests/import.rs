@@ -197,6 +197,79 @@ fn bad_files_fail_with_the_file_and_line() {
     }
 }
 
+/// Files longer than the reader's read-ahead block: rows and errors past the first blocks keep
+/// their lines; ids equal as integers but not as text ("7", "007") are two nodes.
+#[test]
+fn long_files_keep_their_lines_and_ids_are_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = |bad: Option<(usize, &str)>| {
+        let mut text = String::from(":ID,n:int\n");
+        for i in 1..=10_000usize {
+            match bad {
+                Some((at, row)) if at == i => text.push_str(row),
+                _ => text.push_str(&format!("{i},{i}")),
+            }
+            text.push('\n');
+        }
+        text
+    };
+    for (i, (bad, line, what)) in [
+        ((9_000, "9000,x"), 9_001, "not an integer"),
+        ((4_097, "4097,1,2"), 4_098, "3 fields"),
+        ((8_193, "5,5"), 8_194, "appears twice"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let sub = dir.path().join(format!("long{i}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        write(&sub, "nodes.csv", &rows(Some(bad)));
+        let store = Store::create(sub.join("g.og")).unwrap();
+        let files = CsvFiles::from_folder(&sub).unwrap();
+        let e = import_neo4j_csv(&store, &files, 1000, &mut |_, _| {})
+            .expect_err("must fail")
+            .to_string();
+        assert!(
+            e.contains(&format!("nodes.csv:{line}")) && e.contains(what),
+            "{e}"
+        );
+    }
+    let sub = dir.path().join("whole");
+    std::fs::create_dir_all(&sub).unwrap();
+    write(&sub, "nodes.csv", &rows(None));
+    let store = Store::create(sub.join("g.og")).unwrap();
+    let files = CsvFiles::from_folder(&sub).unwrap();
+    let got = import_neo4j_csv(&store, &files, 3000, &mut |_, _| {}).unwrap();
+    assert_eq!((got.nodes, got.ids_kept), (10_000, true));
+    let q = store
+        .query(
+            "MATCH (n) WHERE id(n) = 9999 RETURN n.n",
+            &graphstore::cypher::QueryOptions::default(),
+        )
+        .unwrap();
+    assert_eq!(format!("{:?}", q.rows), "[[Int(9999)]]");
+
+    let sub = dir.path().join("text");
+    std::fs::create_dir_all(&sub).unwrap();
+    write(&sub, "nodes.csv", ":ID,n:int\n7,1\n007,2\n");
+    write(
+        &sub,
+        "relationships.csv",
+        ":START_ID,:END_ID,:TYPE\n7,007,R\n",
+    );
+    let store = Store::create(sub.join("g.og")).unwrap();
+    let files = CsvFiles::from_folder(&sub).unwrap();
+    let got = import_neo4j_csv(&store, &files, 1000, &mut |_, _| {}).unwrap();
+    assert_eq!((got.nodes, got.relationships, got.ids_kept), (2, 1, false));
+    let q = store
+        .query(
+            "MATCH (a)-[:R]->(b) RETURN a.n, b.n",
+            &graphstore::cypher::QueryOptions::default(),
+        )
+        .unwrap();
+    assert_eq!(format!("{:?}", q.rows), "[[Int(1), Int(2)]]");
+}
+
 /// Everything a relationship store holds, for comparing two stores: each relationship by id,
 /// each node's adjacency, and the counts.
 fn rel_state(store: &Store) -> String {

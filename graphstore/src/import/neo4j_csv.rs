@@ -306,11 +306,29 @@ enum Ids {
     Mapped(HashMap<(String, String), u64>),
 }
 
+/// Records read ahead per block by [`Reader`]'s thread.
+const READ_AHEAD: usize = 4096;
+
+/// A block of records read ahead: the buffer, how many of it were read, and whether the file
+/// ends after them (with the error that ended it, if one did).
+struct Block {
+    recs: Vec<csv::StringRecord>,
+    len: usize,
+    end: bool,
+    err: Option<csv::Error>,
+}
+
+/// One CSV file's rows. The file is split into records on a thread of its own, a block of
+/// [`READ_AHEAD`] ahead of the caller, so the parsing of fields and the writes overlap with
+/// it; record buffers go back to that thread for reuse.
 struct Reader {
     path: PathBuf,
-    rdr: csv::Reader<std::fs::File>,
     cols: Vec<Col>,
     rec: csv::StringRecord,
+    block: Block,
+    at: usize,
+    full: std::sync::mpsc::Receiver<Block>,
+    spare: std::sync::mpsc::SyncSender<Vec<csv::StringRecord>>,
 }
 
 impl Reader {
@@ -325,27 +343,98 @@ impl Reader {
             .from_reader(file);
         let header = rdr.headers().map_err(|e| csv_err(path, &e))?.clone();
         let cols = parse_header(path, &header)?;
+        let (full_tx, full) = std::sync::mpsc::sync_channel::<Block>(2);
+        let (spare, spare_rx) = std::sync::mpsc::sync_channel::<Vec<csv::StringRecord>>(4);
+        std::thread::Builder::new()
+            .name("csv-read".into())
+            .spawn(move || {
+                loop {
+                    let mut recs = spare_rx.try_recv().unwrap_or_default();
+                    recs.resize_with(READ_AHEAD, csv::StringRecord::new);
+                    let (mut len, mut end, mut err) = (0, false, None);
+                    while len < READ_AHEAD {
+                        match rdr.read_record(&mut recs[len]) {
+                            Ok(true) => len += 1,
+                            Ok(false) => {
+                                end = true;
+                                break;
+                            }
+                            Err(e) => {
+                                (end, err) = (true, Some(e));
+                                break;
+                            }
+                        }
+                    }
+                    // a closed channel: the caller stopped reading
+                    if full_tx
+                        .send(Block {
+                            recs,
+                            len,
+                            end,
+                            err,
+                        })
+                        .is_err()
+                        || end
+                    {
+                        return;
+                    }
+                }
+            })
+            .map_err(|error| Error::Io {
+                path: path.to_path_buf(),
+                error,
+            })?;
         Ok(Reader {
             path: path.to_path_buf(),
-            rdr,
             cols,
             rec: csv::StringRecord::new(),
+            block: Block {
+                recs: Vec::new(),
+                len: 0,
+                end: false,
+                err: None,
+            },
+            at: 0,
+            full,
+            spare,
         })
     }
 
-    /// The next row; false at the end.
+    /// The next row, into `rec`; false at the end.
     fn next(&mut self) -> Result<bool> {
-        self.rdr
-            .read_record(&mut self.rec)
-            .map_err(|e| csv_err(&self.path, &e))
+        loop {
+            if self.at < self.block.len {
+                std::mem::swap(&mut self.rec, &mut self.block.recs[self.at]);
+                self.at += 1;
+                return Ok(true);
+            }
+            if let Some(e) = self.block.err.take() {
+                return Err(csv_err(&self.path, &e));
+            }
+            if self.block.end {
+                return Ok(false);
+            }
+            let Ok(block) = self.full.recv() else {
+                return Err(Error::Import {
+                    path: self.path.clone(),
+                    line: self.line(),
+                    detail: "the thread reading the file stopped".into(),
+                });
+            };
+            let used = std::mem::replace(&mut self.block, block);
+            // a full return channel: the reading thread allocates afresh instead
+            let _ = self.spare.try_send(used.recs);
+            self.at = 0;
+        }
     }
 
     fn line(&self) -> u64 {
         self.rec.position().map_or(0, |p| p.line())
     }
 
+    /// Where the current row starts in the file, in bytes.
     fn bytes(&self) -> u64 {
-        self.rdr.position().byte()
+        self.rec.position().map_or(0, csv::Position::byte)
     }
 
     fn err(&self, detail: impl Into<String>) -> Error {
@@ -425,10 +514,22 @@ fn typed(store: &Store) -> (Typed, Typed) {
     (node, rel)
 }
 
+/// The schema's type for each of a file's columns, for rows of one label set or type
+/// (`want(property name)`); `None` where the schema declares none.
+fn column_types(cols: &[Col], want: impl Fn(&str) -> Option<ValueType>) -> Vec<Option<ValueType>> {
+    cols.iter()
+        .map(|c| match c {
+            Col::Prop(name, ..) => want(name),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The row's properties: each column's field parsed, then coerced to `want[column]`.
 fn row_props(
     r: &Reader,
     keys: &[Option<PropKey>],
-    want: &dyn Fn(&str) -> Option<ValueType>,
+    want: &[Option<ValueType>],
 ) -> Result<Vec<(PropKey, Value)>> {
     let mut props = Vec::new();
     for (i, (c, field)) in r.cols.iter().zip(r.rec.iter()).enumerate() {
@@ -443,7 +544,7 @@ fn row_props(
         }
         let v = parse_field(field, *t, *array)
             .map_err(|e| r.err(format!("column {} ({name}): {e}", i + 1)))?;
-        props.push((k, coerce(v, want(name))));
+        props.push((k, coerce(v, want[i])));
     }
     Ok(props)
 }
@@ -478,6 +579,54 @@ fn in_batches(
     Ok(())
 }
 
+/// Pass 1's fast path: when every node file has an `:ID` column without an id space and
+/// every id is a distinct integer, one past the largest (the ids can be kept); otherwise
+/// `None`, and [`checked_ids`] reads the ids as text.
+fn integer_ids(files: &CsvFiles) -> Result<Option<u64>> {
+    let mut seen: hashbrown::HashSet<u64> = hashbrown::HashSet::new();
+    for f in &files.nodes {
+        let mut r = Reader::open(&f.path)?;
+        let idx = r.cols.iter().position(|c| matches!(c, Col::Id(..)));
+        let Some(idx) = idx.filter(|&i| matches!(&r.cols[i], Col::Id(_, g) if g.is_empty())) else {
+            return Ok(None);
+        };
+        while r.next()? {
+            match r.rec.get(idx).unwrap_or_default().parse::<u64>() {
+                Ok(n) if seen.insert(n) => {}
+                // "7" and "007" are one integer but two ids
+                _ => return Ok(None),
+            }
+        }
+    }
+    Ok(Some(seen.iter().max().map_or(0, |m| m + 1)))
+}
+
+/// Pass 1: checks that the node files' ids, as text within their id space, are not empty and
+/// appear once; returns how many there are.
+fn checked_ids(files: &CsvFiles) -> Result<usize> {
+    let mut seen: hashbrown::HashSet<(String, String)> = hashbrown::HashSet::new();
+    for f in &files.nodes {
+        let mut r = Reader::open(&f.path)?;
+        let Some(idx) = r.cols.iter().position(|c| matches!(c, Col::Id(..))) else {
+            // no :ID column: rows get new ids and cannot be referred to
+            continue;
+        };
+        let Col::Id(_, group) = r.cols[idx].clone() else {
+            unreachable!("position found an Id column")
+        };
+        while r.next()? {
+            let id = r.rec.get(idx).unwrap_or_default();
+            if id.is_empty() {
+                return Err(r.err(format!("column {}: an empty :ID", idx + 1)));
+            }
+            if !seen.insert((group.clone(), id.to_string())) {
+                return Err(r.err(format!("the :ID {id:?} appears twice")));
+            }
+        }
+    }
+    Ok(seen.len())
+}
+
 /// Imports `files` into `store`, committing every `batch_rows` rows (at least 1);
 /// `progress(bytes_read, bytes_total)` is called after each batch.
 ///
@@ -495,50 +644,16 @@ pub fn import_neo4j_csv(
     let total = files.total_bytes();
     let (node_types, rel_types) = typed(store);
     // pass 1: the ids, checked unique, and whether they can be kept
-    let mut numeric: Vec<u64> = Vec::new();
-    let mut all_numeric = store.counts()?.total_nodes == 0;
-    let mut mapped: HashMap<(String, String), u64> = HashMap::new();
-    let mut n_rows = 0u64;
-    for f in &files.nodes {
-        let mut r = Reader::open(&f.path)?;
-        let Some(idx) = r.cols.iter().position(|c| matches!(c, Col::Id(..))) else {
-            // no :ID column: rows get new ids and cannot be referred to
-            all_numeric = false;
-            continue;
-        };
-        let Col::Id(_, group) = r.cols[idx].clone() else {
-            unreachable!("position found an Id column")
-        };
-        while r.next()? {
-            let id = r.rec.get(idx).unwrap_or_default();
-            if id.is_empty() {
-                return Err(r.err(format!("column {}: an empty :ID", idx + 1)));
-            }
-            if all_numeric && group.is_empty() {
-                match id.parse::<u64>() {
-                    Ok(n) => numeric.push(n),
-                    Err(_) => all_numeric = false,
-                }
-            } else {
-                all_numeric = false;
-            }
-            if mapped
-                .insert((group.clone(), id.to_string()), n_rows)
-                .is_some()
-            {
-                return Err(r.err(format!("the :ID {id:?} appears twice")));
-            }
-            n_rows += 1;
-        }
-    }
-    let ids = if all_numeric {
-        Ids::Kept
+    let kept = if store.counts()?.total_nodes == 0 {
+        integer_ids(files)?
     } else {
-        Ids::Mapped(HashMap::with_capacity(mapped.len()))
+        None
     };
-    drop(mapped);
-    let next_after = numeric.iter().max().map_or(0, |m| m + 1);
-    drop(numeric);
+    let ids = match kept {
+        Some(_) => Ids::Kept,
+        None => Ids::Mapped(HashMap::with_capacity(checked_ids(files)?)),
+    };
+    let next_after = kept.unwrap_or(0);
     let mut out = CsvImport {
         ids_kept: matches!(ids, Ids::Kept),
         ..CsvImport::default()
@@ -557,8 +672,10 @@ pub fn import_neo4j_csv(
         let id_col = r.cols.iter().position(|c| matches!(c, Col::Id(..)));
         let label_col = r.cols.iter().position(|c| *c == Col::Label);
         let mut keys: Option<Vec<Option<PropKey>>> = None;
-        // per `:LABEL` field: the row's labels (the file's given ones first) as ids and names
-        let mut label_sets: HashMap<String, (Vec<LabelId>, Vec<String>)> = HashMap::new();
+        // per `:LABEL` field: the row's labels (the file's given ones first) and the schema's
+        // type for each column
+        let mut label_sets: hashbrown::HashMap<String, (Vec<LabelId>, Vec<Option<ValueType>>)> =
+            hashbrown::HashMap::new();
         let mut row = |tx: &mut WriteTxn<'_>, r: &Reader| -> Result<()> {
             let keys = match &keys {
                 Some(k) => k,
@@ -579,15 +696,15 @@ pub fn import_neo4j_csv(
                     .iter()
                     .map(|l| tx.label_id(l))
                     .collect::<Result<Vec<_>>>()?;
-                label_sets.insert(field.to_string(), (ids, names));
+                let want = column_types(&r.cols, |k| {
+                    names
+                        .iter()
+                        .find_map(|l| node_types.get(l).and_then(|m| m.get(k)).copied())
+                });
+                label_sets.insert(field.to_string(), (ids, want));
             }
-            let (labels, names) = &label_sets[field];
-            let want = |k: &str| {
-                names
-                    .iter()
-                    .find_map(|l| node_types.get(l).and_then(|m| m.get(k)).copied())
-            };
-            let props = row_props(r, keys, &want)?;
+            let (labels, want) = &label_sets[field];
+            let props = row_props(r, keys, want)?;
             let at = |e: Error| r.err(e.to_string());
             match (&mut ids, id_col) {
                 (Ids::Kept, Some(ic)) => {
@@ -703,7 +820,9 @@ fn import_relationships(
             unreachable!("found by kind")
         };
         let mut keys: Option<Vec<Option<PropKey>>> = None;
-        let mut types: HashMap<String, RelType> = HashMap::new();
+        // per type name: its id and the schema's type for each column
+        let mut types: hashbrown::HashMap<String, (RelType, Vec<Option<ValueType>>)> =
+            hashbrown::HashMap::new();
         // a batch's rows, created together when it ends (see `WriteTxn::create_rels`), with
         // each row's line for errors
         let pending: std::cell::RefCell<(Vec<crate::NewRel>, Vec<u64>)> = Default::default();
@@ -748,14 +867,13 @@ fn import_relationships(
                 .filter(|t| !t.is_empty())
                 .or(given)
                 .ok_or_else(|| r.err("an empty :TYPE"))?;
-            let ty = match types.get(tname) {
-                Some(&id) => id,
-                None => {
-                    let id = tx.rel_type_id(tname)?;
-                    types.insert(tname.to_string(), id);
-                    id
-                }
-            };
+            if !types.contains_key(tname) {
+                let id = tx.rel_type_id(tname)?;
+                let declared = rel_types.get(tname);
+                let want = column_types(&r.cols, |k| declared.and_then(|m| m.get(k)).copied());
+                types.insert(tname.to_string(), (id, want));
+            }
+            let (ty, want) = &types[tname];
             let end_id = |col: usize, group: &str| -> Result<u64> {
                 let raw = r.rec.get(col).unwrap_or_default();
                 let found = match &ids {
@@ -775,11 +893,9 @@ fn import_relationships(
                 })
             };
             let (s, e) = (end_id(sc, &sg)?, end_id(ec, &eg)?);
-            let declared = rel_types.get(tname);
-            let want = |k: &str| declared.and_then(|m| m.get(k)).copied();
-            let props = row_props(r, keys, &want)?;
+            let props = row_props(r, keys, want)?;
             let mut p = pending.borrow_mut();
-            p.0.push((s, ty, e, props));
+            p.0.push((s, *ty, e, props));
             p.1.push(r.line());
             Ok(())
         };

@@ -14,7 +14,7 @@ use crate::layout::{
     PROPIDX, PendingMem, RELS, TOKENS, decode_rel, in_record, spatial_entry, text_entry, u64_meta,
     vector_entry,
 };
-use crate::model::{Relationship, normalize_props, raw_props};
+use crate::model::{Relationship, raw_normalized, raw_props};
 use crate::payload::PointCloud;
 use crate::read::{GraphRead, Raw, View};
 use crate::tokens::{LabelId, PropKey, RelType, TokenKind};
@@ -1008,7 +1008,7 @@ impl<'a> WriteTxn<'a> {
         ls.dedup();
         let rec = NodeRec {
             labels: ls,
-            props: raw_props(&normalize_props(props)),
+            props: raw_normalized(props),
         };
         let id = self.next_node;
         self.apply_node(id, None, Some(&rec))?;
@@ -1038,7 +1038,7 @@ impl<'a> WriteTxn<'a> {
         ls.dedup();
         let rec = NodeRec {
             labels: ls,
-            props: raw_props(&normalize_props(props)),
+            props: raw_normalized(props),
         };
         self.apply_node(id, None, Some(&rec))
     }
@@ -1083,7 +1083,7 @@ impl<'a> WriteTxn<'a> {
         let before = self.rec(id)?;
         let after = NodeRec {
             labels: before.labels.clone(),
-            props: raw_props(&normalize_props(props)),
+            props: raw_normalized(props),
         };
         self.apply_node(id, Some(&before), Some(&after))
     }

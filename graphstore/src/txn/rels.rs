@@ -4,17 +4,76 @@
 use super::*;
 use crate::adjacency::{self, AdjRow};
 
-/// Ends whose labels [`WriteTxn::create_rels`] keeps at once (a few tens of MB at most).
+/// Ends above the dense table whose labels [`WriteTxn::create_rels`] keeps at once.
 const MAX_CACHED_ENDS: usize = 1 << 20;
+
+/// Node ids below this have their label set in a table indexed by id (4 bytes each, grown to
+/// the largest id seen; at most 64 MB).
+const DENSE_ENDS: u64 = 1 << 24;
 
 /// The labels of relationship ends, read once and kept across the batches (transactions) of a
 /// bulk load: valid only while every commit to the store is the load's own, so each batch
 /// checks that its base is the commit the previous batch made, and starts afresh otherwise.
+/// Label sets are interned: a node maps to its set's index.
 #[derive(Debug, Default)]
 pub(crate) struct EndLabels {
     /// The commit the labels are valid for: the one the last batch made.
     seq: Option<u64>,
-    map: HashMap<u64, Vec<u32>>,
+    sets: Vec<Vec<u32>>,
+    interned: hashbrown::HashMap<Vec<u32>, u32>,
+    /// By node id below [`DENSE_ENDS`]: 1 + the set's index, 0 when not read yet.
+    dense: Vec<u32>,
+    sparse: hashbrown::HashMap<u64, u32>,
+}
+
+impl EndLabels {
+    fn clear(&mut self) {
+        self.sets.clear();
+        self.interned.clear();
+        self.dense.clear();
+        self.sparse.clear();
+    }
+
+    /// The index of node `id`'s label set, read with `read` the first time.
+    fn set_of(&mut self, id: u64, read: impl FnOnce() -> Result<Vec<u32>>) -> Result<u32> {
+        let known = if id < DENSE_ENDS {
+            self.dense
+                .get(id as usize)
+                .copied()
+                .unwrap_or(0)
+                .checked_sub(1)
+        } else {
+            self.sparse.get(&id).copied()
+        };
+        if let Some(k) = known {
+            return Ok(k);
+        }
+        let labels = read()?;
+        if self.sets.len() >= MAX_CACHED_ENDS {
+            self.clear();
+        }
+        let k = match self.interned.get(&labels) {
+            Some(&k) => k,
+            None => {
+                let k = self.sets.len() as u32;
+                self.sets.push(labels.clone());
+                self.interned.insert(labels, k);
+                k
+            }
+        };
+        if id < DENSE_ENDS {
+            if self.dense.len() <= id as usize {
+                self.dense.resize(id as usize + 1, 0);
+            }
+            self.dense[id as usize] = k + 1;
+        } else {
+            if self.sparse.len() >= MAX_CACHED_ENDS {
+                self.sparse.clear();
+            }
+            self.sparse.insert(id, k);
+        }
+        Ok(k)
+    }
 }
 
 impl WriteTxn<'_> {
@@ -32,7 +91,7 @@ impl WriteTxn<'_> {
         } else {
             self.rec(end)?
         };
-        let props = raw_props(&normalize_props(props));
+        let props = raw_normalized(props);
         self.check_rel(ty.0, &s.labels, &e.labels, &props)?;
         let id = self.next_rel;
         let bytes = codec::encode_rel(ty.0, start, end, &props);
@@ -79,44 +138,55 @@ impl WriteTxn<'_> {
     ) -> std::result::Result<Vec<u64>, (usize, Error)> {
         let n = rows.len();
         if cache.seq != Some(self.base.seq) {
-            cache.map.clear();
+            cache.clear();
         }
         // valid again only once this batch has gone in without an error
         cache.seq = None;
-        let ends = &mut cache.map;
+        // the records, one after another in `bytes`; each row keeps where its record ends
         let mut encoded = Vec::with_capacity(n);
+        let mut bytes: Vec<u8> = Vec::with_capacity(n * 16);
         for (i, (start, ty, end, props)) in rows.into_iter().enumerate() {
-            if ends.len() >= MAX_CACHED_ENDS {
-                ends.clear();
-            }
-            for id in [start, end] {
-                if let std::collections::hash_map::Entry::Vacant(slot) = ends.entry(id) {
-                    let labels = self
-                        .node_labels(id)
-                        .and_then(|l| l.ok_or(Error::NodeNotFound(id)))
-                        .map_err(|e| (i, e))?;
-                    slot.insert(labels);
-                }
-            }
-            let props = raw_props(&normalize_props(props));
-            self.check_rel(ty.0, &ends[&start], &ends[&end], &props)
-                .map_err(|e| (i, e))?;
-            encoded.push((
-                start,
+            let mut set_of = |id: u64| {
+                cache
+                    .set_of(id, || {
+                        self.node_labels(id)
+                            .and_then(|l| l.ok_or(Error::NodeNotFound(id)))
+                    })
+                    .map_err(|e| (i, e))
+            };
+            let (s, e) = (set_of(start)?, set_of(end)?);
+            let props = raw_normalized(props);
+            self.check_rel(
                 ty.0,
-                end,
-                codec::encode_rel(ty.0, start, end, &props),
-            ));
+                &cache.sets[s as usize],
+                &cache.sets[e as usize],
+                &props,
+            )
+            .map_err(|e| (i, e))?;
+            codec::encode_rel_into(&mut bytes, ty.0, start, end, &props);
+            encoded.push((start, ty.0, end, bytes.len()));
         }
         let store = |e| (n, e);
         let first = self.next_rel;
         let mut adj = Vec::with_capacity(2 * n);
         let mut ids = Vec::with_capacity(n);
-        for (k, (start, ty, end, bytes)) in encoded.into_iter().enumerate() {
+        // every id from `next_rel` on is above the table's keys: appended through a cursor,
+        // which packs them into full leaves instead of descending the tree per insert
+        let mut cursor = self
+            .rels
+            .upper_bound_mut(std::ops::Bound::<u64>::Unbounded)
+            .map_err(|e| store(storage(e)))?;
+        let mut from = 0;
+        for (k, &(_, _, _, to)) in encoded.iter().enumerate() {
             let id = first + k as u64;
-            self.rels
-                .insert(&id, bytes.as_slice())
+            cursor
+                .insert_before(id, &bytes[from..to])
                 .map_err(|e| store(storage(e)))?;
+            from = to;
+        }
+        cursor.close().map_err(|e| store(storage(e)))?;
+        for (k, (start, ty, end, _)) in encoded.into_iter().enumerate() {
+            let id = first + k as u64;
             adj.push(((start, 0u8, ty, id), end));
             adj.push(((end, 1u8, ty, id), start));
             self.touched.add(start);
@@ -166,7 +236,7 @@ impl WriteTxn<'_> {
         } else {
             self.rec(end)?
         };
-        let props = raw_props(&normalize_props(props));
+        let props = raw_normalized(props);
         self.check_rel(ty.0, &s.labels, &e.labels, &props)?;
         let bytes = codec::encode_rel(ty.0, start, end, &props);
         self.rels.insert(&id, bytes.as_slice()).map_err(storage)?;
@@ -230,7 +300,7 @@ impl WriteTxn<'_> {
     /// Replaces all properties of a relationship.
     pub fn replace_rel_props(&mut self, id: u64, props: Vec<(PropKey, Value)>) -> Result<()> {
         let rel = Raw::load_rel(self, id)?.ok_or(Error::RelNotFound(id))?;
-        self.write_rel_props(&rel, raw_props(&normalize_props(props)))
+        self.write_rel_props(&rel, raw_normalized(props))
     }
 
     /// Deletes a relationship.
@@ -280,6 +350,32 @@ mod tests {
     use super::*;
     use crate::{RelRule, Schema, Store};
 
+    /// Label sets are read once per node, below and above the dense table, and interned.
+    #[test]
+    fn end_labels_read_each_node_once() {
+        let mut cache = EndLabels::default();
+        let reads = std::cell::Cell::new(0);
+        let read = |labels: Vec<u32>| {
+            let reads = &reads;
+            move || {
+                reads.set(reads.get() + 1);
+                Ok(labels)
+            }
+        };
+        let far = DENSE_ENDS + 5;
+        assert_eq!(cache.set_of(3, read(vec![1])).unwrap(), 0);
+        assert_eq!(cache.set_of(far, read(vec![2])).unwrap(), 1);
+        assert_eq!(cache.set_of(7, read(vec![1])).unwrap(), 0);
+        assert_eq!(reads.get(), 3);
+        assert_eq!(cache.set_of(3, read(vec![9])).unwrap(), 0);
+        assert_eq!(cache.set_of(far, read(vec![9])).unwrap(), 1);
+        assert_eq!(reads.get(), 3);
+        assert_eq!(cache.sets, vec![vec![1], vec![2]]);
+        let e = cache.set_of(8, || Err(Error::NodeNotFound(8)));
+        assert!(matches!(e, Err(Error::NodeNotFound(8))));
+        assert_eq!(cache.set_of(8, read(vec![2])).unwrap(), 1);
+    }
+
     /// The end labels kept across batches are used only while the batches' commits follow one
     /// another: a commit in between (here one that takes a label away) makes the next batch
     /// read them again, so the schema's rule still holds.
@@ -314,7 +410,7 @@ mod tests {
         assert_eq!(cache.seq, Some(store.commit_seq()));
         // the next batch right after: the labels are not read again
         store.write(|tx| batch(tx, &mut cache)).unwrap();
-        assert!(cache.map.contains_key(&a));
+        assert_ne!(cache.dense.get(a as usize).copied().unwrap_or(0), 0);
         // another commit takes X away from `a`: the next batch must see it
         store
             .write(|tx| {
