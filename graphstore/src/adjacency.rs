@@ -226,7 +226,7 @@ pub(crate) fn insert_many(
     t: &mut Table<'_, ChunkKey, &'static [u8]>,
     rows: &mut [AdjRow],
 ) -> Result<()> {
-    rows.sort_unstable_by_key(|((n, d, _, r), _)| (*n, *d, *r));
+    sort_rows(rows);
     if t.is_empty().map_err(storage)? {
         // appended in key order through one cursor, which packs the chunks into full leaves
         // instead of descending the tree per chunk
@@ -255,6 +255,33 @@ pub(crate) fn insert_many(
             Some(_) => group.iter().try_for_each(|&e| insert(t, node, dir, e)),
         }
     })
+}
+
+/// Sorts adjacency rows by (node, direction, relationship). Rows in relationship order (as a
+/// load makes them) over node ids not much larger than their number are sorted by counting,
+/// stably by (node, direction), in two linear passes; others by comparison.
+fn sort_rows(rows: &mut [AdjRow]) {
+    let in_rel_order = rows.windows(2).all(|w| (w[0].0).3 <= (w[1].0).3);
+    let max_node = rows.iter().map(|((n, ..), _)| *n).max().unwrap_or(0);
+    let two_directions = rows.iter().all(|((_, d, ..), _)| *d <= 1);
+    if !in_rel_order || !two_directions || max_node > 4 * rows.len() as u64 + 1024 {
+        rows.sort_unstable_by_key(|((n, d, _, r), _)| (*n, *d, *r));
+        return;
+    }
+    let bucket = |((n, d, _, _), _): &AdjRow| (2 * *n + u64::from(*d)) as usize;
+    let mut start = vec![0usize; 2 * max_node as usize + 3];
+    for r in rows.iter() {
+        start[bucket(r) + 1] += 1;
+    }
+    for i in 1..start.len() {
+        start[i] += start[i - 1];
+    }
+    let unsorted = rows.to_vec();
+    for r in unsorted {
+        let b = bucket(&r);
+        rows[start[b]] = r;
+        start[b] += 1;
+    }
 }
 
 /// Calls `f(node, direction, ends)` for each (node, direction) of `rows` (sorted), its ends
@@ -499,6 +526,30 @@ mod tests {
             2 => (0u64..2, 0u8..2, 0u64..400).prop_map(|(n, d, r)| Op::Remove(n, d, r)),
             1 => proptest::collection::vec(end, 0..300).prop_map(Op::Many),
         ]
+    }
+
+    proptest! {
+        /// Rows in relationship order (the counting sort) and in any order sort as a
+        /// comparison sort does.
+        #[test]
+        fn rows_sort_by_node_direction_and_relationship(
+            ends in proptest::collection::vec((0u64..50, 0u8..2, 0u32..3, 0u64..500, 0u64..9), 0..400),
+            by_rel in any::<bool>(),
+        ) {
+            let mut seen = std::collections::BTreeSet::new();
+            let mut rows: Vec<AdjRow> = ends
+                .into_iter()
+                .filter(|(n, d, _, r, _)| seen.insert((*n, *d, *r)))
+                .map(|(n, d, ty, r, o)| ((n, d, ty, r), o))
+                .collect();
+            if by_rel {
+                rows.sort_by_key(|((.., r), _)| *r);
+            }
+            let mut want = rows.clone();
+            want.sort_unstable_by_key(|((n, d, _, r), _)| (*n, *d, *r));
+            sort_rows(&mut rows);
+            prop_assert_eq!(rows, want);
+        }
     }
 
     proptest! {

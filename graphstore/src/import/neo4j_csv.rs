@@ -309,30 +309,38 @@ enum Ids {
 /// Records read ahead per block by [`Reader`]'s thread.
 const READ_AHEAD: usize = 4096;
 
-/// A block of records read ahead: the buffer, how many of it were read, and whether the file
-/// ends after them (with the error that ended it, if one did).
+/// A property field parsed by [`Reader`]'s thread: `None` for an empty field or a column
+/// that is not a property.
+type Parsed = Option<std::result::Result<Value, String>>;
+
+/// A block of records read ahead: the buffer, each record's parsed property fields (when the
+/// reader parses), how many of it were read, and whether the file ends after them (with the
+/// error that ended it, if one did).
 struct Block {
     recs: Vec<csv::StringRecord>,
+    vals: Vec<Vec<Parsed>>,
     len: usize,
     end: bool,
     err: Option<csv::Error>,
 }
 
-/// One CSV file's rows. The file is split into records on a thread of its own, a block of
-/// [`READ_AHEAD`] ahead of the caller, so the parsing of fields and the writes overlap with
-/// it; record buffers go back to that thread for reuse.
+/// One CSV file's rows. The file is split into records, and with `parse` their property
+/// fields parsed, on a thread of its own, a block of [`READ_AHEAD`] ahead of the caller, so
+/// that work overlaps with the writes; buffers go back to that thread for reuse.
 struct Reader {
     path: PathBuf,
     cols: Vec<Col>,
     rec: csv::StringRecord,
+    /// The current record's parsed property fields, by column (empty without `parse`).
+    vals: Vec<Parsed>,
     block: Block,
     at: usize,
     full: std::sync::mpsc::Receiver<Block>,
-    spare: std::sync::mpsc::SyncSender<Vec<csv::StringRecord>>,
+    spare: std::sync::mpsc::SyncSender<(Vec<csv::StringRecord>, Vec<Vec<Parsed>>)>,
 }
 
 impl Reader {
-    fn open(path: &Path) -> Result<Reader> {
+    fn open(path: &Path, parse: bool) -> Result<Reader> {
         let file = std::fs::File::open(path).map_err(|error| Error::Io {
             path: path.to_path_buf(),
             error,
@@ -344,17 +352,42 @@ impl Reader {
         let header = rdr.headers().map_err(|e| csv_err(path, &e))?.clone();
         let cols = parse_header(path, &header)?;
         let (full_tx, full) = std::sync::mpsc::sync_channel::<Block>(2);
-        let (spare, spare_rx) = std::sync::mpsc::sync_channel::<Vec<csv::StringRecord>>(4);
+        let (spare, spare_rx) = std::sync::mpsc::sync_channel(4);
+        let types: Vec<Option<(Scalar, bool)>> = cols
+            .iter()
+            .map(|c| match c {
+                Col::Prop(_, t, array) => Some((*t, *array)),
+                _ => None,
+            })
+            .collect();
         std::thread::Builder::new()
             .name("csv-read".into())
             .spawn(move || {
                 loop {
-                    let mut recs = spare_rx.try_recv().unwrap_or_default();
+                    let (mut recs, mut vals): (Vec<csv::StringRecord>, Vec<Vec<Parsed>>) =
+                        spare_rx.try_recv().unwrap_or_default();
                     recs.resize_with(READ_AHEAD, csv::StringRecord::new);
+                    if parse {
+                        vals.resize_with(READ_AHEAD, Vec::new);
+                    }
                     let (mut len, mut end, mut err) = (0, false, None);
                     while len < READ_AHEAD {
                         match rdr.read_record(&mut recs[len]) {
-                            Ok(true) => len += 1,
+                            Ok(true) => {
+                                if parse {
+                                    let row = &mut vals[len];
+                                    row.clear();
+                                    row.extend(types.iter().zip(recs[len].iter()).map(
+                                        |(t, field)| match t {
+                                            Some((t, array)) if !field.is_empty() => {
+                                                Some(parse_field(field, *t, *array))
+                                            }
+                                            _ => None,
+                                        },
+                                    ));
+                                }
+                                len += 1;
+                            }
                             Ok(false) => {
                                 end = true;
                                 break;
@@ -366,16 +399,14 @@ impl Reader {
                         }
                     }
                     // a closed channel: the caller stopped reading
-                    if full_tx
-                        .send(Block {
-                            recs,
-                            len,
-                            end,
-                            err,
-                        })
-                        .is_err()
-                        || end
-                    {
+                    let block = Block {
+                        recs,
+                        vals,
+                        len,
+                        end,
+                        err,
+                    };
+                    if full_tx.send(block).is_err() || end {
                         return;
                     }
                 }
@@ -388,8 +419,10 @@ impl Reader {
             path: path.to_path_buf(),
             cols,
             rec: csv::StringRecord::new(),
+            vals: Vec::new(),
             block: Block {
                 recs: Vec::new(),
+                vals: Vec::new(),
                 len: 0,
                 end: false,
                 err: None,
@@ -405,6 +438,9 @@ impl Reader {
         loop {
             if self.at < self.block.len {
                 std::mem::swap(&mut self.rec, &mut self.block.recs[self.at]);
+                if let Some(v) = self.block.vals.get_mut(self.at) {
+                    std::mem::swap(&mut self.vals, v);
+                }
                 self.at += 1;
                 return Ok(true);
             }
@@ -423,7 +459,7 @@ impl Reader {
             };
             let used = std::mem::replace(&mut self.block, block);
             // a full return channel: the reading thread allocates afresh instead
-            let _ = self.spare.try_send(used.recs);
+            let _ = self.spare.try_send((used.recs, used.vals));
             self.at = 0;
         }
     }
@@ -525,26 +561,27 @@ fn column_types(cols: &[Col], want: impl Fn(&str) -> Option<ValueType>) -> Vec<O
         .collect()
 }
 
-/// The row's properties: each column's field parsed, then coerced to `want[column]`.
+/// The row's properties: each column's field as the reader parsed it (a reader opened with
+/// `parse`), coerced to `want[column]`.
 fn row_props(
-    r: &Reader,
+    r: &mut Reader,
     keys: &[Option<PropKey>],
     want: &[Option<ValueType>],
 ) -> Result<Vec<(PropKey, Value)>> {
     let mut props = Vec::new();
-    for (i, (c, field)) in r.cols.iter().zip(r.rec.iter()).enumerate() {
-        let (Col::Prop(name, t, array), Some(k)) = (c, keys[i]) else {
+    for (i, c) in r.cols.iter().enumerate() {
+        let (Col::Prop(name, ..), Some(k)) = (c, keys[i]) else {
             if let (Col::Id(Some(_), _), Some(k)) = (c, keys[i]) {
-                props.push((k, Value::String(field.to_string())));
+                let id = r.rec.get(i).unwrap_or_default();
+                props.push((k, Value::String(id.to_string())));
             }
             continue;
         };
-        if field.is_empty() {
-            continue;
+        match r.vals.get_mut(i).and_then(Option::take) {
+            None => {}
+            Some(Ok(v)) => props.push((k, coerce(v, want[i]))),
+            Some(Err(e)) => return Err(r.err(format!("column {} ({name}): {e}", i + 1))),
         }
-        let v = parse_field(field, *t, *array)
-            .map_err(|e| r.err(format!("column {} ({name}): {e}", i + 1)))?;
-        props.push((k, coerce(v, want[i])));
     }
     Ok(props)
 }
@@ -555,7 +592,7 @@ fn in_batches(
     store: &Store,
     r: &mut Reader,
     batch_rows: usize,
-    row: &mut dyn FnMut(&mut WriteTxn<'_>, &Reader) -> Result<()>,
+    row: &mut dyn FnMut(&mut WriteTxn<'_>, &mut Reader) -> Result<()>,
     flush: &mut dyn FnMut(&mut WriteTxn<'_>) -> Result<()>,
     committed: &mut dyn FnMut(u64, u64),
 ) -> Result<()> {
@@ -585,7 +622,7 @@ fn in_batches(
 fn integer_ids(files: &CsvFiles) -> Result<Option<u64>> {
     let mut seen: hashbrown::HashSet<u64> = hashbrown::HashSet::new();
     for f in &files.nodes {
-        let mut r = Reader::open(&f.path)?;
+        let mut r = Reader::open(&f.path, false)?;
         let idx = r.cols.iter().position(|c| matches!(c, Col::Id(..)));
         let Some(idx) = idx.filter(|&i| matches!(&r.cols[i], Col::Id(_, g) if g.is_empty())) else {
             return Ok(None);
@@ -606,7 +643,7 @@ fn integer_ids(files: &CsvFiles) -> Result<Option<u64>> {
 fn checked_ids(files: &CsvFiles) -> Result<usize> {
     let mut seen: hashbrown::HashSet<(String, String)> = hashbrown::HashSet::new();
     for f in &files.nodes {
-        let mut r = Reader::open(&f.path)?;
+        let mut r = Reader::open(&f.path, false)?;
         let Some(idx) = r.cols.iter().position(|c| matches!(c, Col::Id(..))) else {
             // no :ID column: rows get new ids and cannot be referred to
             continue;
@@ -668,7 +705,7 @@ pub fn import_neo4j_csv(
     }
     // pass 2: nodes
     for f in &files.nodes {
-        let mut r = Reader::open(&f.path)?;
+        let mut r = Reader::open(&f.path, true)?;
         let id_col = r.cols.iter().position(|c| matches!(c, Col::Id(..)));
         let label_col = r.cols.iter().position(|c| *c == Col::Label);
         let mut keys: Option<Vec<Option<PropKey>>> = None;
@@ -676,7 +713,7 @@ pub fn import_neo4j_csv(
         // type for each column
         let mut label_sets: hashbrown::HashMap<String, (Vec<LabelId>, Vec<Option<ValueType>>)> =
             hashbrown::HashMap::new();
-        let mut row = |tx: &mut WriteTxn<'_>, r: &Reader| -> Result<()> {
+        let mut row = |tx: &mut WriteTxn<'_>, r: &mut Reader| -> Result<()> {
             let keys = match &keys {
                 Some(k) => k,
                 None => keys.insert(prop_keys(tx, &r.cols)?),
@@ -797,7 +834,7 @@ fn import_relationships(
     let defer = deferred.is_some();
     let mut flush_err: Option<Error> = None;
     for f in &files.relationships {
-        let mut r = Reader::open(&f.path)?;
+        let mut r = Reader::open(&f.path, true)?;
         let find = |want: fn(&Col) -> bool, what: &str| {
             r.cols.iter().position(want).ok_or_else(|| Error::Import {
                 path: f.path.clone(),
@@ -855,7 +892,7 @@ fn import_relationships(
                 })?;
             Ok(())
         };
-        let mut row = |tx: &mut WriteTxn<'_>, r: &Reader| -> Result<()> {
+        let mut row = |tx: &mut WriteTxn<'_>, r: &mut Reader| -> Result<()> {
             let keys = match &keys {
                 Some(k) => k,
                 None => keys.insert(prop_keys(tx, &r.cols)?),
