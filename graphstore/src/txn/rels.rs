@@ -185,14 +185,22 @@ impl WriteTxn<'_> {
             from = to;
         }
         cursor.close().map_err(|e| store(storage(e)))?;
+        // relationships per type, counted here (a batch has few types) and added once
+        let mut per_type: Vec<(u32, i64)> = Vec::new();
         for (k, (start, ty, end, _)) in encoded.into_iter().enumerate() {
             let id = first + k as u64;
             adj.push(((start, 0u8, ty, id), end));
             adj.push(((end, 1u8, ty, id), start));
             self.touched.add(start);
             self.touched.add(end);
-            self.bump(1, ty, 1).map_err(store)?;
+            match per_type.iter_mut().find(|(t, _)| *t == ty) {
+                Some((_, c)) => *c += 1,
+                None => per_type.push((ty, 1)),
+            }
             ids.push(id);
+        }
+        for (ty, c) in per_type {
+            self.bump(1, ty, c).map_err(store)?;
         }
         match deferred {
             Some(out) => out.append(&mut adj),
