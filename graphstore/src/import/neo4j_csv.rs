@@ -713,6 +713,19 @@ pub fn import_neo4j_csv(
         // type for each column
         let mut label_sets: hashbrown::HashMap<String, (Vec<LabelId>, Vec<Option<ValueType>>)> =
             hashbrown::HashMap::new();
+        // rows keeping their ids, restored together when the batch ends
+        // (`WriteTxn::restore_nodes`), with each row's line for errors
+        type Kept = (u64, Vec<LabelId>, Vec<(PropKey, Value)>);
+        let pending: std::cell::RefCell<(Vec<Kept>, Vec<u64>)> = Default::default();
+        let path = f.path.clone();
+        let mut flush = |tx: &mut WriteTxn<'_>| -> Result<()> {
+            let (rows, lines) = std::mem::take(&mut *pending.borrow_mut());
+            tx.restore_nodes(rows).map_err(|(i, e)| Error::Import {
+                path: path.clone(),
+                line: lines.get(i).copied().unwrap_or(0),
+                detail: e.to_string(),
+            })
+        };
         let mut row = |tx: &mut WriteTxn<'_>, r: &mut Reader| -> Result<()> {
             let keys = match &keys {
                 Some(k) => k,
@@ -749,7 +762,9 @@ pub fn import_neo4j_csv(
                         r.rec.get(ic).unwrap_or_default().parse().map_err(|_| {
                             r.err("the :ID changed between the two reads of the file")
                         })?;
-                    tx.restore_node(id, labels, props).map_err(at)?;
+                    let mut p = pending.borrow_mut();
+                    p.0.push((id, labels.clone(), props));
+                    p.1.push(r.line());
                 }
                 (Ids::Mapped(m), Some(ic)) => {
                     let Col::Id(_, group) = &r.cols[ic] else {
@@ -772,7 +787,7 @@ pub fn import_neo4j_csv(
             &mut r,
             batch_rows,
             &mut row,
-            &mut |_| Ok(()),
+            &mut flush,
             &mut |rows, bytes| {
                 out.nodes += rows;
                 out.batches += 1;

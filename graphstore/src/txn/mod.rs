@@ -921,7 +921,6 @@ impl<'a> WriteTxn<'a> {
         if let Some(a) = after {
             self.check_node(id, a)?;
         }
-        self.touched.add(id);
         match after {
             Some(a) => {
                 let bytes = codec::encode_node(&a.labels, &a.props);
@@ -931,6 +930,20 @@ impl<'a> WriteTxn<'a> {
                 self.nodes.remove(&id).map_err(storage)?;
             }
         }
+        self.apply_node_indexes(id, before, after, None)
+    }
+
+    /// The rest of [`WriteTxn::apply_node`] once the record is written: the label index,
+    /// the counts and the property, spatial, vector and text indexes. With `label_rows`,
+    /// new label index rows are pushed there for the caller to write instead.
+    fn apply_node_indexes(
+        &mut self,
+        id: u64,
+        before: Option<&NodeRec>,
+        after: Option<&NodeRec>,
+        mut label_rows: Option<&mut Vec<(u32, u64)>>,
+    ) -> Result<()> {
+        self.touched.add(id);
         let empty = NodeRec::default();
         let b = before.unwrap_or(&empty);
         let a = after.unwrap_or(&empty);
@@ -939,7 +952,12 @@ impl<'a> WriteTxn<'a> {
             self.bump(0, *l, -1)?;
         }
         for l in a.labels.iter().filter(|l| !b.has_label(**l)) {
-            self.labels.insert(&(*l, id), &()).map_err(storage)?;
+            match label_rows.as_deref_mut() {
+                Some(rows) => rows.push((*l, id)),
+                None => {
+                    self.labels.insert(&(*l, id), &()).map_err(storage)?;
+                }
+            }
             self.bump(0, *l, 1)?;
         }
         match (before.is_some(), after.is_some()) {
@@ -1041,6 +1059,92 @@ impl<'a> WriteTxn<'a> {
             props: raw_normalized(props),
         };
         self.apply_node(id, None, Some(&rec))
+    }
+
+    /// Re-creates many nodes under their ids, as [`WriteTxn::restore_node`] does one by one
+    /// (a bulk load keeping its files' ids). When the ids ascend past every stored node and no
+    /// label has a unique property, the records and the label index rows are appended through
+    /// table cursors (full leaves, no descent per row); otherwise the nodes go in one by one.
+    ///
+    /// # Errors
+    /// As [`WriteTxn::restore_node`], with the index of the failing row; the transaction is
+    /// then to be dropped (rows before it may be written).
+    pub(crate) fn restore_nodes(
+        &mut self,
+        rows: Vec<(u64, Vec<LabelId>, Vec<(PropKey, Value)>)>,
+    ) -> std::result::Result<(), (usize, Error)> {
+        let n = rows.len();
+        let last = self
+            .nodes
+            .last()
+            .map_err(|e| (0, storage(e)))?
+            .map(|(k, _)| k.value());
+        let ascending = rows.windows(2).all(|w| w[0].0 < w[1].0)
+            && rows.first().is_none_or(|r| last.is_none_or(|l| r.0 > l))
+            && rows.last().is_none_or(|r| r.0 < self.next_node);
+        // a unique property is checked against the stored nodes, which the appended ones
+        // are not until the end
+        let unique = self.schema.labels.values().any(|r| !r.unique.is_empty());
+        if !ascending || unique {
+            for (i, (id, labels, props)) in rows.into_iter().enumerate() {
+                self.restore_node(id, &labels, props).map_err(|e| (i, e))?;
+            }
+            return Ok(());
+        }
+        let mut bytes: Vec<u8> = Vec::new();
+        let mut ends: Vec<(u64, usize)> = Vec::with_capacity(n);
+        let mut label_rows: Vec<(u32, u64)> = Vec::with_capacity(n);
+        for (i, (id, labels, props)) in rows.into_iter().enumerate() {
+            let mut ls: Vec<u32> = labels.iter().map(|l| l.0).collect();
+            ls.sort_unstable();
+            ls.dedup();
+            let rec = NodeRec {
+                labels: ls,
+                props: raw_normalized(props),
+            };
+            self.check_node(id, &rec).map_err(|e| (i, e))?;
+            bytes.extend_from_slice(&codec::encode_node(&rec.labels, &rec.props));
+            ends.push((id, bytes.len()));
+            self.apply_node_indexes(id, None, Some(&rec), Some(&mut label_rows))
+                .map_err(|e| (i, e))?;
+        }
+        let store = |e| (n, e);
+        let mut cursor = self
+            .nodes
+            .upper_bound_mut(Bound::<u64>::Unbounded)
+            .map_err(|e| store(storage(e)))?;
+        let mut from = 0;
+        for (id, to) in ends {
+            cursor
+                .insert_before(id, &bytes[from..to])
+                .map_err(|e| store(storage(e)))?;
+            from = to;
+        }
+        cursor.close().map_err(|e| store(storage(e)))?;
+        label_rows.sort_unstable();
+        let last_label = self
+            .labels
+            .last()
+            .map_err(|e| store(storage(e)))?
+            .map(|(k, _)| k.value());
+        if label_rows
+            .first()
+            .is_some_and(|r| last_label.is_none_or(|l| *r > l))
+        {
+            let mut cursor = self
+                .labels
+                .upper_bound_mut(Bound::<(u32, u64)>::Unbounded)
+                .map_err(|e| store(storage(e)))?;
+            for r in &label_rows {
+                cursor.insert_before(r, ()).map_err(|e| store(storage(e)))?;
+            }
+            cursor.close().map_err(|e| store(storage(e)))?;
+        } else {
+            for r in &label_rows {
+                self.labels.insert(r, ()).map_err(|e| store(storage(e)))?;
+            }
+        }
+        Ok(())
     }
 
     /// Marks every node id below `next` as handed out, so [`WriteTxn::restore_node`] can
