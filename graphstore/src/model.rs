@@ -125,6 +125,10 @@ pub(crate) fn raw_props(props: &[(PropKey, Value)]) -> Vec<(u32, Value)> {
 /// node, properties.
 pub type NewRel = (u64, RelType, u64, Vec<(PropKey, Value)>);
 
+/// A node to re-create in bulk under its id ([`crate::WriteTxn::restore_node`], many at
+/// once in an import): id, labels, properties.
+pub(crate) type RestoredNode = (u64, Vec<LabelId>, Vec<(PropKey, Value)>);
+
 pub(crate) fn typed_props(props: Vec<(u32, Value)>) -> Vec<(PropKey, Value)> {
     props.into_iter().map(|(k, v)| (PropKey(k), v)).collect()
 }

@@ -715,8 +715,8 @@ pub fn import_neo4j_csv(
             hashbrown::HashMap::new();
         // rows keeping their ids, restored together when the batch ends
         // (`WriteTxn::restore_nodes`), with each row's line for errors
-        type Kept = (u64, Vec<LabelId>, Vec<(PropKey, Value)>);
-        let pending: std::cell::RefCell<(Vec<Kept>, Vec<u64>)> = Default::default();
+        let pending: std::cell::RefCell<(Vec<crate::model::RestoredNode>, Vec<u64>)> =
+            Default::default();
         let path = f.path.clone();
         let mut flush = |tx: &mut WriteTxn<'_>| -> Result<()> {
             let (rows, lines) = std::mem::take(&mut *pending.borrow_mut());

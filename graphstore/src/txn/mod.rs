@@ -1071,7 +1071,7 @@ impl<'a> WriteTxn<'a> {
     /// then to be dropped (rows before it may be written).
     pub(crate) fn restore_nodes(
         &mut self,
-        rows: Vec<(u64, Vec<LabelId>, Vec<(PropKey, Value)>)>,
+        rows: Vec<crate::model::RestoredNode>,
     ) -> std::result::Result<(), (usize, Error)> {
         let n = rows.len();
         let last = self
