@@ -489,6 +489,29 @@ fn segment_words(kind: &str) -> &str {
     }
 }
 
+/// The kind of the segment whose node id `text` gives ("segment 2337", "2337"), read with
+/// `read_cypher`; `None` when the id is not a segment's.
+fn segment_by_id(
+    toolbox: &mut Toolbox,
+    steps: &mut Vec<AskStep>,
+    text: &str,
+) -> Option<(String, Json)> {
+    let spec = llm_tools::request::spec_in_words(text)?;
+    let id: u64 = spec.rsplit_once(':')?.1.parse().ok()?;
+    let a = call(
+        toolbox,
+        steps,
+        "read_cypher",
+        json!({"query": format!("MATCH (s:Segment) WHERE id(s) = {id} RETURN s.kind AS kind")}),
+    )
+    .ok()?;
+    let kind = a["rows"].get(0)?["kind"].as_str()?.to_string();
+    Some((
+        format!("Segment {id} is {}.", segment_words(&kind)),
+        json!({"id": id, "kind": kind}),
+    ))
+}
+
 /// The object words name, as `find_objects` gives its results (`id`, `label`, `caption`,
 /// `segment` as `[id, kind]`): by its node id when the words give one ("object #86",
 /// "instance 12": `get_instance`), the best match in a segment when they give its id ("the
@@ -724,7 +747,14 @@ fn run_task(
             ))
         }
         Task::Segment { object } => {
-            let o = best_object(toolbox, steps, object)?;
+            let o = match best_object(toolbox, steps, object) {
+                Ok(o) => o,
+                // the id of a segment itself ("what kind of segment is segment 2337"): its kind
+                Err(e) if e.contains("is not an Instance") => {
+                    return segment_by_id(toolbox, steps, object).ok_or(e);
+                }
+                Err(e) => return Err(e),
+            };
             let seg = &o["segment"];
             let (id, kind) = (seg[0].clone(), seg[1].as_str().unwrap_or("").to_string());
             if id.is_null() {
@@ -985,6 +1015,48 @@ mod tests {
 
     /// A model's argument that is a piece of the rules' argument for the same slot gives way
     /// to the rules' fuller one; a distance between one place and itself is the rules' task.
+    /// The kind of a segment asked by the segment's own id is the segment's kind, as Cypher
+    /// reads it; an instance's id still answers the instance's segment.
+    #[test]
+    fn a_segment_asked_by_its_id_answers_its_kind() {
+        let (_dir, mut tb) = demo_toolbox();
+        let row = tb
+            .call(
+                "read_cypher",
+                &json!({"query": "MATCH (s:Segment) RETURN id(s) AS id, s.kind AS kind ORDER BY id LIMIT 1"}),
+            )
+            .unwrap()["rows"][0]
+            .clone();
+        let (id, kind) = (row["id"].as_u64().unwrap(), row["kind"].clone());
+        let a = ask(
+            None,
+            &mut tb,
+            &format!("What kind of segment is segment {id}?"),
+            3,
+        )
+        .unwrap();
+        assert_eq!(a.value, Some(json!({"id": id, "kind": kind})), "{a:?}");
+        let inst = tb
+            .call(
+                "read_cypher",
+                &json!({"query": "MATCH (i:Instance)-[:IN_SEGMENT]->(s) RETURN id(i) AS i, id(s) AS s LIMIT 1"}),
+            )
+            .unwrap()["rows"][0]
+            .clone();
+        let a = ask(
+            None,
+            &mut tb,
+            &format!("Which segment is instance {} in?", inst["i"]),
+            3,
+        )
+        .unwrap();
+        assert_eq!(
+            a.value.as_ref().map(|v| v["id"].clone()),
+            Some(inst["s"].clone()),
+            "{a:?}"
+        );
+    }
+
     #[test]
     fn the_fuller_description_wins_over_a_piece_of_it() {
         let colour = |o: &str| Task::Colour { object: o.into() };

@@ -278,9 +278,40 @@ fn clean(text: &str) -> String {
         .to_lowercase()
         .replace(['’', '‘'], "'")
         .replace(['?', '!', ';', '"'], " ");
-    let t = t.split_whitespace().collect::<Vec<_>>().join(" ");
+    let t = t
+        .split_whitespace()
+        .map(|w| {
+            // a texting form of a function word, with any comma kept
+            let (word, comma) = w.strip_suffix(',').map_or((w, ""), |x| (x, ","));
+            match TEXTING.iter().find(|(short, _)| *short == word) {
+                Some((_, full)) => format!("{full}{comma}"),
+                None => w.to_string(),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ");
     t.trim_end_matches(['.', ',']).trim().to_string()
 }
+
+/// Texting forms and slips of function words, read as the words they stand for: a person
+/// typing on a phone writes "hw many r there", "wat kind", "teh map". Only words that are
+/// never a name, a kind or a place on a map are here.
+const TEXTING: [(&str, &str); 14] = [
+    ("teh", "the"),
+    ("hw", "how"),
+    ("wat", "what"),
+    ("wht", "what"),
+    ("u", "you"),
+    ("ur", "your"),
+    ("r", "are"),
+    ("pls", "please"),
+    ("plz", "please"),
+    ("rn", "right now"),
+    ("thx", "thanks"),
+    ("abt", "about"),
+    ("flys", "flies"),
+    ("thru", "through"),
+];
 
 /// The position of `phrase` in `t` at word boundaries (a word is anything between spaces,
 /// commas and the ends).
@@ -526,6 +557,8 @@ fn whole_map(place: &str) -> bool {
                     | "as"
                     | "a"
                     | "told"
+                    | "extent"
+                    | "study"
             )
     })
 }
@@ -4494,6 +4527,25 @@ mod tests {
     /// other words.
     #[test]
     fn idioms_straight_lines_and_the_whole_map() {
+        // texting forms of function words, and the whole map said as a study area or extent
+        for (q, kind) in [
+            ("hw many hydrants does teh map have", "hydrants"),
+            ("how many benches r there on the map, thx", "benches"),
+            ("Count the hydrants across the full map extent.", "hydrants"),
+            ("How many benches are in the entire study area?", "benches"),
+        ] {
+            assert_eq!(
+                parse_question(q),
+                Some(count(kind, None, None, None)),
+                "{q}"
+            );
+        }
+        let q = "wat colour is the bench";
+        assert!(
+            matches!(parse_question(q), Some(Task::Colour { .. })),
+            "{q}: {:?}",
+            parse_question(q)
+        );
         let q = "What colour is the bench, so I can find it from a distance?";
         assert!(
             matches!(parse_question(q), Some(Task::Colour { .. })),
