@@ -626,6 +626,28 @@ const SHORT_FORMS: [(&str, &str); 31] = [
 /// a sentence made only of call signs and procedure words ("Rover Three to Base.", "Base,
 /// this is Unit 7.", "Unit 4 to Base:", "Over.") is dropped, and so is a last clause of
 /// "over" or "over and out" after a comma. A sentence with any other word stays whole.
+/// The text without the discourse markers that open a sentence ("okay, so in segment 12, how
+/// many bins?", "Well, which segment is it in? Alright, and how far ..."): they say nothing,
+/// and a place said first must start its sentence to be read as the question's place.
+/// "right" and "now" count only with a comma after them ("right next to", "now at lane 3").
+fn drop_leading_markers(t: &str) -> String {
+    let mut out: Vec<&str> = Vec::new();
+    let mut at_start = true;
+    for w in t.split(' ') {
+        let bare = w.trim_end_matches([',', '.', '?', '!']);
+        let marker = matches!(
+            bare,
+            "okay" | "ok" | "so" | "well" | "alright" | "oh" | "anyway" | "and" | "also"
+        ) || (matches!(bare, "right" | "now") && w.ends_with(','));
+        if at_start && marker && !w.ends_with(['.', '?', '!']) {
+            continue;
+        }
+        at_start = w.ends_with(['.', '?', '!']) || w.is_empty() && at_start;
+        out.push(w);
+    }
+    out.join(" ")
+}
+
 fn drop_radio_procedure(t: &str) -> String {
     const PROCEDURE: &[&str] = &[
         "base", "control", "dispatch", "hq", "ops", "command", "unit", "rover", "team", "this",
@@ -724,6 +746,7 @@ fn prepare(text: &str) -> Prepared {
         })
         .collect::<Vec<_>>()
         .join(" ");
+    t = drop_leading_markers(&t);
     // "bins/trash cans": the first of the names; "bend / corner": either
     let words: Vec<&str> = t.split(' ').collect();
     let mut kept: Vec<&str> = Vec::new();
@@ -4527,6 +4550,13 @@ mod tests {
     /// other words.
     #[test]
     fn idioms_straight_lines_and_the_whole_map() {
+        // a place said first, after discourse markers
+        let q = "Okay, um, so in segment 12, how many rubbish bins are there?";
+        assert_eq!(
+            parse_question(q),
+            Some(count("rubbish bins", Some("segment 12"), None, None)),
+            "{q}"
+        );
         // texting forms of function words, and the whole map said as a study area or extent
         for (q, kind) in [
             ("hw many hydrants does teh map have", "hydrants"),
