@@ -1146,12 +1146,16 @@ fn question_inside(s: &str) -> Option<usize> {
             | "traveling"
             | "taking"
     );
+    // "from the start of the drive, which bin is nearest": the place a nearest is measured
+    // from, said first, is what the question is about
+    let from_place = s.starts_with("from ");
     let mut from = 0;
     while let Some(i) = s[from..].find(", ").map(|i| i + from) {
         let rest = &s[i + 2..];
+        let nearest_from = from_place && has_any(rest, &["nearest", "closest"]);
         if OPENS.iter().any(|o| rest.starts_with(&format!("{o} ")))
             && s[..i].split(' ').count() >= 2
-            && thing_first
+            && (thing_first || nearest_from)
         {
             return Some(i + 2);
         }
@@ -4550,6 +4554,16 @@ mod tests {
     /// other words.
     #[test]
     fn idioms_straight_lines_and_the_whole_map() {
+        // the place a nearest is measured from, said first
+        let q = "From lane node 7, which bench is nearest?";
+        assert_eq!(
+            parse_question(q),
+            Some(Task::Nearest {
+                kind: "bench".into(),
+                near: "lane node 7".into()
+            }),
+            "{q}"
+        );
         // a place said first, after discourse markers
         let q = "Okay, um, so in segment 12, how many rubbish bins are there?";
         assert_eq!(
