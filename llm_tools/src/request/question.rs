@@ -747,6 +747,16 @@ fn prepare(text: &str) -> Prepared {
         .collect::<Vec<_>>()
         .join(" ");
     t = drop_leading_markers(&t);
+    // a GIS analyst's words: map objects are "features", a count is a "feature count", and a
+    // feature is "contained in" or "assigned to" a segment
+    t = format!(" {t} ")
+        .replace(" feature count ", " count ")
+        .replace(" features contained in ", " in ")
+        .replace(" features assigned to ", " in ")
+        .replace(" contained in ", " in ")
+        .replace(" assigned to ", " in ")
+        .trim()
+        .to_string();
     // "bins/trash cans": the first of the names; "bend / corner": either
     let words: Vec<&str> = t.split(' ').collect();
     let mut kept: Vec<&str> = Vec::new();
@@ -4554,6 +4564,25 @@ mod tests {
     /// other words.
     #[test]
     fn idioms_straight_lines_and_the_whole_map() {
+        // a GIS analyst's words for objects in a segment
+        for (q, kind, within) in [
+            (
+                "Feature count of fences assigned to segment polygon 12?",
+                "fences",
+                "segment polygon 12",
+            ),
+            (
+                "Give the number of fence features contained in segment 12.",
+                "fence",
+                "segment 12",
+            ),
+        ] {
+            assert_eq!(
+                parse_question(q),
+                Some(count(kind, Some(within), None, None)),
+                "{q}"
+            );
+        }
         // the place a nearest is measured from, said first
         let q = "From lane node 7, which bench is nearest?";
         assert_eq!(
