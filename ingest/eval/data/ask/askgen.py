@@ -259,6 +259,79 @@ def other_set_questions(here):
     return out
 
 
+
+# ---------------------------------------------------------------- reuse audits of sets 10 and on
+# Reference points in a cypher built by ref_match, and a segment's kind asked by its id.
+REF_RX = [
+    (re.compile(r"\((?:p|q):Segment\) WHERE id\((?:p|q)\) = (\d+)"), "segment"),
+    (re.compile(r"\((?:p|q):LaneNode\) WHERE id\((?:p|q)\) = (\d+)"), "lane"),
+    (re.compile(r"\((?:p|q):Instance\) WHERE id\((?:p|q)\) = (\d+)"), "object"),
+]
+SEG_KIND_BY_ID = re.compile(r"^MATCH \(s:Segment\) WHERE id\(s\) = (\d+) RETURN id\(s\) AS id, s\.kind AS kind$")
+
+
+def refs_in(cypher):
+    """Reference points of a cypher built by ref_match, in order of appearance."""
+    out = []
+    for rx, t in REF_RX:
+        for mm in rx.finditer(cypher):
+            out.append((mm.start(), (t, int(mm.group(1)))))
+    for mm in re.finditer(r"\((?:f|g):Frame\)[^A-Z]*WITH [^O]*ORDER BY (?:f|g)\.index (ASC|DESC)", cypher):
+        out.append((mm.start(), ("start" if mm.group(1) == "ASC" else "end", None)))
+    return [r for _, r in sorted(out)]
+
+
+def prev_from_files(here, sets):
+    """What the sets named in `sets` (folders beside `here`) used, re-derived from the cyphers and
+    truths of their questions.jsonl: objects named, nearest answers, count_within pairs, (label,
+    reference) pairs, distance pairs and segments whose kind was asked by id."""
+    P = dict(objects=set(), answers=set(), within=set(), reflabel=set(), dist=set(), segkind=set())
+    for s in sets:
+        for line in open(os.path.join(here, "..", s, "questions.jsonl")):
+            if not line.strip():
+                continue
+            q = json.loads(line); c = q["cypher"]; k = q["kind"]
+            lab = re.search(r"\{label: '([^']+)'\}", c)
+            P["objects"].update(int(x) for x in re.findall(r"WHERE id\(n\) = (\d+)", c))
+            rs = refs_in(c)
+            P["objects"].update(r[1] for r in rs if r[0] == "object")
+            if k == "nearest":
+                P["answers"].add(q["truth"]["id"])
+            if k == "count_within":
+                P["within"].add((lab.group(1), int(re.search(r"id\(s\) = (\d+)", c).group(1))))
+            if k in ("count_near", "nearest"):
+                P["reflabel"].add((lab.group(1), rs[0]))
+            if k == "distance":
+                P["dist"].add(tuple(rs))
+            m = SEG_KIND_BY_ID.match(c)
+            if k == "segment_kind" and m:
+                P["segkind"].add(int(m.group(1)))
+    return P
+
+
+def run_aside(cypher):
+    """run() for an audit's own lookups, kept out of the cache that the PASS line counts."""
+    cached = cypher in _cache
+    rows = run(cypher)
+    if not cached:
+        del _cache[cypher]
+    return rows
+
+
+def ref_points():
+    """Ground-plane (x, z) of every reference a question can name: ("segment", id), ("lane", id),
+    ("object", id), and the drive's ("start", None) and ("end", None)."""
+    pts = {}
+    for r in run_aside("MATCH (s:Segment) RETURN id(s) AS id, s.centroid.x AS x, s.centroid.z AS z"):
+        pts[("segment", r["id"])] = (r["x"], r["z"])
+    for r in run_aside("MATCH (p:LaneNode) RETURN id(p) AS id, p.position.x AS x, p.position.z AS z"):
+        pts[("lane", r["id"])] = (r["x"], r["z"])
+    for r in run_aside("MATCH (n:Instance) RETURN id(n) AS id, n.centroid.x AS x, n.centroid.z AS z"):
+        pts[("object", r["id"])] = (r["x"], r["z"])
+    fr = run_aside("MATCH (f:Frame) RETURN f.index AS i, f.world_from_velo[3] AS x, f.world_from_velo[11] AS z ORDER BY f.index")
+    pts[("start", None)] = (fr[0]["x"], fr[0]["z"]); pts[("end", None)] = (fr[-1]["x"], fr[-1]["z"])
+    return pts
+
 def main(*, here, og_default, db_default, kinds, nouns, extra_guards=True, prepare=None, pass_note=""):
     """Re-run every cypher of S, recompute the truths, run the audits and compare with
     here/questions.jsonl (rewritten first with --write, only if everything passes).

@@ -18,8 +18,6 @@ sets 7-9, coinciding reference points, a broad fence count). The helpers shared 
 (cypher builders, running the queries, truth recomputation, the common audits, the PASS/FAIL
 report) are in ../askgen.py.
 """
-import json
-import math
 import os
 import re
 import sys
@@ -269,68 +267,14 @@ add(L, "colour", "Compact SUV in the segment 2348, what is the colour of it?",
     {"colour": "grey"}, q_colour(1797), "colour", desc=[COMPACT_SUV_2348])
 
 # ---------------------------------------------------------------- set 10's own audits
-REF_RX = [
-    (re.compile(r"\((?:p|q):Segment\) WHERE id\((?:p|q)\) = (\d+)"), "segment"),
-    (re.compile(r"\((?:p|q):LaneNode\) WHERE id\((?:p|q)\) = (\d+)"), "lane"),
-    (re.compile(r"\((?:p|q):Instance\) WHERE id\((?:p|q)\) = (\d+)"), "object"),
-]
-
-def refs_in(cypher):
-    """Reference points of a cypher built by askgen's ref_match, in order of appearance."""
-    out = []
-    for rx, t in REF_RX:
-        for mm in rx.finditer(cypher):
-            out.append((mm.start(), (t, int(mm.group(1)))))
-    for mm in re.finditer(r"\((?:f|g):Frame\)[^A-Z]*WITH [^O]*ORDER BY (?:f|g)\.index (ASC|DESC)", cypher):
-        out.append((mm.start(), ("start" if mm.group(1) == "ASC" else "end", None)))
-    return [r for _, r in sorted(out)]
-
-def prev_from_files():
-    """What sets 7-9 used, re-derived from the cyphers and truths of their questions.jsonl."""
-    P = dict(objects=set(), answers=set(), within=set(), reflabel=set(), dist=set())
-    for s in ("set7", "set8", "set9"):
-        for line in open(os.path.join(HERE, "..", s, "questions.jsonl")):
-            if not line.strip():
-                continue
-            q = json.loads(line); c = q["cypher"]; k = q["kind"]
-            lab = re.search(r"\{label: '([^']+)'\}", c)
-            P["objects"].update(int(x) for x in re.findall(r"WHERE id\(n\) = (\d+)", c))
-            rs = refs_in(c)
-            P["objects"].update(r[1] for r in rs if r[0] == "object")
-            if k == "nearest":
-                P["answers"].add(q["truth"]["id"])
-            if k == "count_within":
-                P["within"].add((lab.group(1), int(re.search(r"id\(s\) = (\d+)", c).group(1))))
-            if k in ("count_near", "nearest"):
-                P["reflabel"].add((lab.group(1), rs[0]))
-            if k == "distance":
-                P["dist"].add(tuple(rs))
-    return P
-
-def run_aside(cypher):
-    """run() for the audit's own lookups, kept out of the cache that the PASS line counts."""
-    cached = cypher in askgen._cache
-    rows = run(cypher)
-    if not cached:
-        del askgen._cache[cypher]
-    return rows
-
 def prepare():
     """Set 10's per-question audit: no reuse of sets 7-9 (by id and by place: a lane node sits on
     a junction segment's centroid), no single-edge route, no repeated text, broad fence count."""
     lane_adj = {tuple(sorted((r["a"], r["b"]))) for r in run(Q_LANES)}
     previous = askgen.other_set_questions(HERE)
-    P = prev_from_files()
+    P = askgen.prev_from_files(HERE, ("set7", "set8", "set9"))
     objs = run(Q_ALL)
-    pts = {}
-    for r in run_aside("MATCH (s:Segment) RETURN id(s) AS id, s.centroid.x AS x, s.centroid.z AS z"):
-        pts[("segment", r["id"])] = (r["x"], r["z"])
-    for r in run_aside("MATCH (p:LaneNode) RETURN id(p) AS id, p.position.x AS x, p.position.z AS z"):
-        pts[("lane", r["id"])] = (r["x"], r["z"])
-    for r in run_aside("MATCH (n:Instance) RETURN id(n) AS id, n.centroid.x AS x, n.centroid.z AS z"):
-        pts[("object", r["id"])] = (r["x"], r["z"])
-    fr = run_aside("MATCH (f:Frame) RETURN f.index AS i, f.world_from_velo[3] AS x, f.world_from_velo[11] AS z ORDER BY f.index")
-    pts[("start", None)] = (fr[0]["x"], fr[0]["z"]); pts[("end", None)] = (fr[-1]["x"], fr[-1]["z"])
+    pts = askgen.ref_points()
 
     def place(ref):
         x, z = pts[tuple(ref)]
