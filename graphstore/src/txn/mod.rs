@@ -1021,13 +1021,7 @@ impl<'a> WriteTxn<'a> {
 
     /// Creates a node. Null property values are dropped; of duplicate keys the last wins.
     pub fn create_node(&mut self, labels: &[LabelId], props: Vec<(PropKey, Value)>) -> Result<u64> {
-        let mut ls: Vec<u32> = labels.iter().map(|l| l.0).collect();
-        ls.sort_unstable();
-        ls.dedup();
-        let rec = NodeRec {
-            labels: ls,
-            props: raw_normalized(props),
-        };
+        let rec = new_rec(labels, props);
         let id = self.next_node;
         self.apply_node(id, None, Some(&rec))?;
         self.next_node += 1;
@@ -1051,13 +1045,7 @@ impl<'a> WriteTxn<'a> {
                 "cannot restore node {id}: the id is in use or was never handed out"
             )));
         }
-        let mut ls: Vec<u32> = labels.iter().map(|l| l.0).collect();
-        ls.sort_unstable();
-        ls.dedup();
-        let rec = NodeRec {
-            labels: ls,
-            props: raw_normalized(props),
-        };
+        let rec = new_rec(labels, props);
         self.apply_node(id, None, Some(&rec))
     }
 
@@ -1095,13 +1083,7 @@ impl<'a> WriteTxn<'a> {
         let mut ends: Vec<(u64, usize)> = Vec::with_capacity(n);
         let mut label_rows: Vec<(u32, u64)> = Vec::with_capacity(n);
         for (i, (id, labels, props)) in rows.into_iter().enumerate() {
-            let mut ls: Vec<u32> = labels.iter().map(|l| l.0).collect();
-            ls.sort_unstable();
-            ls.dedup();
-            let rec = NodeRec {
-                labels: ls,
-                props: raw_normalized(props),
-            };
+            let rec = new_rec(&labels, props);
             self.check_node(id, &rec).map_err(|e| (i, e))?;
             bytes.extend_from_slice(&codec::encode_node(&rec.labels, &rec.props));
             ends.push((id, bytes.len()));
@@ -1109,18 +1091,7 @@ impl<'a> WriteTxn<'a> {
                 .map_err(|e| (i, e))?;
         }
         let store = |e| (n, e);
-        let mut cursor = self
-            .nodes
-            .upper_bound_mut(Bound::<u64>::Unbounded)
-            .map_err(|e| store(storage(e)))?;
-        let mut from = 0;
-        for (id, to) in ends {
-            cursor
-                .insert_before(id, &bytes[from..to])
-                .map_err(|e| store(storage(e)))?;
-            from = to;
-        }
-        cursor.close().map_err(|e| store(storage(e)))?;
+        append_records(&mut self.nodes, &bytes, ends).map_err(store)?;
         label_rows.sort_unstable();
         let last_label = self
             .labels
@@ -1257,4 +1228,37 @@ impl<'a> WriteTxn<'a> {
         }
         self.delete_node(id)
     }
+}
+
+/// A node record from its labels (sorted, without repeats) and properties
+/// ([`raw_normalized`]).
+fn new_rec(labels: &[LabelId], props: Vec<(PropKey, Value)>) -> NodeRec {
+    let mut ls: Vec<u32> = labels.iter().map(|l| l.0).collect();
+    ls.sort_unstable();
+    ls.dedup();
+    NodeRec {
+        labels: ls,
+        props: raw_normalized(props),
+    }
+}
+
+/// Appends records to a table keyed by id through a cursor, which packs them into full leaves
+/// instead of descending the tree per insert: `ends` gives each record's id (ascending, above
+/// every key of the table) and where it ends in `bytes`, the records one after another.
+fn append_records(
+    table: &mut Table<'_, u64, &'static [u8]>,
+    bytes: &[u8],
+    ends: impl IntoIterator<Item = (u64, usize)>,
+) -> Result<()> {
+    let mut cursor = table
+        .upper_bound_mut(Bound::<u64>::Unbounded)
+        .map_err(storage)?;
+    let mut from = 0;
+    for (id, to) in ends {
+        cursor
+            .insert_before(id, &bytes[from..to])
+            .map_err(storage)?;
+        from = to;
+    }
+    cursor.close().map_err(storage)
 }

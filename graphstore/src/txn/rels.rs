@@ -170,21 +170,10 @@ impl WriteTxn<'_> {
         let first = self.next_rel;
         let mut adj = Vec::with_capacity(2 * n);
         let mut ids = Vec::with_capacity(n);
-        // every id from `next_rel` on is above the table's keys: appended through a cursor,
-        // which packs them into full leaves instead of descending the tree per insert
-        let mut cursor = self
-            .rels
-            .upper_bound_mut(std::ops::Bound::<u64>::Unbounded)
-            .map_err(|e| store(storage(e)))?;
-        let mut from = 0;
-        for (k, &(_, _, _, to)) in encoded.iter().enumerate() {
-            let id = first + k as u64;
-            cursor
-                .insert_before(id, &bytes[from..to])
-                .map_err(|e| store(storage(e)))?;
-            from = to;
-        }
-        cursor.close().map_err(|e| store(storage(e)))?;
+        // every id from `next_rel` on is above the table's keys: appended
+        let ends = encoded.iter().enumerate();
+        let ends = ends.map(|(k, &(_, _, _, to))| (first + k as u64, to));
+        append_records(&mut self.rels, &bytes, ends).map_err(store)?;
         // relationships per type, counted here (a batch has few types) and added once
         let mut per_type: Vec<(u32, i64)> = Vec::new();
         for (k, (start, ty, end, _)) in encoded.into_iter().enumerate() {
